@@ -1,0 +1,100 @@
+"""Balance conditions: from "zero residual everywhere" to a few exact equalities.
+
+For zero-free-length springs and rigid bodies, V(q) is a trigonometric polynomial in the
+joint angles (a polynomial in slider positions), so the residual r(q; x) = ∂V/∂q of a
+subsystem lies, for every design x, in one fixed finite-dimensional function space. On N
+sampled configurations the stacked residual R(x) ∈ R^(N·n_q) therefore stays in a fixed
+subspace; its dimension is the number of independent balance conditions.
+
+:func:`compress` finds that subspace from R at random designs (SVD), picks as many sampled
+rows as its rank (greedy pivoting), and returns a small matrix T such that
+c(x) = T · R_S(x) are the coordinates of R(x) in an orthonormal basis: c(x) = 0 exactly
+when R(x) = 0. Handing IPOPT c instead of the raw sampled equalities keeps the NLP square
+or under-determined (raw equalities outnumber the design variables and IPOPT stops with
+Not_Enough_Degrees_Of_Freedom). Whether the samples were enough is checked independently,
+and densely, by :mod:`counterpoise.verify`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+#: Singular values below RANK_TOLERANCE × the largest are treated as zero.
+RANK_TOLERANCE = 1e-10
+
+
+@dataclass(frozen=True)
+class Compression:
+    """c(x) = matrix @ R(x)[rows] spans the same conditions as R(x) = 0."""
+
+    rows: np.ndarray  # indices of the sampled residual entries kept
+    matrix: np.ndarray  # (rank × rank)
+    singular_values: np.ndarray
+
+    @property
+    def rank(self) -> int:
+        return len(self.rows)
+
+
+def numerical_rank(singular_values: np.ndarray, tolerance: float = RANK_TOLERANCE) -> int:
+    if singular_values.size == 0 or singular_values[0] == 0:
+        return 0
+    return int(np.sum(singular_values > tolerance * singular_values[0]))
+
+
+def pivot_rows(basis: np.ndarray) -> np.ndarray:
+    """Greedy choice of ``rank`` well-conditioned rows of an orthonormal ``basis`` (QR with pivoting on basisᵀ)."""
+    work = basis.copy()
+    n, r = work.shape
+    chosen: list[int] = []
+    for _ in range(r):
+        norms = np.einsum("ij,ij->i", work, work)
+        norms[chosen] = -1.0
+        i = int(np.argmax(norms))
+        chosen.append(i)
+        v = work[i] / np.sqrt(norms[i])
+        work -= np.outer(work @ v, v)
+    return np.array(chosen, dtype=int)
+
+
+def compress(samples: np.ndarray, tolerance: float = RANK_TOLERANCE) -> Compression:
+    """Compress conditions from ``samples`` (rows: residual entries, columns: random designs)."""
+    if samples.size == 0:
+        return Compression(np.zeros(0, dtype=int), np.zeros((0, 0)), np.zeros(0))
+    u, s, _ = np.linalg.svd(samples, full_matrices=False)
+    r = numerical_rank(s, tolerance)
+    basis = u[:, :r]
+    rows = pivot_rows(basis) if r else np.zeros(0, dtype=int)
+    matrix = np.linalg.inv(basis[rows, :]) if r else np.zeros((0, 0))
+    return Compression(rows, matrix, s)
+
+
+def adaptive_compression(
+    evaluate: Callable[[int, int], tuple[np.ndarray, Any]],
+    start_configurations: int,
+    start_designs: int,
+    max_rounds: int = 6,
+) -> tuple[Compression, Any]:
+    """Sample until the rank is well below both the number of rows and of designs.
+
+    ``evaluate(n_configurations, n_designs)`` returns the sampled residual matrix and
+    whatever the caller needs to rebuild those rows (the configurations). The rank is
+    accepted once rows ≥ 2·rank + 8 and designs ≥ 2·rank + 8: more samples could not
+    plausibly reveal new conditions (the dense verification checks this independently).
+    """
+    n_conf, n_design = start_configurations, start_designs
+    for _ in range(max_rounds):
+        samples, context = evaluate(n_conf, n_design)
+        comp = compress(samples)
+        need = 2 * comp.rank + 8
+        if samples.shape[0] >= need and samples.shape[1] >= need:
+            break
+        if samples.shape[0] < need:
+            n_conf *= 2
+        if samples.shape[1] < need:
+            n_design *= 2
+    return comp, context

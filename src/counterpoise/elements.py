@@ -1,0 +1,41 @@
+"""Balancing elements a design may add: counter-masses and zero-free-length springs."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .expr import Expr
+from .model import Point
+
+
+@dataclass(frozen=True)
+class CounterMass:
+    """An added point mass on a link.
+
+    Its added inertia is ``mass * d**2`` with ``d`` its distance from the axis of the joint
+    it rides on. ``joint`` locates that joint's rotation as (frame name, index of the
+    rotation in the frame's transforms); the loader picks the innermost coordinate-driven
+    rotation of the frame chain unless the file names the joint's coordinate. ``None``
+    means no rotation moves it (added inertia 0).
+    """
+
+    name: str
+    mass: Expr
+    position: Point
+    joint: tuple[str, int] | None
+    subsystem: str | None
+    description: str = ""
+
+
+@dataclass(frozen=True)
+class ZeroFreeLengthSpring:
+    """A spring of zero free length between two points: energy ½ k |a − b|².
+
+    Realised in practice by a spring behind a string over a pulley.
+    """
+
+    name: str
+    stiffness: Expr
+    ends: tuple[Point, Point]
+    subsystem: str | None
+    description: str = ""

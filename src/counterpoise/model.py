@@ -1,0 +1,93 @@
+"""Mechanism model: coordinates, subsystems, frames, points and bodies.
+
+These are the typed, frozen objects the loader produces; nothing downstream sees the raw
+TOML. Geometry is 3-D throughout (planar mechanisms simply rotate about ``z``). All
+numbers are SI; expressions are kept as trees (:mod:`counterpoise.expr`) so that the same
+model evaluates on floats, numpy arrays and CasADi symbols.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Union
+
+from .expr import Expr
+from .units import DisplayUnit
+
+GROUND = "ground"
+Vector = tuple[Expr, Expr, Expr]
+
+
+@dataclass(frozen=True)
+class Coordinate:
+    """A generalized coordinate (joint angle or slider position) and its range."""
+
+    name: str
+    subsystem: str
+    lower: float
+    upper: float
+    home: float  # reference configuration for report quantities (default: mid-range)
+    unit: DisplayUnit
+    description: str = ""
+
+
+@dataclass(frozen=True)
+class Subsystem:
+    """An independently moving part (a leg of a parallel manipulator, a serial arm).
+
+    Balance is required for each subsystem over the whole box of its coordinate ranges.
+    """
+
+    name: str
+    coordinates: tuple[str, ...]
+    description: str = ""
+
+
+@dataclass(frozen=True)
+class Rotation:
+    """Rotation by ``angle`` about ``axis`` (a unit vector in the current frame)."""
+
+    axis: Vector
+    angle: Expr
+
+
+@dataclass(frozen=True)
+class Translation:
+    vector: Vector
+
+
+Transform = Union[Rotation, Translation]
+
+
+@dataclass(frozen=True)
+class Frame:
+    """A frame placed in its parent by a chain of elementary transforms.
+
+    pose(frame) = pose(parent) · T_1 · T_2 · … (each transform acts in the frame built so far).
+    ``subsystem`` is the subsystem whose coordinates move it (None: fixed to ground).
+    """
+
+    name: str
+    parent: str | None
+    transforms: tuple[Transform, ...]
+    subsystem: str | None
+    description: str = ""
+
+
+@dataclass(frozen=True)
+class Point:
+    """A point fixed in a frame."""
+
+    frame: str
+    position: Vector
+
+
+@dataclass(frozen=True)
+class Body:
+    """A given mass of the mechanism (link, payload share) lumped at its centre of mass."""
+
+    name: str
+    mass: Expr
+    com: Point
+    subsystem: str | None
+    description: str = ""

@@ -1,0 +1,140 @@
+"""A balancing problem: the mechanism, what may be added, what must hold, what to minimise.
+
+Variables, parameters and scenarios are first-class named objects. A *scenario* is a
+working condition the one shared design must balance (its own gravity vector, its own
+parameter values); a variable marked ``adjustable`` takes its own value in each scenario
+(a counterweight lever reset for each payload), every other variable is shared.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from functools import cached_property
+
+from .elements import CounterMass, ZeroFreeLengthSpring
+from .expr import Expr
+from .model import Body, Coordinate, Frame, Subsystem
+from .units import DisplayUnit
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """A fixed value. Either a literal (``value``) or an expression of other parameters."""
+
+    name: str
+    unit: DisplayUnit
+    value: float | None = None  # SI, for literals
+    expr: Expr | None = None  # for derived parameters
+    description: str = ""
+
+    @property
+    def is_base(self) -> bool:
+        return self.expr is None
+
+
+@dataclass(frozen=True)
+class Variable:
+    """A design variable with bounds and initial guess (SI)."""
+
+    name: str
+    lower: float
+    upper: float
+    initial: float
+    unit: DisplayUnit
+    adjustable: bool = False
+    description: str = ""
+
+
+@dataclass(frozen=True)
+class Gravity:
+    acceleration: float  # m/s^2
+    direction: tuple[float, float, float]  # unit vector
+
+    @property
+    def vector(self) -> tuple[float, float, float]:
+        return tuple(self.acceleration * c for c in self.direction)  # type: ignore[return-value]
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A working condition: gravity and base-parameter values (SI) for this scenario."""
+
+    name: str
+    gravity: Gravity
+    parameters: Mapping[str, float]
+    description: str = ""
+
+
+@dataclass(frozen=True)
+class Objective:
+    """minimise mass_weight * added_mass + inertia_weight * added_inertia (in kg).
+
+    added_mass = Σ M_j, added_inertia = Σ M_j d_j² over counter-masses; with several
+    scenarios both are averaged over scenarios.
+    """
+
+    mass_weight: float = 1.0
+    inertia_weight: float = 0.0  # 1/m^2
+
+
+@dataclass(frozen=True)
+class ReportQuantity:
+    name: str
+    expr: Expr
+    unit: DisplayUnit
+    description: str = ""
+
+
+@dataclass(frozen=True)
+class Settings:
+    """Numerical settings (all have defaults; the file's ``[settings]`` may change them)."""
+
+    verify_samples: int = 10_000  # random configurations per (subsystem, scenario)
+    verify_tolerance: float = 1e-8  # largest residual_ratio accepted as balanced
+    seed: int = 20190101  # random sampling is reproducible
+    max_iterations: int = 500
+
+
+@dataclass(frozen=True)
+class Problem:
+    name: str
+    title: str
+    source: str
+    description: str
+    path: str
+    parameters: tuple[Parameter, ...]
+    variables: tuple[Variable, ...]
+    subsystems: tuple[Subsystem, ...]
+    coordinates: tuple[Coordinate, ...]
+    frames: tuple[Frame, ...]  # parents before children
+    bodies: tuple[Body, ...]
+    counter_masses: tuple[CounterMass, ...]
+    springs: tuple[ZeroFreeLengthSpring, ...]
+    scenarios: tuple[Scenario, ...]
+    objective: Objective
+    report: tuple[ReportQuantity, ...]
+    settings: Settings = field(default_factory=Settings)
+
+    @cached_property
+    def frame(self) -> Mapping[str, Frame]:
+        return {f.name: f for f in self.frames}
+
+    @cached_property
+    def variable(self) -> Mapping[str, Variable]:
+        return {v.name: v for v in self.variables}
+
+    @cached_property
+    def parameter(self) -> Mapping[str, Parameter]:
+        return {p.name: p for p in self.parameters}
+
+    @cached_property
+    def coordinate(self) -> Mapping[str, Coordinate]:
+        return {c.name: c for c in self.coordinates}
+
+    @cached_property
+    def base_parameters(self) -> tuple[Parameter, ...]:
+        return tuple(p for p in self.parameters if p.is_base)
+
+    def subsystem_coordinates(self, subsystem: str) -> tuple[Coordinate, ...]:
+        return tuple(c for c in self.coordinates if c.subsystem == subsystem)

@@ -1,0 +1,163 @@
+"""The problem-file schema: what a TOML problem file may contain, checked by pydantic.
+
+This layer only checks *shape* (known keys, required sections, types). Units, names,
+expressions and the frame graph are checked when the loader resolves the file into a
+:class:`counterpoise.problem.Problem`. Every table forbids unknown keys, so a typo such as
+``uper = "1 kg"`` is an error, not a silently ignored line.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Any, Literal, Union
+
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Discriminator, Field, Tag
+
+
+def _value(v: Any) -> Any:
+    if isinstance(v, bool) or not isinstance(v, (str, int, float)):
+        raise ValueError("expected a quantity such as '135 mm', a number or an expression")
+    if isinstance(v, float) and not math.isfinite(v):
+        raise ValueError(f"value must be finite, got {v}")
+    return v
+
+
+#: A quantity literal ("135 mm"), a number, or an expression ("r_a + b_b").
+Value = Annotated[Union[str, int, float], BeforeValidator(_value)]
+Vec3 = tuple[Value, Value, Value]
+Name = Annotated[str, Field(pattern=r"^[A-Za-z][A-Za-z0-9_]*$")]
+
+
+class _Table(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
+
+
+class ProblemMeta(_Table):
+    name: Annotated[str, Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")]
+    title: str = ""
+    source: str = ""
+    description: str = ""
+
+
+class GravitySpec(_Table):
+    acceleration: Value
+    direction: tuple[float, float, float]
+
+
+class ParameterSpec(_Table):
+    value: Value
+    description: str = ""
+
+
+ParameterEntry = Annotated[
+    Union[Annotated[Value, Tag("value")], Annotated[ParameterSpec, Tag("table")]],
+    Discriminator(lambda v: "table" if isinstance(v, (dict, ParameterSpec)) else "value"),
+]
+
+
+class CoordinateSpec(_Table):
+    range: tuple[Value, Value]
+    home: Value | None = None
+    description: str = ""
+
+
+class SubsystemSpec(_Table):
+    description: str = ""
+    coordinates: Annotated[dict[Name, CoordinateSpec], Field(min_length=1)]
+
+
+class RotateSpec(_Table):
+    rotate: Union[Literal["x", "y", "z"], Vec3]
+    angle: Value
+
+
+class TranslateSpec(_Table):
+    translate: Vec3
+
+
+TransformEntry = Annotated[
+    Union[Annotated[RotateSpec, Tag("rotate")], Annotated[TranslateSpec, Tag("translate")]],
+    Discriminator(lambda v: "rotate" if (isinstance(v, dict) and "rotate" in v) or isinstance(v, RotateSpec) else "translate"),
+]
+
+
+class FrameSpec(_Table):
+    parent: str = "ground"
+    transforms: tuple[TransformEntry, ...] = ()
+    description: str = ""
+
+
+class BodySpec(_Table):
+    frame: str
+    mass: Value
+    com: Vec3
+    description: str = ""
+
+
+class CounterMassSpec(_Table):
+    frame: str
+    mass: Value
+    position: Vec3
+    joint: str | None = None
+    description: str = ""
+
+
+class PointSpec(_Table):
+    frame: str
+    point: Vec3
+
+
+class SpringSpec(_Table):
+    stiffness: Value
+    from_: PointSpec = Field(alias="from")
+    to: PointSpec
+    description: str = ""
+
+
+class VariableSpec(_Table):
+    lower: Value
+    upper: Value
+    initial: Value | None = None
+    unit: str | None = None
+    adjustable: bool = False
+    description: str = ""
+
+
+class ObjectiveSpec(_Table):
+    mass_weight: Annotated[float, Field(ge=0)] = 1.0
+    inertia_weight: Value = 0
+
+
+class ReportSpec(_Table):
+    expression: str
+    unit: str = ""
+    description: str = ""
+
+
+class ScenarioSpec(_Table):
+    description: str = ""
+    gravity: GravitySpec | None = None
+    parameters: dict[str, Value] = Field(default_factory=dict)
+
+
+class SettingsSpec(_Table):
+    verify_samples: Annotated[int, Field(ge=100, le=10_000_000)] = 10_000
+    verify_tolerance: Annotated[float, Field(gt=0, lt=1)] = 1e-8
+    seed: int = 20190101
+    max_iterations: Annotated[int, Field(ge=1)] = 500
+
+
+class ProblemFile(_Table):
+    problem: ProblemMeta
+    gravity: GravitySpec
+    parameters: dict[Name, ParameterEntry] = Field(default_factory=dict)
+    subsystems: Annotated[dict[Name, SubsystemSpec], Field(min_length=1)]
+    frames: dict[Name, FrameSpec] = Field(default_factory=dict)
+    bodies: dict[Name, BodySpec] = Field(default_factory=dict)
+    counter_masses: dict[Name, CounterMassSpec] = Field(default_factory=dict)
+    springs: dict[Name, SpringSpec] = Field(default_factory=dict)
+    variables: dict[Name, VariableSpec] = Field(default_factory=dict)
+    objective: ObjectiveSpec = Field(default_factory=ObjectiveSpec)
+    report: dict[Name, ReportSpec] = Field(default_factory=dict)
+    scenarios: dict[Name, ScenarioSpec] = Field(default_factory=dict)
+    settings: SettingsSpec = Field(default_factory=SettingsSpec)

@@ -1,0 +1,162 @@
+"""Quantities with units: parsing, dimension checks, SI conversion and display units.
+
+Internally every number is SI (m, kg, s, rad, N). A quantity keeps the unit it was
+written in as its *display unit*, so a report shows ``0.5161 N/mm`` where the file said
+``N/mm``. The pint registry is created once, on first use.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import Any
+
+from .errors import UnitError
+
+#: A string is a quantity literal when it starts with a number followed by a unit,
+#: e.g. ``"135 mm"``, ``"0.5161 N/mm"``, ``"57.2deg"``; otherwise it is an expression.
+_QUANTITY_RE = re.compile(r"^\s*[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?\s*([A-Za-z°µΩ%]|1\s*/|/)")
+
+#: Physical dimensions used by the schema, as pint dimensionality strings.
+LENGTH = "[length]"
+MASS = "[mass]"
+DIMENSIONLESS = ""
+STIFFNESS = "[mass] / [time] ** 2"
+ACCELERATION = "[length] / [time] ** 2"
+INVERSE_AREA = "1 / [length] ** 2"
+
+_DIMENSION_NAMES = {
+    LENGTH: "a length",
+    MASS: "a mass",
+    DIMENSIONLESS: "dimensionless (an angle or a ratio)",
+    STIFFNESS: "a stiffness (force per length)",
+    ACCELERATION: "an acceleration",
+    INVERSE_AREA: "an inverse area (1/length^2)",
+}
+
+
+@lru_cache(maxsize=1)
+def ureg() -> Any:
+    """The process-wide pint registry (created lazily: it costs ~0.3 s)."""
+    import pint
+
+    registry = pint.UnitRegistry(autoconvert_offset_to_baseunit=True)
+    registry.formatter.default_format = "~"
+    return registry
+
+
+def looks_like_quantity(text: str) -> bool:
+    """True when ``text`` is a quantity literal (number then unit), not an expression."""
+    return bool(_QUANTITY_RE.match(text))
+
+
+def dimension_name(dimensionality: str) -> str:
+    return _DIMENSION_NAMES.get(dimensionality, dimensionality or "dimensionless")
+
+
+def dimensionality_of(q: Any) -> str:
+    """Canonical dimensionality string of a pint quantity ('' when dimensionless)."""
+    dim = q.dimensionality
+    return "" if not dim else str(dim)
+
+
+def canonical_dimension(spec: str) -> str:
+    """Canonical dimensionality string for one of the module constants above."""
+    if spec == DIMENSIONLESS:
+        return ""
+    return str(ureg().get_dimensionality(spec))
+
+
+@dataclass(frozen=True)
+class DisplayUnit:
+    """A unit to show values in: its symbol as written and its size in SI."""
+
+    symbol: str  # "" for dimensionless
+    to_si: float  # 1 display unit = to_si SI units
+    dimension: str  # canonical pint dimensionality, '' if dimensionless
+
+    def from_si(self, value: float) -> float:
+        return value / self.to_si
+
+    @property
+    def label(self) -> str:
+        """Unit column text: '1' for dimensionless quantities."""
+        return self.symbol or "1"
+
+
+SI_DIMENSIONLESS = DisplayUnit("", 1.0, "")
+
+
+@lru_cache(maxsize=256)
+def display_unit(symbol: str) -> DisplayUnit:
+    """Parse a unit such as ``"N/mm"`` (empty string or ``"1"`` for dimensionless)."""
+    symbol = symbol.strip()
+    if symbol in ("", "1", "-"):
+        return SI_DIMENSIONLESS
+    reg = ureg()
+    try:
+        unit = reg.Quantity(1.0, symbol)
+    except Exception as exc:  # pint raises several unrelated types for bad units
+        raise UnitError(f"unknown unit '{symbol}'") from exc
+    base = unit.to_base_units()
+    return DisplayUnit(symbol, float(base.magnitude), dimensionality_of(base))
+
+
+@dataclass(frozen=True)
+class Quantity:
+    """A parsed quantity: its SI value and the unit it was written in."""
+
+    si: float
+    unit: DisplayUnit
+
+    @property
+    def dimension(self) -> str:
+        return self.unit.dimension
+
+    @property
+    def display_value(self) -> float:
+        return self.unit.from_si(self.si)
+
+
+_UNIT_SPLIT_RE = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(.*?)\s*$")
+
+
+def parse_quantity(value: str | int | float) -> Quantity:
+    """Parse ``"135 mm"`` or a bare number (dimensionless) into a :class:`Quantity`."""
+    if isinstance(value, bool):
+        raise UnitError(f"expected a quantity, got {value!r}")
+    if isinstance(value, (int, float)):
+        number = float(value)
+        unit = SI_DIMENSIONLESS
+    else:
+        match = _UNIT_SPLIT_RE.match(value)
+        if match is None:
+            raise UnitError(f"'{value}' is not a quantity such as '135 mm'")
+        number = float(match.group(1))
+        unit = display_unit(match.group(2)) if match.group(2) else SI_DIMENSIONLESS
+    if not math.isfinite(number):
+        raise UnitError(f"value must be finite, got {value!r}")
+    return Quantity(number * unit.to_si, unit)
+
+
+def check_dimension(actual: str, expected: str, what: str) -> None:
+    """Raise :class:`UnitError` unless dimensionality ``actual`` equals ``expected``."""
+    want = canonical_dimension(expected)
+    if actual != want:
+        raise UnitError(f"{what} must be {dimension_name(expected)}, got {dimension_name(actual)}")
+
+
+def pint_quantity(si_value: Any, unit: DisplayUnit) -> Any:
+    """A pint quantity of ``si_value`` in the SI base units of ``unit`` (for dimension checks)."""
+    reg = ureg()
+    if not unit.symbol:
+        return reg.Quantity(si_value, "")
+    return reg.Quantity(si_value, reg.Quantity(1.0, unit.symbol).to_base_units().units)
+
+
+def base_unit_symbol(q: Any) -> str:
+    """Short SI symbol of a pint quantity's base units ('' when dimensionless)."""
+    base = q.to_base_units()
+    return "" if base.dimensionless else f"{base.units:~}"
