@@ -147,6 +147,13 @@ class Formulation:
                 values.append(float(v))  # type: ignore[arg-type]
         return np.array(values, dtype=float)
 
+    def scenario_parameters(self, parameters: np.ndarray, scenario: int) -> tuple[tuple[float, float, float], dict[str, float]]:
+        """Gravity vector and base-parameter values of scenario number ``scenario`` in ``parameters``."""
+        offset = scenario * (3 + self.n_base)
+        gravity = tuple(float(v) for v in parameters[offset : offset + 3])
+        base = {p.name: float(parameters[offset + 3 + i]) for i, p in enumerate(self.problem.base_parameters)}
+        return gravity, base  # type: ignore[return-value]
+
     def to_z(self, x: np.ndarray) -> np.ndarray:
         return np.asarray(x, dtype=float) / self.scale
 
@@ -246,7 +253,8 @@ class Solution:
     solver: str
     solver_status: str
     conditions: int
-    parameters: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
+    #: per scenario name: gravity vector and base-parameter values the design was solved for
+    scenario_parameters: dict[str, tuple[tuple[float, float, float], dict[str, float]]] = field(default_factory=dict)
 
     def variable_values(self, scenario: str) -> dict[str, float]:
         """Value of every variable as seen by ``scenario``."""
@@ -386,5 +394,7 @@ class Designer:
             solver="ipopt",
             solver_status=solver_status,
             conditions=self.n_equalities,
-            parameters=self.parameters,
+            scenario_parameters={
+                sc.name: f.scenario_parameters(self.parameters, i) for i, sc in enumerate(self.problem.scenarios)
+            },
         )

@@ -1,0 +1,160 @@
+"""Command line: ``counterpoise validate FILE...`` and ``counterpoise solve FILE...``.
+
+Exit status: 0 every problem solved to a verified optimum; 1 some problem is infeasible or
+failed (its reports are still written); 2 bad input (one line per error, nothing written).
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from .errors import CounterpoiseError, ProblemFileError
+
+app = typer.Typer(add_completion=False, no_args_is_help=True, help="Design gravity balancers for mechanisms.")
+out_console = Console()
+err_console = Console(stderr=True, highlight=False, soft_wrap=True)
+
+FilesArg = Annotated[list[Path], typer.Argument(help="Problem files (TOML).", show_default=False)]
+SetOpt = Annotated[
+    Optional[list[str]],
+    typer.Option("--set", help="Override a key before validation, e.g. --set 'parameters.r_a=140 mm' (repeatable)."),
+]
+
+
+def _overrides(items: list[str] | None) -> dict[str, str]:
+    out: dict[str, str] = {}
+    for item in items or []:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            err_console.print(f"--set {item}: expected KEY=VALUE", markup=False)
+            raise typer.Exit(2)
+        out[key.strip()] = _coerce(value.strip())
+    return out
+
+
+def _coerce(value: str) -> object:
+    """Numbers and booleans on the command line become TOML numbers and booleans."""
+    if value in ("true", "false"):
+        return value == "true"
+    for kind in (int, float):
+        try:
+            return kind(value)
+        except ValueError:
+            pass
+    return value
+
+
+def _load_all(files: list[Path], overrides: dict[str, str]) -> list:
+    from .loader import load_problem
+
+    problems, errors = [], []
+    seen: dict[str, Path] = {}
+    for path in files:
+        try:
+            problem = load_problem(path, overrides)
+        except ProblemFileError as exc:
+            errors.append(str(exc))
+            continue
+        if problem.name in seen:
+            errors.append(f"{path}: problem.name: '{problem.name}' is also the name of {seen[problem.name]} (both would write results/{problem.name})")
+            continue
+        seen[problem.name] = path
+        problems.append(problem)
+    if errors:
+        for line in errors:
+            err_console.print(line, markup=False)
+        raise typer.Exit(2)
+    return problems
+
+
+@app.command()
+def validate(files: FilesArg, set_: SetOpt = None) -> None:
+    """Check problem files without solving them."""
+    problems = _load_all(files, _overrides(set_))
+    for p in problems:
+        n_var = len(p.variables)
+        out_console.print(
+            f"ok  {p.path}  ({p.name}: {len(p.subsystems)} subsystem(s), {len(p.coordinates)} coordinate(s), "
+            f"{n_var} variable(s), {len(p.scenarios)} scenario(s))",
+            markup=False,
+        )
+
+
+@app.command()
+def solve(
+    files: FilesArg,
+    out: Annotated[Path, typer.Option("--out", help="Folder for the reports (one subfolder per problem).")] = Path("results"),
+    set_: SetOpt = None,
+) -> None:
+    """Solve problem files and write their reports."""
+    from .design import design
+    from .report import summary_row, write_reports
+
+    problems = _load_all(files, _overrides(set_))
+    rows, worst = [], 0
+    for problem in problems:
+        t0 = time.perf_counter()
+        try:
+            result = design(problem)
+        except CounterpoiseError as exc:
+            err_console.print(f"{problem.path}: {exc}", markup=False)
+            worst = max(worst, 1)
+            continue
+        folder = write_reports(result, out)
+        row = summary_row(result)
+        row["wall_s"] = time.perf_counter() - t0
+        row["folder"] = str(folder)
+        row["message"] = result.message
+        rows.append(row)
+        if not result.optimal:
+            worst = max(worst, 1)
+    _print_summary(rows)
+    raise typer.Exit(worst)
+
+
+def _print_summary(rows: list[dict]) -> None:
+    table = Table(title="counterpoise: designs", show_lines=False)
+    for col, justify in [
+        ("problem", "left"),
+        ("status", "left"),
+        ("added mass [kg]", "right"),
+        ("added inertia [kg m²]", "right"),
+        ("objective", "right"),
+        ("residual ratio", "right"),
+        ("configs", "right"),
+        ("time [s]", "right"),
+    ]:
+        table.add_column(col, justify=justify)  # type: ignore[arg-type]
+    for r in rows:
+        style = "green" if r["status"] == "optimal" else "red"
+        table.add_row(
+            str(r["problem"]),
+            f"[{style}]{r['status']}[/{style}]",
+            f"{r['added_mass_kg']:.6g}",
+            f"{r['added_inertia_kg_m2']:.6g}",
+            f"{r['objective']:.6g}",
+            f"{r['residual_ratio']:.2e}",
+            str(r["checked_configurations"]),
+            f"{r['wall_s']:.3f}",
+        )
+    out_console.print(table)
+    for r in rows:
+        if r["status"] != "optimal":
+            out_console.print(f"{r['problem']}: {r['message']}", markup=False)
+    if rows:
+        out_console.print(f"reports in {Path(rows[0]['folder']).parent}/<problem>/", markup=False)
+
+
+def main() -> None:
+    """Console-script entry point."""
+    try:
+        app()
+    except KeyboardInterrupt:  # pragma: no cover
+        sys.exit(130)
