@@ -40,10 +40,12 @@ class Compression:
         return len(self.rows)
 
 
-def numerical_rank(singular_values: np.ndarray, tolerance: float = RANK_TOLERANCE) -> int:
+def numerical_rank(singular_values: np.ndarray, tolerance: float | None = None) -> int:
+    """Number of singular values above ``tolerance`` (default RANK_TOLERANCE) × the largest."""
+    tol = RANK_TOLERANCE if tolerance is None else tolerance
     if singular_values.size == 0 or singular_values[0] == 0:
         return 0
-    return int(np.sum(singular_values > tolerance * singular_values[0]))
+    return int(np.sum(singular_values > tol * singular_values[0]))
 
 
 def pivot_rows(basis: np.ndarray) -> np.ndarray:
@@ -61,7 +63,7 @@ def pivot_rows(basis: np.ndarray) -> np.ndarray:
     return np.array(chosen, dtype=int)
 
 
-def compress(samples: np.ndarray, tolerance: float = RANK_TOLERANCE) -> Compression:
+def compress(samples: np.ndarray, tolerance: float | None = None) -> Compression:
     """Compress conditions from ``samples`` (rows: residual entries, columns: random designs)."""
     if samples.size == 0:
         return Compression(np.zeros(0, dtype=int), np.zeros((0, 0)), np.zeros(0))

@@ -238,7 +238,16 @@ class _Resolver:
                     raise UnitError(f"value must be finite, got {value}")
                 return ex.Num(float(value))
             if looks_like_quantity(value):
-                q = parse_quantity(value)
+                try:
+                    q = parse_quantity(value)
+                except UnitError as exc:
+                    used = set(re.findall(r"[A-Za-z_][A-Za-z0-9_]*", value)) & set(self.symbol_kind)
+                    if used:
+                        raise UnitError(
+                            f"{exc}: a quantity cannot be part of an expression in '{value}'; "
+                            "declare it in [parameters] and use its name"
+                        ) from None
+                    raise
                 self.literal_unit[key] = q.unit
                 return ex.Num(q.si)
             tree = ex.parse(value, functions)

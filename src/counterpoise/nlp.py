@@ -296,6 +296,7 @@ class Designer:
         nlp = {"x": f.z, "p": f.p, "f": f.objective, "g": self.g}
         self.solver = ca.nlpsol("design", "ipopt", nlp, {"print_time": False, "ipopt": dict(self.options)})
         self._feasibility: Any = None
+        self._residual_jacobian: Any = None
 
     @property
     def bounds_g(self) -> tuple[np.ndarray, np.ndarray]:
@@ -321,12 +322,51 @@ class Designer:
         ipopt_status = str(stats.get("return_status", "unknown"))
         if stats.get("success") or ipopt_status in ("Solve_Succeeded", "Solved_To_Acceptable_Level"):
             status, message = Status.OPTIMAL, "balanced design found"
+            z = self.polish(z)
         elif ipopt_status in _INFEASIBLE:
             status, message = Status.INFEASIBLE, f"IPOPT: {ipopt_status}"
             z = self.closest_design(z)
         else:
             status, message = Status.FAILED, f"IPOPT: {ipopt_status}"
         return self._solution(z, status, message, int(stats.get("iter_count", 0)), elapsed, ipopt_status)
+
+    def polish(self, z: np.ndarray, rel: float = 1e-7, iterations: int = 8) -> np.ndarray:
+        """Put variables that IPOPT left a hair inside a bound exactly on it.
+
+        An interior-point solution sits ~1e-9 inside its active bounds. Each such variable is
+        moved onto its bound and the balance equalities are re-solved for the other
+        variables (Gauss-Newton). The polished point is kept only if it balances at least
+        as well and respects the sign constraints; otherwise IPOPT's point stands.
+        """
+        import casadi as ca
+
+        f = self.formulation
+        lo, hi = f.lower / f.scale, f.upper / f.scale
+        span = np.maximum(hi - lo, 1e-300)
+        at_lo = (z - lo) <= rel * span
+        at_hi = (hi - z) <= rel * span
+        active = (at_lo | at_hi) & (hi > lo)
+        if not active.any():
+            return z
+        if self._residual_jacobian is None:
+            eq = self.conditions.equalities
+            self._residual_jacobian = ca.Function("gJ", [f.z, f.p], [eq, ca.jacobian(eq, f.z), f.nonnegative])
+        candidate = np.where(at_lo, lo, np.where(at_hi, hi, z))
+        free = ~active
+        for _ in range(iterations):
+            g, jac, _ = (np.array(v) for v in self._residual_jacobian(candidate, self.parameters))
+            g = g.reshape(-1)
+            if not g.size or np.abs(g).max() <= 1e-15 or not free.any():
+                break
+            step, *_ = np.linalg.lstsq(jac[:, free], -g, rcond=None)
+            candidate[free] = np.clip(candidate[free] + step, lo[free], hi[free])
+        g_new, _, signs = (np.array(v).reshape(-1) for v in self._residual_jacobian(candidate, self.parameters))
+        g_old = np.array(self._residual_jacobian(z, self.parameters)[0]).reshape(-1)
+        worst_new = np.abs(g_new).max(initial=0.0)
+        worst_old = np.abs(g_old).max(initial=0.0)
+        if worst_new <= max(worst_old, 1e-14) and (signs.size == 0 or signs.min() >= 0):
+            return candidate
+        return z
 
     def closest_design(self, z0: np.ndarray) -> np.ndarray:
         """The design within the bounds that comes closest to balance (least squares)."""

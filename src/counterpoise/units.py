@@ -17,7 +17,8 @@ from .errors import UnitError
 
 #: A string is a quantity literal when it starts with a number followed by a unit,
 #: e.g. ``"135 mm"``, ``"0.5161 N/mm"``, ``"57.2deg"``; otherwise it is an expression.
-_QUANTITY_RE = re.compile(r"^\s*[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?\s*([A-Za-z°µΩ%]|1\s*/|/)")
+_NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?(?![\d.]|[eE][-+]?\d)"
+_QUANTITY_RE = re.compile(rf"^\s*{_NUMBER}\s*(?:[A-Za-z°µΩ%]|1\s*/|/)")
 
 #: Physical dimensions used by the schema, as pint dimensionality strings.
 LENGTH = "[length]"
@@ -120,7 +121,7 @@ class Quantity:
         return self.unit.from_si(self.si)
 
 
-_UNIT_SPLIT_RE = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(.*?)\s*$")
+_UNIT_SPLIT_RE = re.compile(rf"^\s*({_NUMBER})\s*(.*?)\s*$")
 
 
 def parse_quantity(value: str | int | float) -> Quantity:

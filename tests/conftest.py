@@ -1,0 +1,39 @@
+"""Shared fixtures: paths and a cache of solved problem files (each solved once per run)."""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+PROBLEMS = ROOT / "problems"
+
+
+@lru_cache(maxsize=None)
+def solved(name: str, overrides: tuple[tuple[str, str], ...] = ()):
+    """Design result of problems/<name>.toml (with overrides), solved through the general engine."""
+    from counterpoise.design import design
+    from counterpoise.loader import load_problem
+
+    return design(load_problem(PROBLEMS / f"{name}.toml", dict(overrides)))
+
+
+def value(result, name: str, unit: str | None = None) -> float:
+    """A variable or report quantity of a result, in its display unit (checked if given)."""
+    from counterpoise.report import design_table
+
+    table = design_table(result)
+    row = table[table["name"] == name]
+    if len(row) != 1:
+        raise KeyError(f"{name} not in design table of {result.problem.name}: {list(table['name'])}")
+    if unit is not None:
+        assert row["unit"].iloc[0] == unit, f"{name} is reported in {row['unit'].iloc[0]}, expected {unit}"
+    return float(row["value"].iloc[0])
+
+
+@pytest.fixture
+def approx():
+    """pytest.approx with the acceptance tolerance of the seed reproductions (0.1 %)."""
+    return lambda expected: pytest.approx(expected, rel=1e-3)

@@ -1,0 +1,272 @@
+"""The general engine on problems with known optima (no paper numbers)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from builders import Chain, Link, pendulum
+from counterpoise.design import design
+from counterpoise.loader import load_problem_text
+from counterpoise.nlp import Designer, Slot, Status
+
+
+def solve_text(text: str):
+    return design(load_problem_text(text, "test.toml"))
+
+
+class TestClosedFormPendulum:
+    """m at r, counter-mass M at b: balance M b = m r, objective M + w M b² = m r (1/b + w b).
+
+    Known optimum: b* = 1/√w when it lies inside [b_lo, b_hi], else the nearer bound.
+    """
+
+    m, r = 0.8, 0.3
+
+    @pytest.mark.parametrize("w", [4.0, 25.0, 100.0])
+    def test_interior_optimum(self, w):
+        result = solve_text(pendulum(self.m, self.r, (0.02, 1.0), w))
+        assert result.status is Status.OPTIMAL
+        b = result.solution.values[Slot("b", None)]
+        M = result.solution.values[Slot("M", None)]
+        assert b == pytest.approx(1 / math.sqrt(w), rel=1e-7)
+        assert M * b == pytest.approx(self.m * self.r, rel=1e-9)
+        assert result.solution.objective == pytest.approx(2 * self.m * self.r * math.sqrt(w), rel=1e-7)
+
+    def test_first_order_optimality(self):
+        """d/db of the reduced objective m r (1/b + w b) vanishes at the solution; it is a minimum."""
+        w = 16.0
+        result = solve_text(pendulum(self.m, self.r, (0.02, 1.0), w))
+        b = result.solution.values[Slot("b", None)]
+        reduced = lambda b: self.m * self.r * (1 / b + w * b)  # noqa: E731
+        h = 1e-6
+        assert (reduced(b + h) - reduced(b - h)) / (2 * h) == pytest.approx(0.0, abs=1e-6)
+        assert reduced(b * 1.01) > reduced(b) and reduced(b * 0.99) > reduced(b)
+
+    @pytest.mark.parametrize(("w", "side", "bound"), [(0.5, "upper", 1.0), (1e4, "lower", 0.02)])
+    def test_optimum_on_a_bound(self, w, side, bound):
+        from counterpoise.report import design_table
+
+        result = solve_text(pendulum(self.m, self.r, (0.02, 1.0), w))
+        table = design_table(result).set_index("name")
+        assert table.loc["b", "active_bound"] == side
+        assert result.solution.values[Slot("b", None)] == bound  # polished onto the bound
+
+
+chains = None
+try:
+    from hypothesis import HealthCheck, given, settings
+    from hypothesis import strategies as st
+
+    link_strategy = st.builds(
+        Link,
+        length=st.floats(0.05, 0.5),
+        mass=st.floats(0.01, 3.0),
+        # x > 0: a counter-mass behind the joint (x = -arm) can cancel it; |y0| <= 0.1*0.4/0.02 = 2 m
+        com=st.tuples(st.floats(0.02, 0.5), st.floats(-0.1, 0.1)),
+        arm=st.floats(0.05, 0.4),
+        free_offset=st.just(True),
+    )
+    chains = st.builds(
+        Chain,
+        links=st.lists(link_strategy, min_size=1, max_size=4),
+        base_angle=st.floats(-180, 180),
+        spring_on_first=st.one_of(st.none(), st.floats(0.02, 0.2)),
+        inertia_weight=st.sampled_from([0.0, 1.0, 30.0]),
+    )
+except ImportError:  # pragma: no cover
+    pass
+
+
+@pytest.mark.skipif(chains is None, reason="hypothesis not installed")
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(chain=chains)
+def test_random_planar_chains_balance(chain):
+    """Any planar serial chain with a (mass, offset) counter-mass per link can be balanced.
+
+    With a spring on the first link the spring may take over that link's counter-mass.
+    The design must verify densely (10,000 random configurations + corners).
+    """
+    result = solve_text(chain.toml())
+    assert result.status is Status.OPTIMAL, result.message
+    assert result.verification.residual_ratio <= 1e-9
+
+
+def test_backends_agree():
+    """The same energy code on numpy floats and on CasADi symbols gives the same numbers."""
+    import casadi as ca
+
+    from counterpoise.mechanics import NUMPY_FUNCTIONS, Mechanics, casadi_functions
+    from counterpoise.verify import residuals
+
+    chain = Chain([Link(0.3, 1.0, (0.1, 0.02), 0.1, True), Link(0.2, 0.5, (0.15, -0.03), 0.1, True)], spring_on_first=0.05)
+    problem = load_problem_text(chain.toml())
+    rng = np.random.default_rng(1)
+    values = {v.name: rng.uniform(v.lower, v.upper) for v in problem.variables}
+    base = {p.name: p.value for p in problem.base_parameters}
+    g = problem.scenarios[0].gravity.vector
+    q = rng.uniform(-3, 3, size=(50, 2))
+
+    numeric = Mechanics(problem, base, values, {"q0": q[:, 0], "q1": q[:, 1]}, g, NUMPY_FUNCTIONS).energy("arm")
+    qs = ca.SX.sym("q", 2)
+    sym = Mechanics(problem, base, values, {"q0": qs[0], "q1": qs[1]}, g, casadi_functions()).energy("arm")
+    fn = ca.Function("V", [qs], [sym, ca.gradient(sym, qs)])
+    energy, grad = fn.map(50)(q.T)
+    np.testing.assert_allclose(np.array(energy).ravel(), numeric, rtol=1e-12, atol=1e-12)
+    # complex-step derivative (verification) against CasADi's AD (NLP)
+    np.testing.assert_allclose(residuals(problem, "arm", q, values, base, g), np.array(grad).T, rtol=1e-10, atol=1e-12)
+
+
+class TestScenarios:
+    """One shared counter-mass, a lever re-set for each payload (adjustable variable)."""
+
+    TEXT = """
+[problem]
+name = "adjustable"
+[gravity]
+acceleration = "9.81 m/s^2"
+direction = [0, -1, 0]
+[parameters]
+m_tool = "1 kg"
+r = "0.4 m"
+[subsystems.arm]
+coordinates.q = { range = ["-90 deg", "90 deg"] }
+[frames.link]
+transforms = [{ rotate = "z", angle = "q" }]
+[bodies.tool]
+frame = "link"
+mass = "m_tool"
+com = ["r", 0, 0]
+[variables.M]
+lower = "0 kg"
+upper = "50 kg"
+[variables.L]
+lower = "0.05 m"
+upper = "0.25 m"
+adjustable = true
+description = "counterweight lever, set for each payload"
+[counter_masses.cw]
+frame = "link"
+mass = "M"
+position = ["-L", 0, 0]
+[scenarios.light]
+parameters = { m_tool = "0.5 kg" }
+[scenarios.heavy]
+parameters = { m_tool = "1.5 kg" }
+[scenarios.turned]
+description = "the arm mounted on a wall: gravity along -x of the base"
+gravity = { acceleration = "9.81 m/s^2", direction = [-1, 0, 0] }
+parameters = { m_tool = "1.0 kg" }
+"""
+
+    def test_shared_mass_adjustable_lever(self):
+        result = solve_text(self.TEXT)
+        assert result.status is Status.OPTIMAL, result.message
+        v = result.solution.values
+        M = v[Slot("M", None)]
+        # the heaviest payload needs the longest lever: L at its upper bound, M = m r / L
+        assert v[Slot("L", "heavy")] == pytest.approx(0.25, rel=1e-7)
+        assert M == pytest.approx(1.5 * 0.4 / 0.25, rel=1e-7)
+        assert v[Slot("L", "light")] == pytest.approx(0.5 * 0.4 / M, rel=1e-7)
+        assert v[Slot("L", "turned")] == pytest.approx(1.0 * 0.4 / M, rel=1e-7)
+        # verified per (subsystem, scenario)
+        assert {c.scenario for c in result.verification.checks} == {"light", "heavy", "turned"}
+        assert result.verification.residual_ratio <= 1e-9
+
+    def test_design_table_has_a_row_per_scenario_for_adjustable_variables(self):
+        from counterpoise.report import design_table
+
+        table = design_table(solve_text(self.TEXT))
+        rows = table[table["name"] == "L"]
+        assert sorted(rows["scenario"]) == ["heavy", "light", "turned"]
+        assert list(table[table["name"] == "M"]["scenario"]) == [""]
+
+
+class TestInfeasible:
+    def test_bounds_too_tight_names_subsystem_and_coordinate(self):
+        text = pendulum(1.0, 0.3, (0.05, 0.1), 0.0).replace('upper = "100 kg"', 'upper = "1 kg"')
+        result = solve_text(text)
+        assert result.status is Status.INFEASIBLE
+        assert "balance cannot be met within the bounds" in result.message
+        assert "subsystem 'arm', coordinate 'q'" in result.message
+        assert "M at its upper bound" in result.message
+        # the closest design is reported: M = 1 kg at b = 0.1 m leaves 1 - 0.1/0.3 of the torque
+        assert result.verification.residual_ratio == pytest.approx(1 - 0.1 / 0.3, rel=1e-6)
+
+    def test_cli_exit_status_1_and_reports_written(self, tmp_path):
+        import subprocess
+        import sys
+        from pathlib import Path
+
+        path = tmp_path / "tight.toml"
+        path.write_text(pendulum(1.0, 0.3, (0.05, 0.1), 0.0).replace('upper = "100 kg"', 'upper = "1 kg"'))
+        exe = Path(sys.executable).with_name("counterpoise")
+        run = subprocess.run([exe, "solve", str(path), "--out", str(tmp_path / "out")], capture_output=True, text=True)
+        assert run.returncode == 1
+        summary = (tmp_path / "out" / "pendulum" / "summary.csv").read_text()
+        assert ",infeasible," in summary
+        assert "coordinate 'q'" in (tmp_path / "out" / "pendulum" / "status.txt").read_text()
+
+
+def test_more_conditions_than_variables_but_consistent():
+    """Two independent conditions on one variable (M² = 1 kg² and M = 1 kg) meet at M = 1 kg.
+
+    The counter-mass's x position scales with its own mass, so the x-moment is quadratic in M
+    while the y-moment is linear: rank 2 > 1 variable. The designer finds the balanced design
+    and reduces the conditions to the rank of their Jacobian there.
+    """
+    text = """
+[problem]
+name = "overdetermined"
+[gravity]
+acceleration = "9.81 m/s^2"
+direction = [0, -1, 0]
+[parameters]
+M0 = "1 kg"
+d0 = "0.1 m"
+[subsystems.arm]
+coordinates.q = { range = ["-180 deg", "180 deg"] }
+[frames.link]
+transforms = [{ rotate = "z", angle = "q" }]
+[bodies.tip]
+frame = "link"
+mass = "1 kg"
+com = ["0.1 m", "0.1 m", 0]
+[variables.M]
+lower = "0.2 kg"
+upper = "3 kg"
+[counter_masses.cm]
+frame = "link"
+mass = "M"
+position = ["-d0 * M / M0", "-d0", 0]
+"""
+    problem = load_problem_text(text)
+    designer = Designer(problem)
+    assert designer.n_equalities == 2 > len(problem.variables)
+    result = design(problem, designer)
+    assert result.status is Status.OPTIMAL, result.message
+    assert result.solution.values[Slot("M", None)] == pytest.approx(1.0, rel=1e-7)
+    assert result.verification.residual_ratio <= 1e-9
+
+
+def test_verification_catches_lost_conditions(monkeypatch):
+    """If the compression dropped a condition, the dense check must fail the design."""
+    from counterpoise import balance
+
+    monkeypatch.setattr(balance, "RANK_TOLERANCE", 0.5)  # keep only the dominant condition
+    chain = Chain([Link(0.3, 1.0, (0.1, 0.0), 0.1), Link(0.2, 0.5, (0.15, 0.0), 0.05)])
+    result = solve_text(chain.toml())
+    assert result.status is Status.FAILED
+    assert result.message.startswith("verification failed: subsystem 'arm', coordinate")
+
+
+def test_designer_is_built_once_and_reused():
+    problem = load_problem_text(pendulum(0.8, 0.3, (0.02, 1.0), 25.0))
+    designer = Designer(problem)
+    solver = designer.solver
+    first = designer.solve()
+    second = designer.solve({Slot("b", None): 0.9})
+    assert designer.solver is solver
+    assert first.values[Slot("b", None)] == pytest.approx(second.values[Slot("b", None)], rel=1e-8)
