@@ -124,6 +124,8 @@ def _convert(node: ast.AST, text: str, functions: frozenset[str]) -> Expr:
             )
         if node.keywords or any(isinstance(a, ast.Starred) for a in node.args):
             raise ExpressionError(f"keyword or starred arguments are not allowed in '{text}'")
+        if name in MATH_FUNCTIONS and len(node.args) != 1:
+            raise ExpressionError(f"{name}() takes one argument in '{text}'")
         return Call(name, tuple(_convert(a, text, functions) for a in node.args))
     for kind, label in _FORBIDDEN.items():
         if isinstance(node, kind):

@@ -91,9 +91,12 @@ def load_problem_text(text: str, label: str = "<string>", overrides: Mapping[str
     try:
         spec = ProblemFile.model_validate(raw)
     except ValidationError as exc:
-        err = exc.errors()[0]
-        key = ".".join(str(k) for k in _clean_loc(raw, err["loc"])) or "file"
-        raise ProblemFileError(label, key, _pydantic_message(err)) from None
+        errors = exc.errors()
+        # an unknown key explains a missing one next to it ('uper' hides 'upper'): report it first
+        err = next((e for e in errors if e.get("type") == "extra_forbidden"), errors[0])
+        loc = _clean_loc(raw, err["loc"], keep_last=err.get("type") == "missing")
+        key = ".".join(str(k) for k in loc) or "file"
+        raise ProblemFileError(label, key, _pydantic_message(err, errors)) from None
     return _Resolver(spec, label).problem()
 
 
@@ -109,8 +112,12 @@ def _apply_override(raw: dict[str, Any], key: str, value: Any, label: str) -> No
     node[parts[-1]] = value
 
 
-def _clean_loc(raw: Any, loc: Iterable[Any]) -> list[Any]:
-    """Drop pydantic's union tags from an error location, keeping only real keys."""
+def _clean_loc(raw: Any, loc: Iterable[Any], keep_last: bool) -> list[Any]:
+    """Keep the parts of a pydantic error location that are real keys of the file.
+
+    pydantic adds union tags and markers such as ``[key]``; they are dropped. A missing
+    key (``keep_last``) is named although the file does not contain it.
+    """
     out: list[Any] = []
     node = raw
     items = list(loc)
@@ -121,21 +128,28 @@ def _clean_loc(raw: Any, loc: Iterable[Any]) -> list[Any]:
         elif isinstance(node, list) and isinstance(part, int) and 0 <= part < len(node):
             node = node[part]
             out.append(part)
-        elif i == len(items) - 1:
-            out.append(part)  # a missing key is named although absent
+        elif keep_last and i == len(items) - 1:
+            out.append(part)
     return out
 
 
-def _pydantic_message(err: Mapping[str, Any]) -> str:
+def _pydantic_message(err: Mapping[str, Any], errors: list[Any]) -> str:
     kind = err.get("type", "")
     if kind == "extra_forbidden":
-        return "unknown key"
+        loc = tuple(err["loc"])
+        missing = [e["loc"][-1] for e in errors if e.get("type") == "missing" and tuple(e["loc"][:-1]) == loc[:-1]]
+        hint = _suggest(str(loc[-1]), [str(m) for m in missing])
+        return f"unknown key{hint}"
     if kind == "missing":
         return "missing required key"
     if kind == "too_short":
         return "must not be empty"
     if kind == "string_pattern_mismatch":
-        return f"invalid name {err.get('input')!r}: use letters, digits and '_', starting with a letter"
+        pattern = (err.get("ctx") or {}).get("pattern", "")
+        allowed = "letters, digits, '_', '.' and '-'" if "." in pattern else "letters, digits and '_'"
+        return f"invalid name {err.get('input')!r}: use {allowed}, starting with a letter or digit" if "." in pattern else f"invalid name {err.get('input')!r}: use {allowed}, starting with a letter"
+    if kind == "literal_error":
+        return f"expected one of {(err.get('ctx') or {}).get('expected', '')}, got {err.get('input')!r}"
     msg = str(err.get("msg", "invalid value"))
     return msg.removeprefix("Value error, ")
 
@@ -266,13 +280,8 @@ class _Resolver:
         funcs = _numpy_functions()
         if extra:
             funcs.update(extra)
-        with self.at(key), np.errstate(all="ignore"):
-            try:
-                result = ex.evaluate(tree, env, funcs)
-            except InputError:
-                raise
-            except Exception as exc:  # pint: DimensionalityError, OffsetUnitCalculusError, ...
-                raise UnitError(f"inconsistent units in '{raw}': {_short(exc)}") from None
+        with self.at(key):
+            result = _evaluate_checked(tree, env, funcs, raw)
         if not isinstance(result, reg.Quantity):
             return ""
         return dimensionality_of(result)
@@ -281,10 +290,27 @@ class _Resolver:
         found = self.dimension(tree, raw, key)
         if found == "zero":
             return  # a literal 0 fits any dimension
-        if found == "" and isinstance(tree, ex.Num) and dimension != DIMENSIONLESS:
+        if found == "" and isinstance(tree, ex.Num) and dimension != DIMENSIONLESS and key not in self.literal_unit:
             raise self.fail(key, f"{what} needs a unit: write e.g. '{raw} {_example_unit(dimension)}'")
         with self.at(key):
-            check_dimension(found, dimension, what)
+            check_dimension(found, dimension, f"'{raw}'")
+        self.finite(tree, raw, key)
+
+    def finite(self, tree: ex.Expr, raw: Any, key: str) -> float:
+        """Evaluate at the given parameters and the initial design; the value must be finite."""
+        env = {n: v for n, v in self.symbol_value.items() if self.symbol_kind.get(n) in ("parameters", "variables", "coordinates")}
+        with np.errstate(all="ignore"):
+            try:
+                value = complex(ex.evaluate(tree, env, _numpy_functions()))
+            except (ArithmeticError, ValueError, TypeError):
+                value = complex("nan")
+        if value.imag != 0 or not math.isfinite(value.real):
+            where = "" if ex.names(tree) <= self._parameter_names() else " at the initial design"
+            raise self.fail(key, f"'{raw}' does not evaluate to a finite number{where}")
+        return value.real
+
+    def _parameter_names(self) -> set[str]:
+        return {n for n, k in self.symbol_kind.items() if k == "parameters"}
 
     # -- sections ------------------------------------------------------------------
     def parameters(self) -> tuple[Parameter, ...]:
@@ -308,13 +334,8 @@ class _Resolver:
             tree = derived[name]
             env = {n: pint_quantity(self.symbol_value[n], self.symbol_unit[n]) for n in ex.names(tree)}
             self.dimension(tree, raw_values[name], key)
-            with self.at(key), np.errstate(all="ignore"):
-                try:
-                    value = ex.evaluate(tree, env, _numpy_functions())
-                except InputError:
-                    raise
-                except Exception as exc:
-                    raise UnitError(f"inconsistent units in '{raw_values[name]}': {_short(exc)}") from None
+            with self.at(key):
+                value = _evaluate_checked(tree, env, _numpy_functions(), raw_values[name])
             value = value if isinstance(value, ureg().Quantity) else ureg().Quantity(value, "")
             si = float(value.to_base_units().magnitude)
             if not math.isfinite(si):
@@ -444,14 +465,18 @@ class _Resolver:
         return Point(frame, self.vector(position, key, LENGTH, "a position"))
 
     def nonnegative(self, tree: ex.Expr, raw: Any, key: str, dimension: str, what: str) -> None:
-        """Type-check a mass or stiffness; when it is fixed, it must not be negative."""
+        """Type-check a mass or stiffness; it must not be negative.
+
+        Fixed values are checked here; values that depend on variables are checked at the
+        initial design here and kept ≥ 0 by constraints of the NLP.
+        """
         self.expect(tree, raw, key, dimension, what)
-        if ex.names(tree) <= {n for n, k in self.symbol_kind.items() if k == "parameters"}:
-            value = ex.evaluate(tree, self.symbol_value, _numpy_functions())
-            if not value >= 0:
-                raise self.fail(key, f"{what} must not be negative, got '{raw}'")
-        elif isinstance(tree, ex.Name) and self.variable_lower.get(tree.id, 0.0) < 0:
+        if isinstance(tree, ex.Name) and self.variable_lower.get(tree.id, 0.0) < 0:
             raise self.fail(f"variables.{tree.id}.lower", f"'{tree.id}' is {what}: its lower bound must not be negative")
+        value = self.finite(tree, raw, key)
+        if value < 0:
+            where = "" if ex.names(tree) <= self._parameter_names() else " at the initial design"
+            raise self.fail(key, f"{what} must not be negative, got '{raw}'{where}")
 
     def _subsystem_of(self, frame: str, frames: Mapping[str, Frame]) -> str | None:
         return None if frame == GROUND else frames[frame].subsystem
@@ -512,7 +537,7 @@ class _Resolver:
     def gravity(self, g: Any, key: str) -> Gravity:
         acc = self.literal(g.acceleration, f"{key}.acceleration")
         with self.at(f"{key}.acceleration"):
-            check_dimension(acc.dimension, ACCELERATION, "gravity")
+            check_dimension(acc.dimension, ACCELERATION, f"'{g.acceleration}'")
         if acc.si < 0:
             raise self.fail(f"{key}.acceleration", "must not be negative (give the direction instead)")
         d = [float(c) for c in g.direction]
@@ -548,7 +573,7 @@ class _Resolver:
         w = self.literal(o.inertia_weight, key)
         if w.si != 0:
             with self.at(key):
-                check_dimension(w.dimension, INVERSE_AREA, "the inertia weight")
+                check_dimension(w.dimension, INVERSE_AREA, f"'{o.inertia_weight}'")
         if w.si < 0:
             raise self.fail(key, "must not be negative")
         return Objective(o.mass_weight, w.si)
@@ -604,6 +629,21 @@ class _Resolver:
 def _numpy_functions() -> dict[str, Callable[..., Any]]:
     return {"sin": np.sin, "cos": np.cos, "tan": np.tan, "asin": np.arcsin, "acos": np.arccos, "atan": np.arctan,
             "sqrt": np.sqrt, "exp": np.exp, "log": np.log, "abs": np.abs}
+
+
+def _evaluate_checked(tree: ex.Expr, env: Mapping[str, Any], functions: Mapping[str, Callable[..., Any]], raw: Any) -> Any:
+    """Evaluate on pint quantities; unit clashes and arithmetic failures become UnitErrors."""
+    import pint
+
+    with np.errstate(all="ignore"):
+        try:
+            return ex.evaluate(tree, env, functions)
+        except InputError:
+            raise
+        except pint.DimensionalityError as exc:
+            raise UnitError(f"inconsistent units in '{raw}': {_short(exc)}") from None
+        except Exception as exc:  # ZeroDivisionError, OverflowError, pint's offset errors, ...
+            raise UnitError(f"cannot evaluate '{raw}': {_short(exc)}") from None
 
 
 def _suggest(name: str, candidates: Iterable[str]) -> str:

@@ -18,7 +18,7 @@ from .errors import UnitError
 #: A string is a quantity literal when it starts with a number followed by a unit,
 #: e.g. ``"135 mm"``, ``"0.5161 N/mm"``, ``"57.2deg"``; otherwise it is an expression.
 _NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?(?![\d.]|[eE][-+]?\d)"
-_QUANTITY_RE = re.compile(rf"^\s*{_NUMBER}\s*(?:[A-Za-z°µΩ%]|1\s*/|/)")
+_QUANTITY_RE = re.compile(rf"^\s*{_NUMBER}(?:\s*[A-Za-z°µΩ%]|\s+1\s*/)")
 
 #: Physical dimensions used by the schema, as pint dimensionality strings.
 LENGTH = "[length]"
@@ -54,7 +54,11 @@ def looks_like_quantity(text: str) -> bool:
 
 
 def dimension_name(dimensionality: str) -> str:
-    return _DIMENSION_NAMES.get(dimensionality, dimensionality or "dimensionless")
+    """Readable name of a dimensionality: 'a length', 'a stiffness (force per length)', ..."""
+    canonical = {canonical_dimension(k): v for k, v in _DIMENSION_NAMES.items()}
+    if dimensionality in canonical:
+        return canonical[dimensionality]
+    return f"a quantity of dimension {dimensionality}" if dimensionality else "dimensionless"
 
 
 def dimensionality_of(q: Any) -> str:
@@ -146,7 +150,7 @@ def check_dimension(actual: str, expected: str, what: str) -> None:
     """Raise :class:`UnitError` unless dimensionality ``actual`` equals ``expected``."""
     want = canonical_dimension(expected)
     if actual != want:
-        raise UnitError(f"{what} must be {dimension_name(expected)}, got {dimension_name(actual)}")
+        raise UnitError(f"expected {dimension_name(want)}, got {dimension_name(actual)} ({what})")
 
 
 def pint_quantity(si_value: Any, unit: DisplayUnit) -> Any:

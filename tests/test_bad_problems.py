@@ -1,0 +1,263 @@
+"""Invalid problem files are rejected with one line naming the file and the key.
+
+Every file in ``tests/bad_problems/`` is a copy of ``problems/yasir2019_counter_mass.toml``
+with ONE defect, described in its first (comment) line. :data:`MANIFEST` says, for each
+file, which dotted key the error must name and a fragment of the message; a file without
+an entry fails :func:`test_manifest_lists_every_file`.
+
+Through the command line (``counterpoise solve FILE --out DIR``) each file must give exit
+status 2, exactly one line on stderr -- ``<file>: <key>: <message>`` -- no traceback and
+nothing written. The same expectations are checked in-process on
+:func:`counterpoise.loader.load_problem`, and the expression whitelist is tested directly.
+
+Entries with a ``bug`` are known defects of ``src/`` (an invalid file accepted, a stray
+warning on stderr, a malformed key). Their tests are ``xfail(strict=True)``: when the bug
+is fixed they XPASS and fail, so the ``bug`` note must be removed (and the expectation
+checked) together with the fix.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+from typing import NamedTuple
+
+import pytest
+
+from counterpoise import expr as ex
+from counterpoise.errors import ExpressionError, ProblemFileError
+from counterpoise.loader import load_problem
+
+HERE = Path(__file__).resolve().parent
+BAD = HERE / "bad_problems"
+GOOD = HERE.parent / "problems" / "yasir2019_counter_mass.toml"
+CLI = Path(sys.executable).with_name("counterpoise")
+
+
+class Expect(NamedTuple):
+    key: str  # dotted key the error line must name
+    fragment: str  # must occur in the message
+    bug: str = ""  # non-empty: known src bug, tests are xfail(strict=True)
+
+
+MANIFEST: dict[str, Expect] = {
+    # TOML and file level
+    "toml_syntax_error.toml": Expect("line 17", "TOML syntax error: Unclosed inline table"),
+    "toml_duplicate_table.toml": Expect("line 53", "TOML syntax error: Cannot declare ('variables', 'M_a') twice"),
+    "not_utf8.toml": Expect("file", "not UTF-8 text"),
+    # shape (schema)
+    "missing_gravity_section.toml": Expect("gravity", "missing required key"),
+    "unknown_key_typo_descripton.toml": Expect("parameters.r_a.descripton", "unknown key"),
+    # the unknown key is reported, with the required key it probably meant
+    "unknown_key_typo_uper.toml": Expect("variables.M_a.uper", "unknown key (did you mean 'upper'?)"),
+    "nan_value.toml": Expect("parameters.r_a.value", "value must be finite, got nan"),
+    "inf_value.toml": Expect("bodies.tip.com.1", "value must be finite, got inf"),
+    # units and dimensions
+    "unknown_unit_mmm.toml": Expect("parameters.r_a", "unknown unit 'mmm'"),
+    "mass_in_mm.toml": Expect("bodies.tip.mass", "expected a mass, got a length ('400 mm')"),
+    "spring_stiffness_as_mass.toml": Expect(
+        "springs.s_a.stiffness", "expected a stiffness (force per length), got a mass ('2 kg')"
+    ),
+    "gravity_wrong_dimension.toml": Expect("gravity.acceleration", "expected an acceleration, got a quantity of dimension [length] / [time]"),
+    "report_unit_mismatch.toml": Expect(
+        "report.added_mass_leg.unit", "'M_a + M_b + M_c' is a mass but the unit 'mm' is a length"
+    ),
+    # signs and bounds
+    "negative_body_mass.toml": Expect("bodies.tip.mass", "a mass must not be negative, got '-400 g'"),
+    "variable_lower_above_upper.toml": Expect("variables.M_a", "lower bound 30 kg is greater than upper bound 20 kg"),
+    "coordinate_empty_range.toml": Expect(
+        "subsystems.leg.coordinates.theta_a.range", "empty range [57.2 deg, 57.2 deg]"
+    ),
+    # names
+    "unknown_name_in_expression.toml": Expect(
+        "counter_masses.M_a.position.0", "unknown name 'b_aa' in '-b_aa' (did you mean 'b_a'?)"
+    ),
+    "duplicate_name_parameter_and_variable.toml": Expect("variables.M_a", "name 'M_a' is already used by parameters.M_a"),
+    "reserved_name_pi.toml": Expect("parameters.pi", "'pi' is reserved"),
+    # forbidden expressions
+    "expr_dunder_import.toml": Expect("bodies.tip.com.0", "function '__import__' is not allowed"),
+    "expr_attribute_access.toml": Expect(
+        "frames.link_b.transforms.0.translate.0", "attribute access not allowed in 'r_a.real'"
+    ),
+    "expr_lambda.toml": Expect("report.added_mass_leg.expression", "lambda not allowed"),
+    "expr_list_comprehension.toml": Expect("counter_masses.M_b.mass", "comprehensions not allowed"),
+    # frame graph
+    "frame_unknown_parent.toml": Expect("frames.link_c.parent", "unknown frame 'link_bb' (did you mean 'link_b'?)"),
+    "frame_cyclic_parents.toml": Expect("frames.link_a.parent", "cyclic definition: link_a -> link_c -> link_b -> link_a"),
+    "frame_named_ground.toml": Expect("frames.ground", "'ground' is the fixed world frame and cannot be declared"),
+    # values that are not finite or negative only once evaluated
+    "nonfinite_mass_expression.toml": Expect("bodies.tip.mass", "'m_c * 1e300 * 1e300' does not evaluate to a finite number"),
+    "nan_mass_expression.toml": Expect("bodies.tip.mass", "'m_c * sqrt(-1)' does not evaluate to a finite number"),
+    "negative_counter_mass_expression.toml": Expect(
+        "counter_masses.M_a.mass", "a mass must not be negative, got '-M_a' at the initial design"
+    ),
+    # names and literals the schema rejects
+    "invalid_parameter_name.toml": Expect("parameters.r-a", "invalid name 'r-a'"),
+    "unknown_rotation_axis.toml": Expect("frames.link_a.transforms.0.rotate", "expected one of 'x', 'y' or 'z', got 'w'"),
+}
+
+VALID = sorted(name for name, e in MANIFEST.items() if not e.bug)
+
+
+def _params() -> list:
+    return [
+        pytest.param(name, id=name.removesuffix(".toml"), marks=[pytest.mark.xfail(strict=True, reason=e.bug)] if e.bug else [])
+        for name, e in sorted(MANIFEST.items())
+    ]
+
+
+def _run(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONWARNINGS"}
+    return subprocess.run(
+        [str(CLI), *args], cwd=cwd, env=env, capture_output=True, text=True, encoding="utf-8", errors="replace", timeout=300
+    )
+
+
+def _assert_no_traceback(text: str) -> None:
+    assert "Traceback" not in text and "❱" not in text, text
+
+
+def _assert_error_line(line: str, path: Path, expect: Expect) -> None:
+    prefix = f"{path}: {expect.key}: "
+    assert line.startswith(prefix), f"expected {prefix!r}..., got {line!r}"
+    assert expect.fragment in line[len(prefix):], f"{expect.fragment!r} not in {line!r}"
+
+
+# --------------------------------------------------------------------------------------
+# The manifest
+# --------------------------------------------------------------------------------------
+
+
+def test_manifest_lists_every_file():
+    files = {p.name for p in BAD.iterdir() if p.is_file()}
+    assert files == set(MANIFEST), f"unlisted: {sorted(files - set(MANIFEST))}, missing: {sorted(set(MANIFEST) - files)}"
+    assert len(files) >= 12
+    assert len(VALID) >= 12
+
+
+@pytest.mark.parametrize("name", sorted(MANIFEST))
+def test_file_starts_with_a_comment_saying_what_is_wrong(name):
+    first = (BAD / name).read_bytes().split(b"\n", 1)[0].decode("ascii")
+    assert first.startswith("# INVALID"), first
+
+
+def test_good_problem_is_valid():
+    """The files are copies of this one; it must load, or every test here proves nothing."""
+    assert load_problem(GOOD).name == "yasir2019_counter_mass"
+
+
+# --------------------------------------------------------------------------------------
+# In-process: counterpoise.loader.load_problem
+# --------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name", _params())
+def test_load_problem_names_the_key(name):
+    expect = MANIFEST[name]
+    path = BAD / name
+    with pytest.raises(ProblemFileError) as info:
+        load_problem(path)
+    err = info.value
+    assert err.file == str(path)
+    assert err.key == expect.key
+    assert expect.fragment in err.message
+    assert str(err) == f"{path}: {err.key}: {err.message}"
+    assert "\n" not in str(err)
+
+
+# --------------------------------------------------------------------------------------
+# Through the command line
+# --------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name", _params())
+def test_solve_rejects_with_one_line(name, tmp_path):
+    expect = MANIFEST[name]
+    path = BAD / name
+    proc = _run("solve", str(path), "--out", str(tmp_path / "out"), cwd=tmp_path)
+    _assert_no_traceback(proc.stdout)
+    _assert_no_traceback(proc.stderr)
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].strip(), proc.stderr
+    _assert_error_line(lines[0], path, expect)
+    assert list(tmp_path.iterdir()) == [], "nothing may be written for bad input"
+
+
+def test_validate_rejects_every_file(tmp_path):
+    """One run over all files: exit 2 and exactly one error line per file, in order."""
+    paths = [BAD / name for name in VALID]
+    proc = _run("validate", *map(str, paths), cwd=tmp_path)
+    _assert_no_traceback(proc.stdout)
+    _assert_no_traceback(proc.stderr)
+    assert proc.returncode == 2
+    assert "ok " not in proc.stdout
+    lines = proc.stderr.splitlines()
+    assert len(lines) == len(paths), proc.stderr
+    for line, path in zip(lines, paths):
+        _assert_error_line(line, path, MANIFEST[path.name])
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_one_bad_file_stops_the_whole_run(tmp_path):
+    """A good file followed by a bad one: nothing is solved or written, exit 2."""
+    bad = BAD / "negative_body_mass.toml"
+    proc = _run("solve", str(GOOD), str(bad), "--out", str(tmp_path / "out"), cwd=tmp_path)
+    _assert_no_traceback(proc.stdout)
+    _assert_no_traceback(proc.stderr)
+    assert proc.returncode == 2
+    lines = proc.stderr.splitlines()
+    assert len(lines) == 1, proc.stderr
+    _assert_error_line(lines[0], bad, MANIFEST[bad.name])
+    assert list(tmp_path.iterdir()) == []
+
+
+# --------------------------------------------------------------------------------------
+# The expression whitelist (counterpoise.expr.parse)
+# --------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("text", "fragment"),
+    [
+        ("__import__('os')", "function '__import__' is not allowed"),
+        ("__import__('os').system('true')", "only plain function calls are allowed"),
+        ("a.b", "attribute access not allowed"),
+        ("lambda: 1", "lambda not allowed"),
+        ("[x for x in y]", "comprehensions not allowed"),
+        ("(x for x in y)", "comprehensions not allowed"),
+        ("a if b else c", "conditional expressions not allowed"),
+        ("a < b", "comparisons not allowed"),
+        ("a and b", "boolean operators not allowed"),
+        ('"s"', "only numbers may appear as constants"),
+        ("True", "only numbers may appear as constants"),
+        ("f(1)", "function 'f' is not allowed"),
+        ("sin(x=1)", "keyword or starred arguments are not allowed"),
+        ("sin(*a)", "keyword or starred arguments are not allowed"),
+        ("a[0]", "subscripts not allowed"),
+        ("(a, b)", "tuples not allowed"),
+        ("(a := 1)", "assignment not allowed"),
+        ("__builtins__", "names starting with '_' are not allowed"),
+        ("a // b", "is not allowed"),
+        ("~a", "is not allowed"),
+        ("1e999", "value must be finite"),
+        ("a +", "cannot parse"),
+        ("", "empty expression"),
+        ("a + " * 200 + "a", "longer than 500 characters"),
+    ],
+)
+def test_parse_rejects(text, fragment):
+    with pytest.raises(ExpressionError) as info:
+        ex.parse(text)
+    assert fragment in str(info.value)
+
+
+def test_parse_accepts_whitelisted_expression():
+    tree = ex.parse("sin(theta) * r_a + 2**3")
+    assert ex.names(tree) == {"theta", "r_a"}
+    assert [c.func for c in ex.calls(tree)] == ["sin"]
+    value = ex.evaluate(tree, {"theta": 0.5, "r_a": 2.0}, {"sin": math.sin})
+    assert value == pytest.approx(math.sin(0.5) * 2.0 + 8.0)
