@@ -19,6 +19,8 @@ from .errors import CounterpoiseError, ProblemFileError
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, help="Design gravity balancers for mechanisms.")
 out_console = Console()
+if not out_console.is_terminal:  # logs and CI: wide enough that names are not cut
+    out_console = Console(width=160)
 err_console = Console(stderr=True, highlight=False, soft_wrap=True)
 
 FilesArg = Annotated[list[Path], typer.Argument(help="Problem files (TOML).", show_default=False)]
@@ -124,12 +126,12 @@ def _print_summary(rows: list[dict]) -> None:
     for col, justify in [
         ("problem", "left"),
         ("status", "left"),
-        ("added mass [kg]", "right"),
-        ("added inertia [kg m²]", "right"),
+        ("added mass (kg)", "right"),
+        ("added inertia (kg m²)", "right"),
         ("objective", "right"),
         ("residual ratio", "right"),
         ("configs", "right"),
-        ("time [s]", "right"),
+        ("time (s)", "right"),
     ]:
         table.add_column(col, justify=justify)  # type: ignore[arg-type]
     for r in rows:
