@@ -116,7 +116,7 @@ def test_backends_agree():
     energy, grad = fn.map(50)(q.T)
     np.testing.assert_allclose(np.array(energy).ravel(), numeric, rtol=1e-12, atol=1e-12)
     # complex-step derivative (verification) against CasADi's AD (NLP)
-    np.testing.assert_allclose(residuals(problem, "arm", q, values, base, g), np.array(grad).T, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(residuals(problem, "arm", q, values, base, g)[0], np.array(grad).T, rtol=1e-10, atol=1e-12)
 
 
 class TestScenarios:

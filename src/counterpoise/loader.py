@@ -20,6 +20,7 @@ import numpy as np
 from . import expr as ex
 from .elements import CounterMass, ZeroFreeLengthSpring
 from .errors import InputError, ProblemFileError, UnitError
+from .mechanics import NUMPY_FUNCTIONS
 from .model import GROUND, Body, Coordinate, Frame, Point, Rotation, Subsystem, Transform, Translation
 from .problem import Gravity, Objective, Parameter, Problem, ReportQuantity, Scenario, Settings, Variable
 from .schema import ProblemFile, RotateSpec
@@ -627,8 +628,8 @@ class _Resolver:
 
 
 def _numpy_functions() -> dict[str, Callable[..., Any]]:
-    return {"sin": np.sin, "cos": np.cos, "tan": np.tan, "asin": np.arcsin, "acos": np.arccos, "atan": np.arctan,
-            "sqrt": np.sqrt, "exp": np.exp, "log": np.log, "abs": np.abs}
+    """The numpy backend's functions, with a plain abs (pint quantities and complex floats)."""
+    return {**NUMPY_FUNCTIONS, "abs": np.abs}
 
 
 def _evaluate_checked(tree: ex.Expr, env: Mapping[str, Any], functions: Mapping[str, Callable[..., Any]], raw: Any) -> Any:

@@ -104,7 +104,7 @@ def matmul(a: Mat, b: Mat) -> Mat:
 
 
 def sub(a: Vec, b: Vec) -> Vec:
-    return [_add(x, _mul(-1.0, y)) if not _is_const(y, 0.0) else x for x, y in zip(a, b)]
+    return [_add(x, _mul(-1.0, y)) for x, y in zip(a, b)]
 
 
 IDENTITY: Mat = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
@@ -200,24 +200,31 @@ class Mechanics:
     def gravity_energy(self, mass: Scalar, point: Point) -> Scalar:
         return _mul(-1.0, _mul(mass, dot(self.gravity, self.position(point))))
 
-    def energy(self, subsystem: str | None = None, *, balancers: bool = True) -> Scalar:
-        """Potential energy of ``subsystem`` (all elements if None).
+    def energy_terms(self, subsystem: str | None = None) -> tuple[Scalar, Scalar]:
+        """(energy of the given bodies, energy of the balancers) of ``subsystem`` (all if None).
 
-        ``balancers=False`` keeps only the given bodies: the unbalanced mechanism.
+        The bodies alone are the unbalanced mechanism; balancers are counter-masses and springs.
         """
         p = self.problem
 
         def mine(element_subsystem: str | None) -> bool:
             return subsystem is None or element_subsystem == subsystem
 
-        terms = [self.gravity_energy(self.value(b.mass), b.com) for b in p.bodies if mine(b.subsystem)]
-        if balancers:
-            terms += [self.gravity_energy(self.value(c.mass), c.position) for c in p.counter_masses if mine(c.subsystem)]
-            for s in p.springs:
-                if mine(s.subsystem):
-                    d = sub(self.position(s.ends[0]), self.position(s.ends[1]))
-                    terms.append(_mul(0.5, _mul(self.value(s.stiffness), dot(d, d))))
-        return _sum(terms)
+        bodies = _sum([self.gravity_energy(self.value(b.mass), b.com) for b in p.bodies if mine(b.subsystem)])
+        balancers = [self.gravity_energy(self.value(c.mass), c.position) for c in p.counter_masses if mine(c.subsystem)]
+        for s in p.springs:
+            if mine(s.subsystem):
+                d = sub(self.position(s.ends[0]), self.position(s.ends[1]))
+                balancers.append(_mul(0.5, _mul(self.value(s.stiffness), dot(d, d))))
+        return bodies, _sum(balancers)
+
+    def energy(self, subsystem: str | None = None, *, balancers: bool = True) -> Scalar:
+        """Potential energy of ``subsystem`` (all elements if None).
+
+        ``balancers=False`` keeps only the given bodies: the unbalanced mechanism.
+        """
+        bodies, added = self.energy_terms(subsystem)
+        return _add(bodies, added) if balancers else bodies
 
     # -- mass properties -----------------------------------------------------------
     def masses(self, subsystem: str) -> list[tuple[Scalar, Point]]:
