@@ -1,0 +1,112 @@
+"""Report files (columns, units, atomic writes) and the command line (exit status, output)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from conftest import PROBLEMS, solved
+from counterpoise.report import DESIGN_COLUMNS, SUMMARY_COLUMNS, write_reports
+
+CLI = Path(sys.executable).with_name("counterpoise")
+
+
+def test_design_and_summary_columns(tmp_path):
+    folder = write_reports(solved("yasir2019_hybrid"), tmp_path)
+    design = pd.read_csv(folder / "design.csv", keep_default_na=False)
+    summary = pd.read_csv(folder / "summary.csv")
+    assert list(design.columns) == [
+        "name", "kind", "scenario", "value", "unit", "lower", "upper", "active_bound", "description"
+    ] == DESIGN_COLUMNS
+    assert list(summary.columns) == [
+        "problem", "status", "objective", "added_mass_kg", "added_inertia_kg_m2", "max_residual_N_m",
+        "max_gravity_torque_N_m", "residual_ratio", "checked_configurations", "iterations", "solve_time_s", "solver",
+    ] == SUMMARY_COLUMNS
+    assert len(summary) == 1 and summary.loc[0, "status"] == "optimal" and summary.loc[0, "solver"] == "ipopt"
+    assert set(design["kind"]) == {"variable", "quantity"}
+    assert set(design["active_bound"]) <= {"", "lower", "upper"}
+    # values are in the units the file wrote: k in N/mm with bounds 0.01 and 5
+    k = design.set_index("name").loc["k"]
+    assert k["unit"] == "N/mm" and float(k["lower"]) == 0.01 and float(k["upper"]) == 5
+    # quantities have no bounds
+    assert (design[design["kind"] == "quantity"]["lower"] == "").all()
+    # no temporary files are left behind
+    assert sorted(p.name for p in folder.iterdir()) == ["design.csv", "status.txt", "summary.csv", "verification.csv"]
+
+
+def test_verification_table_one_row_per_condition(tmp_path):
+    folder = write_reports(solved("yasir2019_counter_mass"), tmp_path)
+    table = pd.read_csv(folder / "verification.csv")
+    assert list(table["coordinate"]) == ["theta_a", "theta_b", "theta_c"]
+    assert (table["configurations"] >= 10_000).all()
+    assert (table["residual_ratio"] <= 1e-9).all()
+    assert (table["unit"] == "N·m").all()
+
+
+def test_atomic_write_keeps_old_file_when_writing_fails(tmp_path, monkeypatch):
+    from counterpoise import report
+
+    target = tmp_path / "x.csv"
+    target.write_text("old")
+
+    def boom(*args, **kwargs):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(report.os, "replace", boom)
+    with pytest.raises(OSError):
+        report.atomic_write_text(target, "new")
+    assert target.read_text() == "old"
+    assert [p.name for p in tmp_path.iterdir()] == ["x.csv"]  # the temporary file is removed
+
+
+def test_cli_solve_exit_0_and_summary(tmp_path):
+    run = subprocess.run(
+        [CLI, "solve", str(PROBLEMS / "yasir2019_counter_mass.toml"), "--out", str(tmp_path)],
+        capture_output=True, text=True,
+    )
+    assert run.returncode == 0, run.stderr
+    assert "yasir2019_counter_mass" in run.stdout and "optimal" in run.stdout
+    assert (tmp_path / "yasir2019_counter_mass" / "summary.csv").exists()
+
+
+def test_cli_set_override_changes_the_design(tmp_path):
+    run = subprocess.run(
+        [CLI, "solve", str(PROBLEMS / "yasir2019_counter_mass.toml"), "--out", str(tmp_path), "--set", "parameters.m_c=800 g"],
+        capture_output=True, text=True,
+    )
+    assert run.returncode == 0, run.stderr
+    design = pd.read_csv(tmp_path / "yasir2019_counter_mass" / "design.csv").set_index("name")
+    assert design.loc["M_c", "value"] == pytest.approx(800.0)  # M_c = m_c r_c / b_c with r_c = b_c
+
+
+def test_cli_validate_ok():
+    run = subprocess.run([CLI, "validate", *sorted(map(str, PROBLEMS.glob("*.toml")))], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.count("ok  ") == len(list(PROBLEMS.glob("*.toml")))
+
+
+def test_cli_bad_set_syntax_exit_2(tmp_path):
+    run = subprocess.run(
+        [CLI, "solve", str(PROBLEMS / "yasir2019_counter_mass.toml"), "--out", str(tmp_path), "--set", "novalue"],
+        capture_output=True, text=True,
+    )
+    assert run.returncode == 2
+    assert run.stderr.strip() == "--set novalue: expected KEY=VALUE"
+    assert not any(tmp_path.iterdir())
+
+
+def test_cli_two_files_with_one_problem_name_exit_2(tmp_path):
+    copy = tmp_path / "copy.toml"
+    copy.write_text((PROBLEMS / "yasir2019_counter_mass.toml").read_text())
+    out = tmp_path / "out"
+    run = subprocess.run(
+        [CLI, "solve", str(PROBLEMS / "yasir2019_counter_mass.toml"), str(copy), "--out", str(out)],
+        capture_output=True, text=True,
+    )
+    assert run.returncode == 2
+    assert run.stderr.strip().startswith(f"{copy}: problem.name: 'yasir2019_counter_mass' is also the name of")
+    assert not out.exists()
