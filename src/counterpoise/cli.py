@@ -109,7 +109,12 @@ def solve(
             err_console.print(f"{problem.path}: {exc}", markup=False)
             worst = max(worst, 1)
             continue
-        folder = write_reports(result, out)
+        try:
+            folder = write_reports(result, out)
+        except OSError as exc:
+            err_console.print(f"{problem.path}: cannot write reports to {out}: {exc.strerror or exc}", markup=False)
+            worst = max(worst, 1)
+            continue
         row = summary_row(result)
         row["wall_s"] = time.perf_counter() - t0
         row["folder"] = str(folder)

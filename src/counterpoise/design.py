@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from . import expr as ex
 from .mechanics import NUMPY_FUNCTIONS, Mechanics
 from .nlp import Designer, Solution, Status
@@ -48,7 +50,10 @@ def _judge(solution: Solution, verification: Verification) -> tuple[Status, str]
     if solution.status is Status.OPTIMAL:
         if verification.balanced:
             return Status.OPTIMAL, solution.message
-        worst = verification.unmet()[0]
+        unmet = verification.unmet()
+        if not unmet:
+            return Status.FAILED, "verification failed: the residual could not be evaluated (NaN)"
+        worst = unmet[0]
         return Status.FAILED, (
             f"verification failed: subsystem '{worst.subsystem}', coordinate '{worst.coordinate}'"
             f"{_scenario_text(solution, worst.scenario)} keeps a residual of {worst.max_residual:.3g} "
@@ -86,7 +91,7 @@ def _unmet_message(solution: Solution, verification: Verification) -> str:
 
 
 def active_bound(value: float, lower: float, upper: float, rel: float = 1e-6) -> str:
-    """'lower', 'upper' or '' — whether ``value`` sits on a bound (relative to the range)."""
+    """'lower', 'upper' or '': whether ``value`` is within ``rel`` × max(range, |bounds|) of a bound."""
     span = max(upper - lower, abs(upper), abs(lower), 1e-300)
     if upper > lower:
         if value - lower <= rel * span:
@@ -110,13 +115,21 @@ def evaluate_quantities(solution: Solution) -> tuple[QuantityValue, ...]:
         env = dict(mech.env)
         values = {}
         for q in problem.report:
-            env[q.name] = values[q.name] = float(ex.evaluate(q.expr, env, functions))
+            # a quantity that cannot be evaluated at this design (0/0, a centre of mass of
+            # nothing) is reported as NaN rather than losing the whole report
+            with np.errstate(all="ignore"):
+                try:
+                    value = float(ex.evaluate(q.expr, env, functions))
+                except (ArithmeticError, ValueError):
+                    value = float("nan")
+            env[q.name] = values[q.name] = value
         per_scenario[scenario.name] = values
     out = []
     for q in problem.report:
         vals = {s: per_scenario[s][q.name] for s in per_scenario}
         first = next(iter(vals.values()))
-        if all(math.isclose(v, first, rel_tol=1e-12, abs_tol=1e-300) for v in vals.values()):
+        same = all(math.isclose(v, first, rel_tol=1e-12, abs_tol=1e-300) or (math.isnan(v) and math.isnan(first)) for v in vals.values())
+        if same:
             out.append(QuantityValue(q.name, None, first))
         else:
             out.extend(QuantityValue(q.name, s, v) for s, v in vals.items())

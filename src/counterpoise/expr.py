@@ -164,6 +164,12 @@ def calls(expr: Expr) -> tuple[Call, ...]:
     return ()
 
 
+def suggest(name: str, candidates: Iterable[str]) -> str:
+    """' (did you mean 'x'?)' for the closest candidate, or ''."""
+    close = difflib.get_close_matches(name, sorted(candidates), n=1)
+    return f" (did you mean '{close[0]}'?)" if close else ""
+
+
 def check_names(
     expr: Expr, known: Iterable[str], text: str, name_arg_functions: frozenset[str] = frozenset()
 ) -> None:
@@ -171,9 +177,7 @@ def check_names(
     known_set = set(known) | set(CONSTANTS)
     for name in sorted(names(expr, name_arg_functions)):
         if name not in known_set:
-            close = difflib.get_close_matches(name, sorted(known_set), n=1)
-            hint = f" (did you mean '{close[0]}'?)" if close else ""
-            raise ExpressionError(f"unknown name '{name}' in '{text}'{hint}")
+            raise ExpressionError(f"unknown name '{name}' in '{text}'{suggest(name, known_set)}")
 
 
 class NameArgs:

@@ -146,9 +146,11 @@ def _pydantic_message(err: Mapping[str, Any], errors: list[Any]) -> str:
     if kind == "too_short":
         return "must not be empty"
     if kind == "string_pattern_mismatch":
-        pattern = (err.get("ctx") or {}).get("pattern", "")
-        allowed = "letters, digits, '_', '.' and '-'" if "." in pattern else "letters, digits and '_'"
-        return f"invalid name {err.get('input')!r}: use {allowed}, starting with a letter or digit" if "." in pattern else f"invalid name {err.get('input')!r}: use {allowed}, starting with a letter"
+        if "." in (err.get("ctx") or {}).get("pattern", ""):  # problem.name
+            rule = "letters, digits, '_', '.' and '-', starting with a letter or digit"
+        else:
+            rule = "letters, digits and '_', starting with a letter"
+        return f"invalid name {err.get('input')!r}: use {rule}"
     if kind == "literal_error":
         return f"expected one of {(err.get('ctx') or {}).get('expected', '')}, got {err.get('input')!r}"
     msg = str(err.get("msg", "invalid value"))
@@ -171,6 +173,8 @@ class _Resolver:
         self.symbol_kind: dict[str, str] = {}  # name -> 'parameters' | 'variables' | 'coordinates' | 'report'
         self.literal_unit: dict[str, DisplayUnit] = {}  # key -> unit of a quantity literal written there
         self.variable_lower: dict[str, float] = {}
+        self.signed: list[tuple[str, ex.Expr, Any, str]] = []  # (key, tree, raw, what) of masses and stiffnesses
+        self.derived_parameters: list[Parameter] = []
 
     @contextmanager
     def at(self, key: str) -> Iterator[None]:
@@ -334,7 +338,6 @@ class _Resolver:
             key = f"parameters.{name}"
             tree = derived[name]
             env = {n: pint_quantity(self.symbol_value[n], self.symbol_unit[n]) for n in ex.names(tree)}
-            self.dimension(tree, raw_values[name], key)
             with self.at(key):
                 value = _evaluate_checked(tree, env, _numpy_functions(), raw_values[name])
             value = value if isinstance(value, ureg().Quantity) else ureg().Quantity(value, "")
@@ -345,6 +348,7 @@ class _Resolver:
             self.symbol_unit[name] = unit
             self.symbol_value[name] = si
             out.append(Parameter(name, unit, expr=tree, description=descriptions[name]))
+        self.derived_parameters = [p for p in out if not p.is_base]
         return tuple(out)
 
     def variables(self) -> tuple[Variable, ...]:
@@ -355,7 +359,7 @@ class _Resolver:
             upper = self.literal(v.upper, f"{key}.upper")
             initial = self.literal(v.initial, f"{key}.initial") if v.initial is not None else None
             with self.at(f"{key}.unit"):
-                unit = display_unit(v.unit) if v.unit is not None else lower.unit
+                unit = display_unit(v.unit) if v.unit is not None else (lower.unit if lower.unit.symbol else upper.unit)
             for part, q in (("lower", lower), ("upper", upper), ("initial", initial)):
                 if q is not None and q.dimension != unit.dimension and not (q.si == 0 and q.unit.symbol == ""):
                     raise self.fail(f"{key}.{part}", f"expected {dimension_name(unit.dimension)} like unit '{unit.label}', got {dimension_name(q.dimension)}")
@@ -398,11 +402,13 @@ class _Resolver:
     def _design_names(self) -> set[str]:
         return {n for n, k in self.symbol_kind.items() if k in ("parameters", "variables")}
 
-    def vector(self, values: Iterable[Any], key: str, dimension: str, what: str) -> tuple[ex.Expr, ex.Expr, ex.Expr]:
+    def vector(
+        self, values: Iterable[Any], key: str, dimension: str, what: str, allowed: set[str]
+    ) -> tuple[ex.Expr, ex.Expr, ex.Expr]:
         out = []
         for i, raw in enumerate(values):
             k = f"{key}.{i}"
-            tree = self.expression(raw, k, self._geometry_names())
+            tree = self.expression(raw, k, allowed)
             self.expect(tree, raw, k, dimension, what)
             out.append(tree)
         return (out[0], out[1], out[2])
@@ -434,7 +440,7 @@ class _Resolver:
                     used |= ex.names(angle)
                     transforms.append(Rotation(axis, angle))
                 else:
-                    vec = self.vector(t.translate, f"{tkey}.translate", LENGTH, "a translation")
+                    vec = self.vector(t.translate, f"{tkey}.translate", LENGTH, "a translation", self._geometry_names())
                     for comp in vec:
                         used |= ex.names(comp)
                     transforms.append(Translation(vec))
@@ -452,18 +458,20 @@ class _Resolver:
     def axis(self, value: Any, key: str) -> tuple[ex.Expr, ex.Expr, ex.Expr]:
         if isinstance(value, str):
             return tuple(ex.Num(c) for c in _AXES[value])  # type: ignore[return-value]
-        vec = self.vector(value, key, DIMENSIONLESS, "an axis component")
+        # an axis may depend on parameters and variables (a tilt), not on coordinates
+        vec = self.vector(value, key, DIMENSIONLESS, "an axis component", self._design_names())
+        norm = math.sqrt(sum(self.finite(c, value, key) ** 2 for c in vec))
+        if norm == 0:
+            raise self.fail(key, "the rotation axis must not be the zero vector")
         if all(isinstance(c, ex.Num) for c in vec):
-            norm = math.sqrt(sum(c.value**2 for c in vec))  # type: ignore[union-attr]
-            if norm == 0:
-                raise self.fail(key, "the rotation axis must not be the zero vector")
             return tuple(ex.Num(c.value / norm) for c in vec)  # type: ignore[union-attr,return-value]
         return vec
 
     def point(self, frame: str, position: Iterable[Any], key: str, frames: Mapping[str, Frame], frame_key: str) -> Point:
         if frame != GROUND and frame not in frames:
             raise self.fail(frame_key, f"unknown frame '{frame}'{_suggest(frame, list(frames) + [GROUND])}")
-        return Point(frame, self.vector(position, key, LENGTH, "a position"))
+        # a point is fixed in its frame: it may not move with coordinates (use a frame for that)
+        return Point(frame, self.vector(position, key, LENGTH, "a position", self._design_names()))
 
     def nonnegative(self, tree: ex.Expr, raw: Any, key: str, dimension: str, what: str) -> None:
         """Type-check a mass or stiffness; it must not be negative.
@@ -478,6 +486,7 @@ class _Resolver:
         if value < 0:
             where = "" if ex.names(tree) <= self._parameter_names() else " at the initial design"
             raise self.fail(key, f"{what} must not be negative, got '{raw}'{where}")
+        self.signed.append((key, tree, raw, what))
 
     def _subsystem_of(self, frame: str, frames: Mapping[str, Frame]) -> str | None:
         return None if frame == GROUND else frames[frame].subsystem
@@ -562,11 +571,36 @@ class _Resolver:
                     hint = " (only literal parameters can change per scenario)" if pname in self.spec.parameters else _suggest(pname, base)
                     raise self.fail(pkey, f"unknown parameter '{pname}'{hint}")
                 q = self.literal(raw, pkey)
-                if q.dimension != base[pname].unit.dimension:
+                if q.dimension != base[pname].unit.dimension and not (q.si == 0 and not q.unit.symbol):
                     raise self.fail(pkey, f"expected {dimension_name(base[pname].unit.dimension)}, got {dimension_name(q.dimension)}")
                 values[pname] = q.si
+            self.check_scenario_values(values, key)
             out.append(Scenario(name, g, values, sc.description))
         return tuple(out)
+
+    def check_scenario_values(self, values: Mapping[str, float], key: str) -> None:
+        """Masses and stiffnesses stay finite and ≥ 0 with a scenario's parameter values."""
+        if not values:
+            return
+        saved = dict(self.symbol_value)
+        try:
+            for name, value in values.items():
+                self.symbol_value[name] = value
+            for p in self.derived_parameters:
+                with np.errstate(all="ignore"):
+                    value = complex(ex.evaluate(p.expr, self.symbol_value, _numpy_functions()))  # type: ignore[arg-type]
+                if value.imag != 0 or not math.isfinite(value.real):
+                    raise self.fail(key, f"parameter '{p.name}' is not a finite number in this scenario")
+                self.symbol_value[p.name] = value.real
+            for what_key, tree, raw, what in self.signed:
+                try:
+                    value = self.finite(tree, raw, key)
+                except ProblemFileError as exc:
+                    raise self.fail(key, f"{exc.message} (for {what_key} in this scenario)") from None
+                if value < 0:
+                    raise self.fail(key, f"{what} {what_key} = '{raw}' is negative in this scenario")
+        finally:
+            self.symbol_value = saved
 
     def objective(self) -> Objective:
         o = self.spec.objective
@@ -647,11 +681,7 @@ def _evaluate_checked(tree: ex.Expr, env: Mapping[str, Any], functions: Mapping[
             raise UnitError(f"cannot evaluate '{raw}': {_short(exc)}") from None
 
 
-def _suggest(name: str, candidates: Iterable[str]) -> str:
-    import difflib
-
-    close = difflib.get_close_matches(name, sorted(candidates), n=1)
-    return f" (did you mean '{close[0]}'?)" if close else ""
+_suggest = ex.suggest
 
 
 def _short(exc: Exception) -> str:

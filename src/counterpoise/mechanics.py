@@ -111,16 +111,12 @@ IDENTITY: Mat = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
 
 
 def unit_vector(v: Vec, functions: Mapping[str, Callable[..., Any]]) -> Vec:
-    """``v`` scaled to unit length (literal axes are normalised by the loader already)."""
-    if all(isinstance(c, (int, float)) for c in v):
-        return v
     norm = functions["sqrt"](dot(v, v))
     return [c / norm for c in v]
 
 
 def rotation_matrix(axis: Vec, angle: Scalar, functions: Mapping[str, Callable[..., Any]]) -> Mat:
-    """Rodrigues: R = c I + s [u]x + (1 − c) u uᵀ about the direction of ``axis``."""
-    axis = unit_vector(axis, functions)
+    """Rodrigues: R = c I + s [u]x + (1 − c) u uᵀ about a unit ``axis``."""
     c = functions["cos"](angle)
     s = functions["sin"](angle)
     one_c = 1.0 - c
@@ -184,13 +180,19 @@ class Mechanics:
         rot, origin = self.pose(f.parent) if f.parent is not None else (IDENTITY, [0.0, 0.0, 0.0])
         for t in f.transforms[:upto]:
             if isinstance(t, Rotation):
-                rot = matmul(rot, rotation_matrix(self.vector(t.axis), self.value(t.angle), self.functions))
+                rot = matmul(rot, rotation_matrix(self.axis(t), self.value(t.angle), self.functions))
             else:
                 step = matvec(rot, self.vector(t.vector))
                 origin = [_add(o, d) for o, d in zip(origin, step)]
         if upto is None:
             self._poses[frame] = (rot, origin)
         return rot, origin
+
+    def axis(self, rotation: Rotation) -> Vec:
+        """Unit axis of a rotation (literal axes arrive normalised from the loader)."""
+        if all(isinstance(c, ex.Num) for c in rotation.axis):
+            return self.vector(rotation.axis)
+        return unit_vector(self.vector(rotation.axis), self.functions)
 
     def position(self, point: Point) -> Vec:
         rot, origin = self.pose(point.frame)
@@ -255,15 +257,10 @@ class Mechanics:
         frame, i = cm.joint
         rot, origin = self.pose(frame, upto=i)
         t = self.problem.frame[frame].transforms[i]
-        axis = matvec(rot, unit_vector(self.vector(t.axis), self.functions))  # type: ignore[union-attr]
+        axis = matvec(rot, self.axis(t))  # type: ignore[arg-type]
         rel = sub(self.position(cm.position), origin)
         along = dot(axis, rel)
         return _add(dot(rel, rel), _mul(-1.0, _mul(along, along)))
-
-    def counter_mass_arm(self, index: int) -> Scalar:
-        """Distance d_j of counter-mass ``index`` from the axis of the joint it rides on."""
-        d2 = self.arm_squared(index)
-        return 0.0 if _is_const(d2, 0.0) else self.functions["sqrt"](d2)
 
     def added_mass(self) -> Scalar:
         return _sum([self.value(c.mass) for c in self.problem.counter_masses])

@@ -79,14 +79,16 @@ class Formulation:
         self.functions = casadi_functions()
 
         self.blocks: list[Block] = []
-        added_mass, added_inertia, nonnegative = [], [], []
+        added_mass, added_inertia = [], []
+        nonnegative: dict[str, Any] = {}  # keyed by the expression's text: one row per distinct constraint
+        home = {k.name: k.home for k in problem.coordinates}
         for c, scenario in enumerate(problem.scenarios):
             variables, base, gravity = self.symbols(c, scenario)
-            home = {k.name: k.home for k in problem.coordinates}
             mech = Mechanics(problem, base, variables, home, gravity, self.functions)
             added_mass.append(mech.added_mass())
             added_inertia.append(mech.added_inertia())
-            nonnegative += self.sign_constraints(mech)
+            for expression in self.sign_constraints(mech):
+                nonnegative.setdefault(str(expression), expression)
             for sub in problem.subsystems:
                 q = ca.SX.sym("q", len(sub.coordinates))
                 coords = {name: q[i] for i, name in enumerate(sub.coordinates)}
@@ -107,7 +109,7 @@ class Formulation:
         self.added_inertia = sum(added_inertia) / n
         w = problem.objective
         self.objective = w.mass_weight * self.added_mass + w.inertia_weight * self.added_inertia
-        self.nonnegative = ca.vertcat(*nonnegative) if nonnegative else ca.SX(0, 1)
+        self.nonnegative = ca.vertcat(*nonnegative.values()) if nonnegative else ca.SX(0, 1)
         self.report_function = ca.Function("mass_report", [self.z, self.p], [self.objective, self.added_mass, self.added_inertia])
 
     def symbols(self, c: int, scenario: Scenario) -> tuple[dict[str, Any], dict[str, Any], list[Any]]:
@@ -136,14 +138,15 @@ class Formulation:
         return out
 
     def parameter_values(self, overrides: Mapping[str, float] | None = None) -> np.ndarray:
-        """The NLP parameter vector: per scenario, gravity then the base parameters (SI)."""
+        """The NLP parameter vector: per scenario, gravity then the base parameters (SI).
+
+        ``overrides`` replaces base parameters (SI) in every scenario, e.g. for a study.
+        """
         values: list[float] = []
         for scenario in self.problem.scenarios:
             values += list(scenario.gravity.vector)
             for p in self.problem.base_parameters:
-                v = scenario.parameters.get(p.name, p.value)
-                if overrides and p.name in overrides:
-                    v = overrides[p.name]
+                v = (overrides or {}).get(p.name, scenario.parameters.get(p.name, p.value))
                 values.append(float(v))  # type: ignore[arg-type]
         return np.array(values, dtype=float)
 
@@ -161,16 +164,6 @@ class Formulation:
         return np.asarray(z, dtype=float).reshape(-1) * self.scale
 
 
-@dataclass(frozen=True)
-class BlockConditions:
-    """The compressed conditions of one block and how they were obtained."""
-
-    block: Block
-    rank: int
-    configurations: np.ndarray  # (N, n_q) samples the kept rows come from
-    torque_scale: float  # N·m (N for sliders): the block's conditions are divided by it
-
-
 class BalanceConditions:
     """Exact, rank-compressed balance equalities g(z, p) = 0 for a formulation."""
 
@@ -181,7 +174,8 @@ class BalanceConditions:
         rng = np.random.default_rng(seed)
         f = formulation
         stacked = []
-        self.blocks: list[BlockConditions] = []
+        #: (subsystem, scenario, number of independent conditions) of every block
+        self.ranks: list[tuple[str, str, int]] = []
         for block in f.blocks:
             coords = [f.problem.coordinate[n] for n in block.coordinates]
             lo = np.array([c.lower for c in coords])
@@ -196,9 +190,10 @@ class BalanceConditions:
             comp, q = adaptive_compression(sample, start_configurations=16 + 8 * n_q, start_designs=32)
             torque = np.abs(_sample_residuals(block.gravity_torque, q, f.to_z(f.initial)[None, :], parameters)).max(initial=0.0)
             scale = torque if torque > 0 else max(float(np.abs(comp.singular_values).max(initial=0.0)), 1.0)
-            self.blocks.append(BlockConditions(block, comp.rank, q, scale))
+            self.ranks.append((block.subsystem, block.scenario, comp.rank))
             if comp.rank:
-                rows = [block.residual(q[r // n_q], f.z, f.p)[r % n_q] for r in comp.rows]
+                residual_at = {i: block.residual(q[i], f.z, f.p) for i in sorted({int(r) // n_q for r in comp.rows})}
+                rows = [residual_at[int(r) // n_q][int(r) % n_q] for r in comp.rows]
                 stacked.append(ca.mtimes(ca.DM(comp.matrix), ca.vertcat(*rows)) / scale)
         per_block = ca.vertcat(*stacked) if stacked else ca.SX(0, 1)
         # Across blocks: identical legs, or scenarios that repeat a condition, collapse here.
@@ -223,6 +218,12 @@ class BalanceConditions:
     @property
     def count(self) -> int:
         return int(self.equalities.numel())
+
+    def summary(self) -> str:
+        """'leg/nominal 3' per block, and whether repeats were removed."""
+        parts = ", ".join(f"{sub}/{sc} {r}" for sub, sc, r in self.ranks)
+        total = sum(r for *_, r in self.ranks)
+        return parts + (f"; {total} before removing repeats across blocks" if total != self.count else "")
 
 
 def _sample_residuals(residual: Any, q: np.ndarray, z: np.ndarray, parameters: np.ndarray) -> np.ndarray:
@@ -253,6 +254,7 @@ class Solution:
     solver: str
     solver_status: str
     conditions: int
+    condition_summary: str
     #: per scenario name: gravity vector and base-parameter values the design was solved for
     scenario_parameters: dict[str, tuple[tuple[float, float, float], dict[str, float]]] = field(default_factory=dict)
 
@@ -298,39 +300,60 @@ class Designer:
         self._feasibility: Any = None
         self._residual_jacobian: Any = None
 
-    @property
-    def bounds_g(self) -> tuple[np.ndarray, np.ndarray]:
-        n_eq = self.n_equalities
-        n_in = int(self.formulation.nonnegative.numel())
-        lbg = np.zeros(n_eq + n_in)
-        ubg = np.concatenate([np.zeros(n_eq), np.full(n_in, np.inf)])
-        return lbg, ubg
+    def bounds(self, n_equalities: int) -> dict[str, np.ndarray]:
+        """lbx/ubx of the scaled variables and lbg/ubg of [equalities; sign constraints]."""
+        f = self.formulation
+        n_in = int(f.nonnegative.numel())
+        return {
+            "lbx": f.lower / f.scale,
+            "ubx": f.upper / f.scale,
+            "lbg": np.zeros(n_equalities + n_in),
+            "ubg": np.concatenate([np.zeros(n_equalities), np.full(n_in, np.inf)]),
+        }
 
-    def solve(self, initial: Mapping[Slot, float] | None = None) -> Solution:
+    def solve(self, initial: Mapping[Slot, float] | None = None, parameters: Mapping[str, float] | None = None) -> Solution:
+        """Solve with the built solver.
+
+        ``initial`` overrides initial values (SI) of design-vector slots; ``parameters``
+        overrides base parameters (SI) in every scenario without rebuilding anything. The
+        compression was computed at the file's values; the dense verification of the
+        result says whether it still holds (a parameter that was 0 at build time may have
+        hidden a condition).
+        """
         f = self.formulation
         x0 = f.initial.copy()
         for slot, value in (initial or {}).items():
             x0[f.slot_index[slot]] = value
+        p = f.parameter_values(parameters) if parameters else self.parameters
         if self.n_equalities > len(f.slots):
-            return self._overdetermined(x0)
-        lbg, ubg = self.bounds_g
+            return self._overdetermined(x0, p)
         t0 = time.perf_counter()
-        out = self.solver(x0=f.to_z(x0), p=self.parameters, lbx=f.lower / f.scale, ubx=f.upper / f.scale, lbg=lbg, ubg=ubg)
+        out = self.solver(x0=f.to_z(x0), p=p, **self.bounds(self.n_equalities))
         elapsed = time.perf_counter() - t0
         stats = self.solver.stats()
         z = np.array(out["x"]).reshape(-1)
         ipopt_status = str(stats.get("return_status", "unknown"))
-        if stats.get("success") or ipopt_status in ("Solve_Succeeded", "Solved_To_Acceptable_Level"):
+        if ipopt_status in ("Solve_Succeeded", "Solved_To_Acceptable_Level"):
             status, message = Status.OPTIMAL, "balanced design found"
-            z = self.polish(z)
+            z = self.polish(z, p)
         elif ipopt_status in _INFEASIBLE:
             status, message = Status.INFEASIBLE, f"IPOPT: {ipopt_status}"
-            z = self.closest_design(z)
+            z = self.closest_design(z, p)
         else:
             status, message = Status.FAILED, f"IPOPT: {ipopt_status}"
-        return self._solution(z, status, message, int(stats.get("iter_count", 0)), elapsed, ipopt_status)
+        return self._solution(z, p, status, message, int(stats.get("iter_count", 0)), elapsed, ipopt_status)
 
-    def polish(self, z: np.ndarray, rel: float = 1e-7, iterations: int = 8) -> np.ndarray:
+    def residual_jacobian(self) -> Any:
+        """CasADi function (z, p) -> (balance equalities, their Jacobian, sign constraints), built once."""
+        import casadi as ca
+
+        if self._residual_jacobian is None:
+            f = self.formulation
+            eq = self.conditions.equalities
+            self._residual_jacobian = ca.Function("gJ", [f.z, f.p], [eq, ca.jacobian(eq, f.z), f.nonnegative])
+        return self._residual_jacobian
+
+    def polish(self, z: np.ndarray, p: np.ndarray, rel: float = 1e-7, iterations: int = 8) -> np.ndarray:
         """Put variables that IPOPT left a hair inside a bound exactly on it.
 
         An interior-point solution sits ~1e-9 inside its active bounds. Each such variable is
@@ -338,8 +361,6 @@ class Designer:
         variables (Gauss-Newton). The polished point is kept only if it balances at least
         as well and respects the sign constraints; otherwise IPOPT's point stands.
         """
-        import casadi as ca
-
         f = self.formulation
         lo, hi = f.lower / f.scale, f.upper / f.scale
         span = np.maximum(hi - lo, 1e-300)
@@ -348,27 +369,25 @@ class Designer:
         active = (at_lo | at_hi) & (hi > lo)
         if not active.any():
             return z
-        if self._residual_jacobian is None:
-            eq = self.conditions.equalities
-            self._residual_jacobian = ca.Function("gJ", [f.z, f.p], [eq, ca.jacobian(eq, f.z), f.nonnegative])
+        gj = self.residual_jacobian()
         candidate = np.where(at_lo, lo, np.where(at_hi, hi, z))
         free = ~active
         for _ in range(iterations):
-            g, jac, _ = (np.array(v) for v in self._residual_jacobian(candidate, self.parameters))
+            g, jac, _ = (np.array(v) for v in gj(candidate, p))
             g = g.reshape(-1)
             if not g.size or np.abs(g).max() <= 1e-15 or not free.any():
                 break
             step, *_ = np.linalg.lstsq(jac[:, free], -g, rcond=None)
             candidate[free] = np.clip(candidate[free] + step, lo[free], hi[free])
-        g_new, _, signs = (np.array(v).reshape(-1) for v in self._residual_jacobian(candidate, self.parameters))
-        g_old = np.array(self._residual_jacobian(z, self.parameters)[0]).reshape(-1)
+        g_new, _, signs = (np.array(v).reshape(-1) for v in gj(candidate, p))
+        g_old = np.array(gj(z, p)[0]).reshape(-1)
         worst_new = np.abs(g_new).max(initial=0.0)
         worst_old = np.abs(g_old).max(initial=0.0)
         if worst_new <= max(worst_old, 1e-14) and (signs.size == 0 or signs.min() >= 0):
             return candidate
         return z
 
-    def closest_design(self, z0: np.ndarray) -> np.ndarray:
+    def closest_design(self, z0: np.ndarray, p: np.ndarray) -> np.ndarray:
         """The design within the bounds that comes closest to balance (least squares)."""
         import casadi as ca
 
@@ -377,48 +396,48 @@ class Designer:
             nlp = {"x": f.z, "p": f.p, "f": 0.5 * ca.sumsqr(self.conditions.equalities), "g": f.nonnegative}
             opts = {**self.options, "tol": 1e-14, "acceptable_tol": 1e-12}
             self._feasibility = ca.nlpsol("closest", "ipopt", nlp, {"print_time": False, "ipopt": opts})
-        n_in = int(f.nonnegative.numel())
-        out = self._feasibility(
-            x0=np.clip(z0, f.lower / f.scale, f.upper / f.scale), p=self.parameters,
-            lbx=f.lower / f.scale, ubx=f.upper / f.scale, lbg=np.zeros(n_in), ubg=np.full(n_in, np.inf),
-        )
+        out = self._feasibility(x0=np.clip(z0, f.lower / f.scale, f.upper / f.scale), p=p, **self.bounds(0))
         return np.array(out["x"]).reshape(-1)
 
-    def _overdetermined(self, x0: np.ndarray) -> Solution:
+    def _overdetermined(self, x0: np.ndarray, p: np.ndarray) -> Solution:
         """More independent conditions than variables: balance only at special designs.
 
         Find the closest design; if it balances, the conditions are locally redundant:
-        keep as many as the rank of their Jacobian there and optimise on that manifold.
+        keep as many as the rank of their Jacobian there and optimise on that manifold
+        (the reduction depends on the point, so this solver is built per call).
         """
         import casadi as ca
 
         f = self.formulation
         t0 = time.perf_counter()
-        z = self.closest_design(f.to_z(x0))
-        eq = self.conditions.equalities
-        residual = float(np.abs(np.array(ca.Function("g", [f.z, f.p], [eq])(z, self.parameters))).max())
-        if residual > 1e-9:
-            return self._solution(z, Status.INFEASIBLE, "more independent balance conditions than design variables, and no design within the bounds meets them", 0, time.perf_counter() - t0, "overdetermined")
-        jac = np.array(ca.Function("J", [f.z, f.p], [ca.jacobian(eq, f.z)])(z, self.parameters))
+        z = self.closest_design(f.to_z(x0), p)
+        g, jac, _ = (np.array(v) for v in self.residual_jacobian()(z, p))
+        if np.abs(g).max() > 1e-9:
+            message = "more independent balance conditions than design variables, and no design within the bounds meets them"
+            return self._solution(z, p, Status.INFEASIBLE, message, 0, time.perf_counter() - t0, "overdetermined")
         u, s, _ = np.linalg.svd(jac, full_matrices=False)
         r = int(np.sum(s > 1e-8 * s[0])) if s.size and s[0] > 0 else 0
-        reduced = ca.mtimes(ca.DM(u[:, :r].T), eq)
-        g = ca.vertcat(reduced, f.nonnegative)
-        solver = ca.nlpsol("design_reduced", "ipopt", {"x": f.z, "p": f.p, "f": f.objective, "g": g}, {"print_time": False, "ipopt": dict(self.options)})
-        n_in = int(f.nonnegative.numel())
-        out = solver(x0=z, p=self.parameters, lbx=f.lower / f.scale, ubx=f.upper / f.scale,
-                     lbg=np.zeros(r + n_in), ubg=np.concatenate([np.zeros(r), np.full(n_in, np.inf)]))
+        reduced = ca.mtimes(ca.DM(u[:, :r].T), self.conditions.equalities)
+        nlp = {"x": f.z, "p": f.p, "f": f.objective, "g": ca.vertcat(reduced, f.nonnegative)}
+        solver = ca.nlpsol("design_reduced", "ipopt", nlp, {"print_time": False, "ipopt": dict(self.options)})
+        out = solver(x0=z, p=p, **self.bounds(r))
         stats = solver.stats()
-        ok = bool(stats.get("success"))
-        status = Status.OPTIMAL if ok else Status.FAILED
-        message = "balanced design found (conditions reduced at a balanced design)" if ok else f"IPOPT: {stats.get('return_status')}"
-        return self._solution(np.array(out["x"]).reshape(-1), status, message, int(stats.get("iter_count", 0)), time.perf_counter() - t0, str(stats.get("return_status")))
+        ipopt_status = str(stats.get("return_status"))
+        z = np.array(out["x"]).reshape(-1)
+        if ipopt_status in ("Solve_Succeeded", "Solved_To_Acceptable_Level"):
+            status, message = Status.OPTIMAL, "balanced design found (conditions reduced at a balanced design)"
+            z = self.polish(z, p)
+        else:
+            status, message = Status.FAILED, f"IPOPT: {ipopt_status}"
+        return self._solution(z, p, status, message, int(stats.get("iter_count", 0)), time.perf_counter() - t0, ipopt_status)
 
-    def _solution(self, z: np.ndarray, status: Status, message: str, iterations: int, elapsed: float, solver_status: str) -> Solution:
+    def _solution(
+        self, z: np.ndarray, parameters: np.ndarray, status: Status, message: str, iterations: int, elapsed: float, solver_status: str
+    ) -> Solution:
         f = self.formulation
         z = np.clip(z, f.lower / f.scale, f.upper / f.scale)
         x = f.to_x(z)
-        objective, mass, inertia = (float(v) for v in f.report_function(z, self.parameters))
+        objective, mass, inertia = (float(v) for v in f.report_function(z, parameters))
         if not np.all(np.isfinite(x)):
             raise SolverError(f"{self.problem.name}: the solver returned non-finite values")
         return Solution(
@@ -434,7 +453,6 @@ class Designer:
             solver="ipopt",
             solver_status=solver_status,
             conditions=self.n_equalities,
-            scenario_parameters={
-                sc.name: f.scenario_parameters(self.parameters, i) for i, sc in enumerate(self.problem.scenarios)
-            },
+            condition_summary=self.conditions.summary(),
+            scenario_parameters={sc.name: f.scenario_parameters(parameters, i) for i, sc in enumerate(self.problem.scenarios)},
         )

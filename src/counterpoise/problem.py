@@ -125,10 +125,6 @@ class Problem:
         return {v.name: v for v in self.variables}
 
     @cached_property
-    def parameter(self) -> Mapping[str, Parameter]:
-        return {p.name: p for p in self.parameters}
-
-    @cached_property
     def coordinate(self) -> Mapping[str, Coordinate]:
         return {c.name: c for c in self.coordinates}
 

@@ -132,15 +132,11 @@ def verification_table(result: DesignResult) -> "pd.DataFrame":
                 "unit": "N·m" if unit.dimension == "" else "N",
                 "configurations": c.configurations,
                 "worst_configuration": " ".join(
-                    f"{problem.coordinate[n].unit.from_si(x):.6g}" for n, x in zip(_names(problem, c.subsystem), c.worst_configuration)
+                    f"{k.unit.from_si(x):.6g}" for k, x in zip(problem.subsystem_coordinates(c.subsystem), c.worst_configuration)
                 ),
             }
         )
     return pd.DataFrame(rows, columns=VERIFICATION_COLUMNS)
-
-
-def _names(problem: object, subsystem: str) -> tuple[str, ...]:
-    return tuple(c.name for c in problem.subsystem_coordinates(subsystem))  # type: ignore[attr-defined]
 
 
 def status_text(result: DesignResult) -> str:
@@ -149,7 +145,8 @@ def status_text(result: DesignResult) -> str:
         f"problem: {result.problem.name}\n"
         f"status: {result.status.value}\n"
         f"message: {result.message}\n"
-        f"solver: {s.solver} ({s.solver_status}), {s.iterations} iterations, {s.conditions} balance conditions\n"
+        f"solver: {s.solver} ({s.solver_status}), {s.iterations} iterations\n"
+        f"balance conditions: {s.conditions} ({s.condition_summary})\n"
     )
 
 

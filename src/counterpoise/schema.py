@@ -143,7 +143,7 @@ class ScenarioSpec(_Table):
 class SettingsSpec(_Table):
     verify_samples: Annotated[int, Field(ge=100, le=10_000_000)] = 10_000
     verify_tolerance: Annotated[float, Field(gt=0, lt=1)] = 1e-8
-    seed: int = 20190101
+    seed: Annotated[int, Field(ge=0)] = 20190101
     max_iterations: Annotated[int, Field(ge=1)] = 500
 
 

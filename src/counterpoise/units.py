@@ -155,10 +155,18 @@ def check_dimension(actual: str, expected: str, what: str) -> None:
 
 def pint_quantity(si_value: Any, unit: DisplayUnit) -> Any:
     """A pint quantity of ``si_value`` in the SI base units of ``unit`` (for dimension checks)."""
+    import numpy as np
+
     reg = ureg()
+    value = np.float64(si_value) if isinstance(si_value, (int, float)) else si_value  # 1/0 -> inf, not an exception
     if not unit.symbol:
-        return reg.Quantity(si_value, "")
-    return reg.Quantity(si_value, reg.Quantity(1.0, unit.symbol).to_base_units().units)
+        return reg.Quantity(value, "")
+    return reg.Quantity(value, _base_units(unit.symbol))
+
+
+@lru_cache(maxsize=256)
+def _base_units(symbol: str) -> Any:
+    return ureg().Quantity(1.0, symbol).to_base_units().units
 
 
 def base_unit_symbol(q: Any) -> str:

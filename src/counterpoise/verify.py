@@ -51,11 +51,12 @@ class Verification:
 
     @property
     def max_residual(self) -> float:
-        return max((c.max_residual for c in self.checks), default=0.0)
+        """Largest residual (NaN if any residual is NaN)."""
+        return float(np.max([c.max_residual for c in self.checks], initial=0.0))
 
     @property
     def max_gravity_torque(self) -> float:
-        return max((c.max_gravity_torque for c in self.checks), default=0.0)
+        return float(np.max([c.max_gravity_torque for c in self.checks], initial=0.0))
 
     @property
     def residual_ratio(self) -> float:
@@ -75,11 +76,14 @@ class Verification:
 
     def unmet(self) -> list[CoordinateCheck]:
         """Conditions that fail, worst first (relative to the overall gravity torque)."""
-        bad = [c for c in self.checks if _ratio(c.max_residual, self.max_gravity_torque) > self.tolerance]
-        return sorted(bad, key=lambda c: -c.max_residual)
+        total = self.max_gravity_torque
+        bad = [c for c in self.checks if not _ratio(c.max_residual, total) <= self.tolerance]  # NaN is unmet
+        return sorted(bad, key=lambda c: -c.max_residual if not np.isnan(c.max_residual) else -np.inf)
 
 
 def _ratio(residual: float, torque: float) -> float:
+    if np.isnan(residual) or np.isnan(torque):
+        return float("nan")
     if torque > 0:
         return residual / torque
     return 0.0 if residual == 0 else float("inf")
@@ -136,13 +140,13 @@ def verify(solution: Solution, samples: int | None = None, seed: int | None = No
             q = configurations(problem, sub.name, n, rng)
             r, t = residuals(problem, sub.name, q, variables, base, gravity)
             for j, name in enumerate(sub.coordinates):
-                worst = int(np.argmax(np.abs(r[:, j])))
+                worst = int(np.nanargmax(np.abs(r[:, j]))) if not np.isnan(r[:, j]).all() else 0
                 checks.append(
                     CoordinateCheck(
                         subsystem=sub.name,
                         scenario=scenario.name,
                         coordinate=name,
-                        max_residual=float(np.abs(r[:, j]).max()),
+                        max_residual=float(np.abs(r[:, j]).max()),  # NaN if any is NaN
                         max_gravity_torque=float(np.abs(t[:, j]).max()),
                         configurations=int(q.shape[0]),
                         worst_configuration=tuple(float(v) for v in q[worst]),
