@@ -220,13 +220,9 @@ class Mechanics:
                 balancers.append(_mul(0.5, _mul(self.value(s.stiffness), dot(d, d))))
         return bodies, _sum(balancers)
 
-    def energy(self, subsystem: str | None = None, *, balancers: bool = True) -> Scalar:
-        """Potential energy of ``subsystem`` (all elements if None).
-
-        ``balancers=False`` keeps only the given bodies: the unbalanced mechanism.
-        """
-        bodies, added = self.energy_terms(subsystem)
-        return _add(bodies, added) if balancers else bodies
+    def energy(self, subsystem: str | None = None) -> Scalar:
+        """Potential energy of ``subsystem`` (all elements if None)."""
+        return _add(*self.energy_terms(subsystem))
 
     # -- mass properties -----------------------------------------------------------
     def masses(self, subsystem: str) -> list[tuple[Scalar, Point]]:

@@ -93,8 +93,9 @@ class Formulation:
                 q = ca.SX.sym("q", len(sub.coordinates))
                 coords = {name: q[i] for i, name in enumerate(sub.coordinates)}
                 mech_q = Mechanics(problem, base, variables, coords, gravity, self.functions)
-                residual = ca.gradient(mech_q.energy(sub.name), q)
-                torque = ca.gradient(mech_q.energy(sub.name, balancers=False), q)
+                bodies, balancers = mech_q.energy_terms(sub.name)
+                residual = ca.gradient(bodies + balancers, q)
+                torque = ca.gradient(bodies, q)
                 self.blocks.append(
                     Block(
                         sub.name,
@@ -294,8 +295,7 @@ class Designer:
         f = self.formulation
         self.n_equalities = self.conditions.count
         self.options = {**IPOPT_DEFAULTS, "max_iter": problem.settings.max_iterations, **(ipopt_options or {})}
-        self.g = ca.vertcat(self.conditions.equalities, f.nonnegative)
-        nlp = {"x": f.z, "p": f.p, "f": f.objective, "g": self.g}
+        nlp = {"x": f.z, "p": f.p, "f": f.objective, "g": ca.vertcat(self.conditions.equalities, f.nonnegative)}
         self.solver = ca.nlpsol("design", "ipopt", nlp, {"print_time": False, "ipopt": dict(self.options)})
         self._feasibility: Any = None
         self._residual_jacobian: Any = None
