@@ -1,8 +1,17 @@
-"""Problem-file text for small mechanisms built in tests (no paper numbers here)."""
+"""Small mechanisms built in code for the tests (no paper numbers here).
+
+They use the project's Python API (:class:`counterpoise.ProblemBuilder`), the same
+validation as a problem file; :func:`pendulum_toml` keeps one TOML text for the tests
+that are about the file format itself.
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+
+from counterpoise import ProblemBuilder, rotate, translate
+
+G = 9.81
 
 
 @dataclass
@@ -23,50 +32,79 @@ class Chain:
     spring_on_first: float | None = None  # attachment distance f (m) of a ZFL spring on link 1
     ranges: list[tuple[float, float]] = field(default_factory=list)  # deg per joint
     inertia_weight: float = 0.0
+    offset_bound: float = 5.0  # m, bound on the counter-masses' y offsets
 
-    def toml(self) -> str:
-        n = len(self.links)
-        lines = [
-            '[problem]\nname = "chain"\n',
-            '[gravity]\nacceleration = "9.81 m/s^2"\ndirection = [0, -1, 0]\n',
-            "[subsystems.arm]",
-        ]
-        for i in range(n):
+    def required_masses(self) -> list[float]:
+        """Counter-mass of each link that moves its subtree's centre of mass onto its joint
+        (no spring), from the tip inwards: M_i arm_i = m_i com_x,i + W_{i+1} L_i, where
+        W_{i+1} is everything carried beyond joint i+1 (its counter-masses included)."""
+        out = [0.0] * len(self.links)
+        carried = 0.0
+        for i in range(len(self.links) - 1, -1, -1):
+            link = self.links[i]
+            beyond = carried if i + 1 < len(self.links) else 0.0
+            out[i] = (link.mass * link.com[0] + beyond * link.length) / link.arm
+            carried = beyond + link.mass + out[i]
+        return out
+
+    def mass_bounds(self) -> list[float]:
+        """Upper bounds that always leave room: four times the required mass, at least 1 kg."""
+        return [max(1.0, 4.0 * m) for m in self.required_masses()]
+
+    def builder(self) -> ProblemBuilder:
+        b = ProblemBuilder("chain", gravity=f"{G} m/s^2", direction=(0, -1, 0))
+        coords = {}
+        for i in range(len(self.links)):
             lo, hi = self.ranges[i] if i < len(self.ranges) else (-180.0, 180.0)
-            lines.append(f'coordinates.q{i} = {{ range = ["{lo} deg", "{hi} deg"] }}')
-        lines.append(f'\n[frames.base]\ntransforms = [{{ rotate = "z", angle = "{round(self.base_angle, 3)}*pi/180" }}]')
+            coords[f"q{i}"] = (f"{lo} deg", f"{hi} deg")
+        b.subsystem("arm", **coords)
+        b.frame("base", rotate("z", f"{round(self.base_angle, 3)}*pi/180"))
         parent = "base"
-        for i, link in enumerate(self.links):
-            if i == 0:
-                t = f'[{{ rotate = "z", angle = "q{i}" }}]'
-            else:
-                t = f'[{{ translate = ["{self.links[i-1].length} m", 0, 0] }}, {{ rotate = "z", angle = "q{i}" }}]'
-            lines.append(f'[frames.l{i}]\nparent = "{parent}"\ntransforms = {t}')
+        for i in range(len(self.links)):
+            steps = [rotate("z", f"q{i}")] if i == 0 else [translate(f"{self.links[i - 1].length} m"), rotate("z", f"q{i}")]
+            b.frame(f"l{i}", *steps, parent=parent)
             parent = f"l{i}"
-        for i, link in enumerate(self.links):
-            lines.append(f'[bodies.b{i}]\nframe = "l{i}"\nmass = "{link.mass} kg"\ncom = ["{link.com[0]} m", "{link.com[1]} m", 0]')
-            lines.append(f'[variables.M{i}]\nlower = "0 kg"\nupper = "1000 kg"\ninitial = "1 kg"')
-            y = f'"y{i}"' if link.free_offset else "0"
+        for i, (link, upper) in enumerate(zip(self.links, self.mass_bounds())):
+            b.body(f"b{i}", frame=f"l{i}", mass=f"{link.mass} kg", com=(f"{link.com[0]} m", f"{link.com[1]} m", 0))
+            b.variable(f"M{i}", "0 kg", f"{upper} kg", initial=f"{min(1.0, upper / 2)} kg")
+            y = 0
             if link.free_offset:
-                lines.append(f'[variables.y{i}]\nlower = "-5 m"\nupper = "5 m"\ninitial = "0 m"')
-            lines.append(f'[counter_masses.c{i}]\nframe = "l{i}"\nmass = "M{i}"\nposition = ["-{link.arm} m", {y}, 0]')
+                b.variable(f"y{i}", f"-{self.offset_bound} m", f"{self.offset_bound} m", initial="0 m")
+                y = f"y{i}"
+            b.counter_mass(f"c{i}", frame=f"l{i}", mass=f"M{i}", position=(f"-{link.arm} m", y, 0))
         if self.spring_on_first is not None:
             f = self.spring_on_first
-            lines.append('[variables.k]\nlower = "0 N/m"\nupper = "1e7 N/m"\ninitial = "100 N/m"')
+            b.variable("k", "0 N/m", "1e7 N/m", initial="100 N/m")
             # ZFL spring from a point above the base pivot (in the base frame) to link 1
-            lines.append(f'[springs.s]\nstiffness = "k"\nfrom = {{ frame = "base", point = [0, "{f} m", 0] }}\nto = {{ frame = "l0", point = ["{f} m", 0, 0] }}')
-        lines.append(f'[objective]\nmass_weight = 1\ninertia_weight = "{self.inertia_weight} 1/m^2"')
-        return "\n".join(lines) + "\n"
+            b.spring("s", "k", from_=("base", (0, f"{f} m", 0)), to=("l0", (f"{f} m", 0, 0)))
+        b.objective(mass_weight=1, inertia_weight=f"{self.inertia_weight} 1/m^2")
+        return b
+
+    def problem(self):
+        return self.builder().build("chain.toml")
 
 
-def pendulum(m: float, r: float, b_range: tuple[float, float], w: float) -> str:
+def pendulum(m: float, r: float, b_range: tuple[float, float], w: float, mass_upper: float = 100.0) -> ProblemBuilder:
     """One link with a point mass m at r and a counter-mass M at b (both M and b free)."""
+    lo, hi = b_range
+    b = ProblemBuilder("pendulum", gravity=f"{G} m/s^2", direction=(0, -1, 0))
+    b.parameter("m", f"{m} kg").parameter("r", f"{r} m")
+    b.subsystem("arm", q=("-180 deg", "180 deg"))
+    b.frame("link", rotate("z", "q"))
+    b.body("tip", frame="link", mass="m", com=("r", 0, 0))
+    b.variable("M", "0 kg", f"{mass_upper} kg").variable("b", f"{lo} m", f"{hi} m")
+    b.counter_mass("cm", frame="link", mass="M", position=("-b", 0, 0))
+    return b.objective(mass_weight=1, inertia_weight=f"{w} 1/m^2")
+
+
+def pendulum_toml(m: float, r: float, b_range: tuple[float, float], w: float, mass_upper: float = 100.0) -> str:
+    """The same pendulum as problem-file text, for tests of the file format itself."""
     lo, hi = b_range
     return f"""
 [problem]
 name = "pendulum"
 [gravity]
-acceleration = "9.81 m/s^2"
+acceleration = "{G} m/s^2"
 direction = [0, -1, 0]
 [parameters]
 m = "{m} kg"
@@ -81,7 +119,7 @@ mass = "m"
 com = ["r", 0, 0]
 [variables.M]
 lower = "0 kg"
-upper = "100 kg"
+upper = "{mass_upper} kg"
 [variables.b]
 lower = "{lo} m"
 upper = "{hi} m"

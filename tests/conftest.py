@@ -1,7 +1,8 @@
-"""Shared fixtures: paths and a cache of solved problem files (each solved once per run)."""
+"""Shared fixtures: paths, hypothesis profiles and a cache of solved problem files."""
 
 from __future__ import annotations
 
+import os
 from functools import lru_cache
 from pathlib import Path
 
@@ -10,12 +11,23 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PROBLEMS = ROOT / "problems"
 
+try:
+    from hypothesis import HealthCheck, settings
+
+    # CI (the CI variable is set) replays the same examples on every run; locally the
+    # property tests keep exploring new ones. HYPOTHESIS_PROFILE chooses explicitly.
+    settings.register_profile("ci", derandomize=True, database=None, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+    settings.register_profile("dev", deadline=None, suppress_health_check=[HealthCheck.too_slow])
+    settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci" if os.environ.get("CI") else "dev"))
+except ImportError:  # pragma: no cover
+    pass
+
 
 @lru_cache(maxsize=None)
 def solved(name: str, overrides: tuple[tuple[str, str], ...] = ()):
     """Design result of problems/<name>.toml (with overrides), solved through the general engine."""
-    from counterpoise.design import design
-    from counterpoise.loader import load_problem
+    from counterpoise.io.loader import load_problem
+    from counterpoise.pipeline import design
 
     return design(load_problem(PROBLEMS / f"{name}.toml", dict(overrides)))
 

@@ -27,9 +27,9 @@ from typing import NamedTuple
 
 import pytest
 
-from counterpoise import expr as ex
+from counterpoise.model import expr as ex
 from counterpoise.errors import ExpressionError, ProblemFileError
-from counterpoise.loader import load_problem
+from counterpoise.io.loader import load_problem
 
 HERE = Path(__file__).resolve().parent
 BAD = HERE / "bad_problems"

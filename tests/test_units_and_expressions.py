@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from counterpoise import expr as ex
+from counterpoise.model import expr as ex
 from counterpoise.errors import UnitError
-from counterpoise.units import display_unit, looks_like_quantity, parse_quantity
+from counterpoise.model.units import display_unit, looks_like_quantity, parse_quantity
 
 
 @pytest.mark.parametrize(

@@ -6,11 +6,13 @@ import math
 
 import pytest
 
-from builders import pendulum
-from counterpoise.design import design
+from builders import pendulum, pendulum_toml
+from counterpoise.pipeline import design
 from counterpoise.errors import ProblemFileError
-from counterpoise.loader import load_problem_text
-from counterpoise.nlp import Designer, Slot, Status
+from counterpoise.io.loader import load_problem_text
+from counterpoise.design import Designer
+from counterpoise.formulation import Slot
+from counterpoise.solvers import Status
 
 
 def load_error(text: str) -> ProblemFileError:
@@ -19,7 +21,7 @@ def load_error(text: str) -> ProblemFileError:
     return info.value
 
 
-BASE = pendulum(0.8, 0.3, (0.02, 1.0), 0.0)
+BASE = pendulum_toml(0.8, 0.3, (0.02, 1.0), 0.0)
 
 
 def test_a_point_may_not_move_with_a_coordinate():
@@ -82,12 +84,12 @@ def test_unevaluable_report_quantity_is_nan_not_a_crash(tmp_path):
 
 def test_resolve_with_new_parameters_reuses_the_solver():
     """A study changes parameters without rebuilding: m r = M b must follow the new m."""
-    problem = load_problem_text(pendulum(0.8, 0.3, (0.02, 1.0), 25.0))
+    problem = pendulum(0.8, 0.3, (0.02, 1.0), 25.0).build()
     designer = Designer(problem)
-    solver = designer.solver
+    solver = designer.backend.solver
     for m in (0.5, 1.0, 2.0):
         solution = designer.solve(parameters={"m": m})
-        assert designer.solver is solver
+        assert designer.backend.solver is solver
         M, b = solution.values[Slot("M", None)], solution.values[Slot("b", None)]
         assert M * b == pytest.approx(m * 0.3, rel=1e-9)
         assert b == pytest.approx(0.2, rel=1e-7)  # 1/sqrt(w) does not depend on m

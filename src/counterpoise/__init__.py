@@ -6,23 +6,34 @@ Typical use::
     result = design(load_problem("problems/yasir2019_hybrid.toml"))
     write_reports(result, "results")
 
-Heavy dependencies (CasADi, pandas) are imported on first use, not here.
+or build the problem in code with :class:`ProblemBuilder`. Heavy dependencies (CasADi,
+pandas, pydantic) are imported on first use, not here.
+
+Layers, each a subpackage with one job: ``model`` (typed problem) → ``io`` (files) →
+``mechanics`` (kinematics, energy) → ``formulation`` (symbols, exact conditions) →
+``solvers`` (one backend per module) → ``design`` (the designer) → ``verify`` (dense
+check) → ``report`` (CSV) → ``studies`` (many designs) → ``cli``.
 """
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 __all__ = [
     "CounterpoiseError",
     "ProblemFileError",
     "SolverError",
+    "ProblemBuilder",
+    "rotate",
+    "translate",
     "load_problem",
     "load_problem_text",
+    "load_problem_data",
     "design",
     "Designer",
+    "DesignResult",
     "Status",
     "verify",
     "write_reports",
@@ -31,21 +42,28 @@ __all__ = [
 from .errors import CounterpoiseError, ProblemFileError, SolverError
 
 _LAZY = {
-    "load_problem": ("loader", "load_problem"),
-    "load_problem_text": ("loader", "load_problem_text"),
-    "design": ("design", "design"),
-    "Designer": ("nlp", "Designer"),
-    "Status": ("nlp", "Status"),
-    "verify": ("verify", "verify"),
-    "write_reports": ("report", "write_reports"),
+    "ProblemBuilder": ("io.builder", "ProblemBuilder"),
+    "rotate": ("io.builder", "rotate"),
+    "translate": ("io.builder", "translate"),
+    "load_problem": ("io.loader", "load_problem"),
+    "load_problem_text": ("io.loader", "load_problem_text"),
+    "load_problem_data": ("io.loader", "load_problem_data"),
+    "design": ("pipeline", "design"),
+    "DesignResult": ("pipeline", "DesignResult"),
+    "Designer": ("design.designer", "Designer"),
+    "Status": ("solvers.base", "Status"),
+    "verify": ("verify.check", "verify"),
+    "write_reports": ("report.files", "write_reports"),
 }
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .design import design
-    from .loader import load_problem, load_problem_text
-    from .nlp import Designer, Status
-    from .report import write_reports
-    from .verify import verify
+    from .design.designer import Designer
+    from .io.loader import load_problem, load_problem_data, load_problem_text
+    from .io.builder import ProblemBuilder, rotate, translate
+    from .pipeline import DesignResult, design
+    from .report.files import write_reports
+    from .solvers.base import Status
+    from .verify.check import verify
 
 
 def __getattr__(name: str) -> Any:

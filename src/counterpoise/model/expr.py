@@ -17,7 +17,7 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any, Union
 
-from .errors import ExpressionError
+from ..errors import ExpressionError
 
 MAX_LENGTH = 500
 

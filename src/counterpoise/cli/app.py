@@ -1,7 +1,9 @@
 """Command line: ``counterpoise validate FILE...`` and ``counterpoise solve FILE...``.
 
-Exit status: 0 every problem solved to a verified optimum; 1 some problem is infeasible or
-failed (its reports are still written); 2 bad input (one line per error, nothing written).
+A thin layer: it parses options, calls the library and prints. Exit status: 0 every
+problem solved to a verified optimum; 1 some problem is infeasible or failed (its reports
+are still written when there is a design to report); 2 bad input (one line per error,
+nothing written); 3 an internal error (one line; ``--debug`` shows the traceback).
 """
 
 from __future__ import annotations
@@ -15,9 +17,14 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from .errors import CounterpoiseError, ProblemFileError
+from ..errors import CounterpoiseError, ProblemFileError
 
-app = typer.Typer(add_completion=False, no_args_is_help=True, help="Design gravity balancers for mechanisms.")
+app = typer.Typer(
+    add_completion=False,
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+    help="Design gravity balancers for mechanisms. Add --debug to see the traceback of an internal error.",
+)
 out_console = Console()
 if not out_console.is_terminal:  # logs and CI: wide enough that names are not cut
     out_console = Console(width=160)
@@ -54,7 +61,7 @@ def _coerce(value: str) -> object:
 
 
 def _load_all(files: list[Path], overrides: dict[str, str]) -> list:
-    from .loader import load_problem
+    from ..io.loader import load_problem
 
     problems, errors = [], []
     seen: dict[str, Path] = {}
@@ -96,8 +103,9 @@ def solve(
     set_: SetOpt = None,
 ) -> None:
     """Solve problem files and write their reports."""
-    from .design import design
-    from .report import summary_row, write_reports
+    from ..pipeline import design
+    from ..report.files import write_reports
+    from ..report.rows import summary_row
 
     problems = _load_all(files, _overrides(set_))
     rows, worst = [], 0
@@ -159,9 +167,27 @@ def _print_summary(rows: list[dict]) -> None:
         out_console.print(f"reports in {Path(rows[0]['folder']).parent}/<problem>/", markup=False)
 
 
-def main() -> None:
-    """Console-script entry point."""
+INTERNAL_ERROR = 3
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Console-script entry point: every failure ends as one line and an exit status."""
+    args = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in args
+    if debug:
+        args.remove("--debug")
     try:
-        app()
-    except KeyboardInterrupt:  # pragma: no cover
+        app(args=args, prog_name="counterpoise")  # exits by itself: 0/1/2 as documented, 2 for usage errors
+    except KeyboardInterrupt:
+        err_console.print("interrupted", markup=False)
         sys.exit(130)
+    except Exception as exc:  # noqa: BLE001 - the last line of defence: one line, never a traceback
+        if debug:
+            raise
+        err_console.print(f"internal error: {type(exc).__name__}: {_short(exc)} (run with --debug for the traceback)", markup=False)
+        sys.exit(INTERNAL_ERROR)
+
+
+def _short(exc: BaseException, limit: int = 300) -> str:
+    text = " ".join(str(exc).split())
+    return text if len(text) <= limit else text[: limit - 1] + "…"

@@ -1,25 +1,17 @@
-"""Design reports: tidy tables with units and descriptions, written atomically as CSV.
+"""Report rows: plain dicts with units and descriptions, one list per report file.
 
-``results/<problem>/`` receives
-
-- ``design.csv``: one row per design variable (kind ``variable``) and per report quantity
-  (kind ``quantity``), values in the file's display units;
-- ``summary.csv``: one row with the status, objective and verification figures;
-- ``verification.csv``: one row per (subsystem, scenario, coordinate) balance condition;
-- ``status.txt``: the status and the message explaining it.
+Pure data, no pandas: the CLI writes them with the standard library (:mod:`.files`), and
+:mod:`.tables` offers them as DataFrames to Python users.
 """
 
 from __future__ import annotations
 
-import os
-import tempfile
-from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import Any
 
-from .design import DesignResult, active_bound
+from ..pipeline import DesignResult
+from ..verify.checks import PRISMATIC, REVOLUTE
 
-if TYPE_CHECKING:
-    import pandas as pd
+Row = dict[str, Any]
 
 DESIGN_COLUMNS = ["name", "kind", "scenario", "value", "unit", "lower", "upper", "active_bound", "description"]
 SUMMARY_COLUMNS = [
@@ -35,6 +27,8 @@ SUMMARY_COLUMNS = [
     "iterations",
     "solve_time_s",
     "solver",
+    "max_residual_N",
+    "max_gravity_force_N",
 ]
 VERIFICATION_COLUMNS = [
     "subsystem",
@@ -47,14 +41,12 @@ VERIFICATION_COLUMNS = [
     "configurations",
     "worst_configuration",
 ]
-FLOAT_FORMAT = "%.10g"
 
 
-def design_table(result: DesignResult) -> "pd.DataFrame":
-    import pandas as pd
-
+def design_rows(result: DesignResult) -> list[Row]:
+    """One row per design-vector slot (``variable``) and per report quantity (``quantity``)."""
     problem = result.problem
-    rows = []
+    rows: list[Row] = []
     for slot, value in result.solution.values.items():
         v = problem.variable[slot.variable]
         u = v.unit
@@ -67,7 +59,7 @@ def design_table(result: DesignResult) -> "pd.DataFrame":
                 "unit": u.label,
                 "lower": u.from_si(v.lower),
                 "upper": u.from_si(v.upper),
-                "active_bound": active_bound(value, v.lower, v.upper),
+                "active_bound": v.bound_side(value),
                 "description": v.description,
             }
         )
@@ -87,10 +79,12 @@ def design_table(result: DesignResult) -> "pd.DataFrame":
                 "description": q.description,
             }
         )
-    return pd.DataFrame(rows, columns=DESIGN_COLUMNS)
+    return rows
 
 
-def summary_row(result: DesignResult) -> dict[str, object]:
+def summary_row(result: DesignResult) -> Row:
+    """The one-row summary. Revolute figures (N·m) and prismatic ones (N) are kept apart;
+    a kind the problem does not have is left empty."""
     s, v = result.solution, result.verification
     return {
         "problem": result.problem.name,
@@ -98,29 +92,24 @@ def summary_row(result: DesignResult) -> dict[str, object]:
         "objective": s.objective,
         "added_mass_kg": s.added_mass,
         "added_inertia_kg_m2": s.added_inertia,
-        "max_residual_N_m": v.max_residual,
-        "max_gravity_torque_N_m": v.max_gravity_torque,
+        "max_residual_N_m": v.max_residual(REVOLUTE),
+        "max_gravity_torque_N_m": v.max_gravity_torque(REVOLUTE),
         "residual_ratio": v.residual_ratio,
         "checked_configurations": v.configurations,
         "iterations": s.iterations,
         "solve_time_s": s.solve_time,
         "solver": s.solver,
+        "max_residual_N": v.max_residual(PRISMATIC),
+        "max_gravity_force_N": v.max_gravity_torque(PRISMATIC),
     }
 
 
-def summary_table(results: list[DesignResult]) -> "pd.DataFrame":
-    import pandas as pd
-
-    return pd.DataFrame([summary_row(r) for r in results], columns=SUMMARY_COLUMNS)
-
-
-def verification_table(result: DesignResult) -> "pd.DataFrame":
-    import pandas as pd
-
+def verification_rows(result: DesignResult) -> list[Row]:
+    """One row per (subsystem, scenario, coordinate) balance condition."""
     problem = result.problem
-    rows = []
-    for c in result.verification.checks:
-        unit = problem.coordinate[c.coordinate].unit
+    verification = result.verification
+    rows: list[Row] = []
+    for c in verification.checks:
         rows.append(
             {
                 "subsystem": c.subsystem,
@@ -128,15 +117,15 @@ def verification_table(result: DesignResult) -> "pd.DataFrame":
                 "coordinate": c.coordinate,
                 "max_residual": c.max_residual,
                 "max_gravity_torque": c.max_gravity_torque,
-                "residual_ratio": c.ratio,
-                "unit": "N·m" if unit.dimension == "" else "N",
+                "residual_ratio": verification.ratio(c),
+                "unit": c.unit,
                 "configurations": c.configurations,
                 "worst_configuration": " ".join(
                     f"{k.unit.from_si(x):.6g}" for k, x in zip(problem.subsystem_coordinates(c.subsystem), c.worst_configuration)
                 ),
             }
         )
-    return pd.DataFrame(rows, columns=VERIFICATION_COLUMNS)
+    return rows
 
 
 def status_text(result: DesignResult) -> str:
@@ -148,31 +137,3 @@ def status_text(result: DesignResult) -> str:
         f"solver: {s.solver} ({s.solver_status}), {s.iterations} iterations\n"
         f"balance conditions: {s.conditions} ({s.condition_summary})\n"
     )
-
-
-def atomic_write_text(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file and a rename."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as handle:
-            handle.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
-def write_reports(result: DesignResult, out_dir: str | Path) -> Path:
-    """Write every report of ``result`` into ``out_dir/<problem name>/``; returns that folder."""
-    folder = Path(out_dir) / result.problem.name
-    tables = {
-        "design.csv": design_table(result),
-        "summary.csv": summary_table([result]),
-        "verification.csv": verification_table(result),
-    }
-    texts = {name: df.to_csv(index=False, float_format=FLOAT_FORMAT, lineterminator="\n") for name, df in tables.items()}
-    texts["status.txt"] = status_text(result)
-    for name, text in texts.items():
-        atomic_write_text(folder / name, text)
-    return folder

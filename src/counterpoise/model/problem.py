@@ -14,7 +14,7 @@ from functools import cached_property
 
 from .elements import CounterMass, ZeroFreeLengthSpring
 from .expr import Expr
-from .model import Body, Coordinate, Frame, Subsystem
+from .mechanism import Body, Coordinate, Frame, Subsystem
 from .units import DisplayUnit
 
 
@@ -33,6 +33,25 @@ class Parameter:
         return self.expr is None
 
 
+#: A value counts as sitting on a bound when it is within BOUND_TOLERANCE × (upper − lower)
+#: of it. The designer moves such values exactly onto the bound, and reports use the same
+#: rule, so "at a bound" means one thing everywhere. It is relative to the span, not to
+#: the bounds' size: 0.05 kg in [0, 50 t] is not at its lower bound.
+BOUND_TOLERANCE = 1e-7
+
+
+def bound_side(value: float, lower: float, upper: float, tolerance: float = BOUND_TOLERANCE) -> str:
+    """'lower', 'upper' or '': which bound ``value`` sits on (see :data:`BOUND_TOLERANCE`)."""
+    if not upper > lower:
+        return ""
+    band = tolerance * (upper - lower)
+    if value - lower <= band:
+        return "lower"
+    if upper - value <= band:
+        return "upper"
+    return ""
+
+
 @dataclass(frozen=True)
 class Variable:
     """A design variable with bounds and initial guess (SI)."""
@@ -44,6 +63,10 @@ class Variable:
     unit: DisplayUnit
     adjustable: bool = False
     description: str = ""
+
+    def bound_side(self, value: float) -> str:
+        """'lower', 'upper' or '': which bound ``value`` (SI) sits on."""
+        return bound_side(value, self.lower, self.upper)
 
 
 @dataclass(frozen=True)

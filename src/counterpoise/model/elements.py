@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from .expr import Expr
-from .model import Point
+from .mechanism import Point
 
 
 @dataclass(frozen=True)

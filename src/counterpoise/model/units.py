@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any
 
-from .errors import UnitError
+from ..errors import UnitError
 
 #: A string is a quantity literal when it starts with a number followed by a unit,
 #: e.g. ``"135 mm"``, ``"0.5161 N/mm"``, ``"57.2deg"``; otherwise it is an expression.

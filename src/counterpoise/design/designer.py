@@ -1,0 +1,211 @@
+"""The designer: a problem's formulation, its exact balance conditions and a solver backend,
+built once and solved many times.
+
+``Designer(problem).solve()`` returns a :class:`Solution` (not yet verified). Parameters
+(gravity and every literal parameter of every scenario) are the NLP's parameter vector,
+so ``solve(parameters=...)`` re-solves a study point without rebuilding, and variable
+bounds may be changed per call. CasADi objects do not pickle: a designer pickles as its
+description (the problem and the solver options) and rebuilds itself in the worker.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from ..errors import SolverError
+from ..formulation.conditions import BalanceConditions
+from ..formulation.formulation import Formulation
+from ..formulation.layout import Slot
+from ..model.problem import BOUND_TOLERANCE, Problem
+from ..solvers.base import Bounds, SolverOutput, Status
+from ..solvers.ipopt import IPOPT_DEFAULTS, IpoptBackend
+from ..threads import limit_blas_threads
+from .solution import Solution
+
+BoundsOverride = Mapping["Slot | str", tuple[float, float]]
+
+
+class Designer:
+    """Builds the solver for a problem once; :meth:`solve` may be called many times."""
+
+    def __init__(self, problem: Problem, ipopt_options: Mapping[str, Any] | None = None) -> None:
+        import casadi as ca
+
+        limit_blas_threads()
+        self.problem = problem
+        self._ipopt_options = dict(ipopt_options or {})
+        self.formulation = f = Formulation(problem)
+        self.parameters = f.parameters.values()
+        self.conditions = BalanceConditions(f, self.parameters, problem.settings.seed)
+        self.n_equalities = self.conditions.count
+        self.options = {**IPOPT_DEFAULTS, "max_iter": problem.settings.max_iterations, **self._ipopt_options}
+        nlp = {"x": f.z, "p": f.p, "f": f.objective, "g": ca.vertcat(self.conditions.equalities, f.nonnegative)}
+        self.backend = IpoptBackend(nlp, self.options, "design")
+        self._feasibility: IpoptBackend | None = None
+        self._residual_jacobian: Any = None
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickle as a description; the worker rebuilds the CasADi objects."""
+        return (Designer, (self.problem, self._ipopt_options))
+
+    # -- one call ------------------------------------------------------------------
+    def bounds(self, n_equalities: int, overrides: BoundsOverride | None = None) -> Bounds:
+        """Variable bounds (with per-call ``overrides``, SI) and [equalities; signs ≥ 0]."""
+        lbz, ubz = self.formulation.design.bounds(overrides)
+        n_in = int(self.formulation.nonnegative.numel())
+        return Bounds(
+            lbz,
+            ubz,
+            np.zeros(n_equalities + n_in),
+            np.concatenate([np.zeros(n_equalities), np.full(n_in, np.inf)]),
+        )
+
+    def solve(
+        self,
+        initial: Mapping[Slot, float] | None = None,
+        parameters: Mapping[str, float] | None = None,
+        bounds: BoundsOverride | None = None,
+    ) -> Solution:
+        """Solve with the built solver.
+
+        ``initial`` overrides initial values (SI) of design-vector slots; ``parameters``
+        overrides base parameters (SI) in every scenario; ``bounds`` maps a slot or a
+        variable name to (lower, upper) in SI for this call only. Nothing is rebuilt. The
+        compression was computed at the file's values; the dense verification of the
+        result says whether it still holds (a parameter that was 0 at build time may have
+        hidden a condition).
+        """
+        d = self.formulation.design
+        p = self.formulation.parameters.values(parameters) if parameters else self.parameters
+        b = self.bounds(self.n_equalities, bounds)
+        z0 = np.clip(d.to_z(d.vector(initial or {})), b.lbz, b.ubz)
+        if self.n_equalities > len(d):
+            return self._overdetermined(z0, p, b, bounds)
+        out = self.backend.solve(z0, p, b)
+        z, message = out.z, f"{out.solver.upper()}: {out.solver_status}"
+        if out.status is Status.OPTIMAL:
+            z, message = self.polish(z, p, b), "balanced design found"
+        elif out.status is Status.INFEASIBLE:
+            closest = self.closest_design(z, p, bounds)
+            z = closest.z
+            out = _with_time(out, out.solve_time + closest.solve_time)
+        return self._solution(z, p, b, out, message)
+
+    # -- helpers -------------------------------------------------------------------
+    def residual_jacobian(self) -> Any:
+        """CasADi function (z, p) -> (balance equalities, their Jacobian, sign constraints), built once."""
+        import casadi as ca
+
+        if self._residual_jacobian is None:
+            f = self.formulation
+            eq = self.conditions.equalities
+            self._residual_jacobian = ca.Function("gJ", [f.z, f.p], [eq, ca.jacobian(eq, f.z), f.nonnegative])
+        return self._residual_jacobian
+
+    def polish(self, z: np.ndarray, p: np.ndarray, bounds: Bounds, iterations: int = 8) -> np.ndarray:
+        """Put variables that the solver left a hair inside a bound exactly on it.
+
+        An interior-point solution sits ~1e-9 inside its active bounds. Each variable within
+        :data:`~counterpoise.model.problem.BOUND_TOLERANCE` × span of a bound (the rule the
+        reports use) is moved onto it and the balance equalities are re-solved for the
+        other variables (Gauss-Newton). The polished point is kept only if it balances at
+        least as well and respects the sign constraints; otherwise the solver's point stands.
+        """
+        lo, hi = bounds.lbz, bounds.ubz
+        band = BOUND_TOLERANCE * (hi - lo)
+        at_lo = (z - lo <= band) & (hi > lo)
+        at_hi = (hi - z <= band) & (hi > lo) & ~at_lo
+        active = at_lo | at_hi
+        if not active.any():
+            return z
+        gj = self.residual_jacobian()
+        candidate = np.where(at_lo, lo, np.where(at_hi, hi, z))
+        free = ~active
+        for _ in range(iterations):
+            g, jac, _ = (np.array(v) for v in gj(candidate, p))
+            g = g.reshape(-1)
+            if not g.size or np.abs(g).max() <= 1e-15 or not free.any():
+                break
+            step, *_ = np.linalg.lstsq(jac[:, free], -g, rcond=None)
+            candidate[free] = np.clip(candidate[free] + step, lo[free], hi[free])
+        g_new, _, signs = (np.array(v).reshape(-1) for v in gj(candidate, p))
+        g_old = np.array(gj(z, p)[0]).reshape(-1)
+        worst_new = np.abs(g_new).max(initial=0.0)
+        worst_old = np.abs(g_old).max(initial=0.0)
+        if worst_new <= max(worst_old, 1e-14) and (signs.size == 0 or signs.min() >= 0):
+            return candidate
+        return z
+
+    def closest_design(self, z0: np.ndarray, p: np.ndarray, bounds: BoundsOverride | None = None) -> SolverOutput:
+        """The design within the bounds that comes closest to balance (least squares)."""
+        import casadi as ca
+
+        f = self.formulation
+        if self._feasibility is None:
+            nlp = {"x": f.z, "p": f.p, "f": 0.5 * ca.sumsqr(self.conditions.equalities), "g": f.nonnegative}
+            self._feasibility = IpoptBackend(nlp, {**self.options, "tol": 1e-14, "acceptable_tol": 1e-12}, "closest")
+        b = self.bounds(0, bounds)
+        return self._feasibility.solve(np.clip(z0, b.lbz, b.ubz), p, b)
+
+    def _overdetermined(self, z0: np.ndarray, p: np.ndarray, b: Bounds, bounds: BoundsOverride | None) -> Solution:
+        """More independent conditions than variables: balance only at special designs.
+
+        Find the closest design; if it balances, the conditions are locally redundant:
+        keep as many as the rank of their Jacobian there and optimise on that manifold
+        (the reduction depends on the point, so this solver is built per call; its build
+        time is not counted in ``solve_time``).
+        """
+        import casadi as ca
+
+        f = self.formulation
+        closest = self.closest_design(z0, p, bounds)
+        g, jac, _ = (np.array(v) for v in self.residual_jacobian()(closest.z, p))
+        if np.abs(g).max() > 1e-9:
+            message = "more independent balance conditions than design variables, and no design within the bounds meets them"
+            out = SolverOutput(closest.z, Status.INFEASIBLE, "overdetermined", closest.iterations, closest.solve_time, closest.solver)
+            return self._solution(closest.z, p, b, out, message)
+        u, s, _ = np.linalg.svd(jac, full_matrices=False)
+        r = int(np.sum(s > 1e-8 * s[0])) if s.size and s[0] > 0 else 0
+        reduced = ca.mtimes(ca.DM(u[:, :r].T), self.conditions.equalities)
+        nlp = {"x": f.z, "p": f.p, "f": f.objective, "g": ca.vertcat(reduced, f.nonnegative)}
+        backend = IpoptBackend(nlp, self.options, "design_reduced")
+        rb = self.bounds(r, bounds)
+        out = backend.solve(closest.z, p, rb)
+        out = _with_time(out, out.solve_time + closest.solve_time)
+        z, message = out.z, f"{out.solver.upper()}: {out.solver_status}"
+        if out.status is Status.OPTIMAL:
+            z, message = self.polish(z, p, rb), "balanced design found (conditions reduced at a balanced design)"
+        elif out.status is Status.INFEASIBLE:
+            out = SolverOutput(out.z, Status.FAILED, out.solver_status, out.iterations, out.solve_time, out.solver)
+        return self._solution(z, p, b, out, message)
+
+    def _solution(self, z: np.ndarray, parameters: np.ndarray, b: Bounds, out: SolverOutput, message: str) -> Solution:
+        f = self.formulation
+        z = np.clip(z, b.lbz, b.ubz)
+        x = f.design.to_x(z)
+        if not np.all(np.isfinite(x)):
+            raise SolverError(f"{self.problem.name}: the solver returned non-finite values")
+        objective, mass, inertia = (float(v) for v in f.report_function(z, parameters))
+        return Solution(
+            problem=self.problem,
+            status=out.status,
+            message=message,
+            values=f.design.values(x),
+            objective=objective,
+            added_mass=mass,
+            added_inertia=inertia,
+            iterations=out.iterations,
+            solve_time=out.solve_time,
+            solver=out.solver,
+            solver_status=out.solver_status,
+            conditions=self.n_equalities,
+            condition_summary=self.conditions.summary(),
+            scenario_parameters=f.parameters.scenario_values(parameters),
+        )
+
+
+def _with_time(out: SolverOutput, seconds: float) -> SolverOutput:
+    return SolverOutput(out.z, out.status, out.solver_status, out.iterations, seconds, out.solver)

@@ -1,0 +1,34 @@
+"""What a solve returns before verification: the design, its objective, the solver's word."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from ..formulation.layout import Gravity3, Slot
+from ..model.problem import Problem
+from ..solvers.base import Status
+
+
+@dataclass
+class Solution:
+    """A design (SI values per slot) and how it was obtained."""
+
+    problem: Problem
+    status: Status
+    message: str
+    values: dict[Slot, float]
+    objective: float
+    added_mass: float
+    added_inertia: float
+    iterations: int
+    solve_time: float  # wall seconds spent in solver calls (not in building solvers)
+    solver: str
+    solver_status: str
+    conditions: int
+    condition_summary: str
+    #: per scenario name: gravity vector and base-parameter values the design was solved for
+    scenario_parameters: dict[str, tuple[Gravity3, dict[str, float]]] = field(default_factory=dict)
+
+    def variable_values(self, scenario: str) -> dict[str, float]:
+        """Value of every variable as seen by ``scenario``."""
+        return {slot.variable: v for slot, v in self.values.items() if slot.scenario is None or slot.scenario == scenario}

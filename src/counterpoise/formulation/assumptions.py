@@ -1,0 +1,137 @@
+"""The assumption behind exact, rank-compressed balance conditions, stated and checked.
+
+Rank compression (:mod:`.compression`) needs the residual ∂V/∂q of every design to lie in
+one fixed, finite-dimensional space of functions of q. That holds when the potential
+energy is a trigonometric polynomial in the joint angles (a polynomial in slider
+positions) whose frequencies do not depend on the design:
+
+- gravity acting on rigid bodies and counter-masses, and zero-free-length springs
+  (energy ½ k |a − b|², a quadratic form of the attachment points);
+- every rotation angle *affine* in the coordinates, with coefficients free of design
+  variables (``q``, ``q1 - q2``, ``2*q + phi0``; not ``sqrt(q)`` or ``b*q``);
+- every translation *polynomial* in the coordinates (a slider ``[s, 0, 0]``).
+
+A problem outside this class (a spring with a free length or an initial tension attached
+directly, an angle that is a non-linear function of a coordinate) has no finite set of
+exact conditions; it needs another formulation, such as the smallest worst-case residual
+over sampled configurations. :func:`check_exact_conditions` says which entry of the file
+breaks the assumption instead of letting the compression return a wrong rank.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..errors import ProblemFileError
+from ..model import expr as ex
+from ..model.mechanism import Rotation
+from ..model.problem import Problem
+
+
+@dataclass(frozen=True)
+class _Affine:
+    """An expression affine in the coordinates: names in its constant part and in the
+    coefficients of the coordinates, and whether a coordinate appears at all."""
+
+    constant: frozenset[str]
+    coefficient: frozenset[str]
+    moves: bool
+
+
+def affine_form(tree: ex.Expr, coordinates: frozenset[str]) -> _Affine | None:
+    """The affine structure of ``tree`` in ``coordinates``, or None if it is not affine."""
+    if isinstance(tree, ex.Num):
+        return _Affine(frozenset(), frozenset(), False)
+    if isinstance(tree, ex.Name):
+        if tree.id in coordinates:
+            return _Affine(frozenset(), frozenset(), True)
+        return _Affine(frozenset({tree.id}), frozenset(), False)
+    if isinstance(tree, ex.Neg):
+        return affine_form(tree.operand, coordinates)
+    if isinstance(tree, ex.Call):
+        parts = [affine_form(a, coordinates) for a in tree.args]
+        if any(p is None or p.moves for p in parts):
+            return None
+        return _Affine(frozenset().union(*(p.constant for p in parts if p)), frozenset(), False)
+    if isinstance(tree, ex.BinOp):
+        a, b = affine_form(tree.left, coordinates), affine_form(tree.right, coordinates)
+        if a is None or b is None:
+            return None
+        if tree.op in "+-":
+            return _Affine(a.constant | b.constant, a.coefficient | b.coefficient, a.moves or b.moves)
+        if tree.op == "*":
+            if a.moves and b.moves:
+                return None
+            fixed, moving = (b, a) if a.moves else (a, b)
+            return _Affine(a.constant | b.constant, moving.coefficient | fixed.constant if moving.moves else frozenset(), moving.moves)
+        if tree.op == "/":
+            if b.moves:
+                return None
+            return _Affine(a.constant | b.constant, a.coefficient | b.constant if a.moves else frozenset(), a.moves)
+        if a.moves or b.moves:  # **
+            return None
+        return _Affine(a.constant | b.constant, frozenset(), False)
+    return None
+
+
+def polynomial_degree(tree: ex.Expr, coordinates: frozenset[str]) -> int | None:
+    """Degree of ``tree`` as a polynomial in ``coordinates``, or None if it is not one."""
+    if isinstance(tree, ex.Num):
+        return 0
+    if isinstance(tree, ex.Name):
+        return 1 if tree.id in coordinates else 0
+    if isinstance(tree, ex.Neg):
+        return polynomial_degree(tree.operand, coordinates)
+    if isinstance(tree, ex.Call):
+        return 0 if all(polynomial_degree(a, coordinates) == 0 for a in tree.args) else None
+    if isinstance(tree, ex.BinOp):
+        a, b = polynomial_degree(tree.left, coordinates), polynomial_degree(tree.right, coordinates)
+        if a is None or b is None:
+            return None
+        if tree.op in "+-":
+            return max(a, b)
+        if tree.op == "*":
+            return a + b
+        if tree.op == "/":
+            return a if b == 0 else None
+        if b == 0 and a == 0:
+            return 0
+        if b == 0 and isinstance(tree.right, ex.Num) and float(tree.right.value).is_integer() and tree.right.value >= 0:
+            return a * int(tree.right.value)
+        return None
+    return None
+
+
+def check_exact_conditions(problem: Problem) -> None:
+    """Raise :class:`ProblemFileError` naming the first entry that breaks the assumption."""
+    coordinates = frozenset(c.name for c in problem.coordinates)
+    variables = frozenset(problem.variable)
+    for frame in problem.frames:
+        for i, t in enumerate(frame.transforms):
+            key = f"frames.{frame.name}.transforms.{i}"
+            if isinstance(t, Rotation):
+                form = affine_form(t.angle, coordinates)
+                if form is None:
+                    raise ProblemFileError(
+                        problem.path,
+                        f"{key}.angle",
+                        "the angle is not affine in the coordinates, so the potential energy is not a trigonometric "
+                        "polynomial and exact balance conditions cannot be derived from samples",
+                    )
+                used = form.coefficient & variables
+                if used:
+                    raise ProblemFileError(
+                        problem.path,
+                        f"{key}.angle",
+                        f"the coefficient of a coordinate depends on the design variable(s) {', '.join(sorted(used))}: "
+                        "exact balance conditions need coordinate coefficients fixed by parameters",
+                    )
+            else:
+                for j, component in enumerate(t.vector):
+                    if polynomial_degree(component, coordinates) is None:
+                        raise ProblemFileError(
+                            problem.path,
+                            f"{key}.translate.{j}",
+                            "the translation is not a polynomial in the coordinates, so exact balance conditions "
+                            "cannot be derived from samples",
+                        )

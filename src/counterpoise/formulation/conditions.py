@@ -1,0 +1,98 @@
+"""Exact balance equalities g(z, p) = 0 that stand for "∂V/∂q = 0 for every q".
+
+Each (subsystem, scenario) block's residual, sampled on configurations, is compressed to
+its rank (:mod:`.compression`); the stack of all blocks is compressed once more, so that
+identical legs or scenarios do not repeat conditions. This relies on the residual lying in
+a fixed finite-dimensional function space (:mod:`.assumptions` checks that it does).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .assumptions import check_exact_conditions
+from .compression import adaptive_compression, numerical_rank
+from .formulation import Block, Formulation
+
+
+class BalanceConditions:
+    """Exact, rank-compressed balance equalities g(z, p) = 0 for a formulation."""
+
+    def __init__(self, formulation: Formulation, parameters: np.ndarray, seed: int) -> None:
+        import casadi as ca
+
+        check_exact_conditions(formulation.problem)
+        self.formulation = formulation
+        rng = np.random.default_rng(seed)
+        f, d = formulation, formulation.design
+        stacked = []
+        #: (subsystem, scenario, number of independent conditions) of every block
+        self.ranks: list[tuple[str, str, int]] = []
+        for block in f.blocks:
+            coords = [f.problem.coordinate[n] for n in block.coordinates]
+            lo = np.array([c.lower for c in coords])
+            hi = np.array([c.upper for c in coords])
+            n_q = len(coords)
+
+            def sample(n_conf: int, n_design: int, block: Block = block) -> tuple[np.ndarray, Any]:
+                q = lo + (hi - lo) * rng.random((n_conf, n_q))
+                return _sample_residuals(block.residual, q, self._random_designs(n_design, rng), parameters), q
+
+            comp, q = adaptive_compression(sample, start_configurations=16 + 8 * n_q, start_designs=32)
+            torque = np.abs(_sample_residuals(block.gravity_torque, q, d.to_z(d.initial)[None, :], parameters)).max(initial=0.0)
+            scale = torque if torque > 0 else max(float(np.abs(comp.singular_values).max(initial=0.0)), 1.0)
+            self.ranks.append((block.subsystem, block.scenario, comp.rank))
+            if comp.rank:
+                residual_at = {i: block.residual(q[i], f.z, f.p) for i in sorted({int(r) // n_q for r in comp.rows})}
+                rows = [residual_at[int(r) // n_q][int(r) % n_q] for r in comp.rows]
+                stacked.append(ca.mtimes(ca.DM(comp.matrix), ca.vertcat(*rows)) / scale)
+        per_block = ca.vertcat(*stacked) if stacked else ca.SX(0, 1)
+        # Across blocks: identical legs, or scenarios that repeat a condition, collapse here.
+        self.equalities = self._compress_stack(per_block, parameters, rng)
+
+    def _compress_stack(self, stacked: Any, parameters: np.ndarray, rng: np.random.Generator) -> Any:
+        import casadi as ca
+
+        f = self.formulation
+        if stacked.numel() == 0:
+            return stacked
+        fun = ca.Function("stack", [f.z, f.p], [stacked])
+        n_design = 2 * stacked.numel() + 8
+        z = self._random_designs(n_design, rng)
+        values = np.array(fun.map(n_design)(z.T, np.tile(parameters[:, None], (1, n_design))))
+        u, s, _ = np.linalg.svd(values, full_matrices=False)
+        rank = numerical_rank(s)
+        if rank == stacked.numel():
+            return stacked
+        return ca.mtimes(ca.DM(u[:, :rank].T), stacked)
+
+    def _random_designs(self, n: int, rng: np.random.Generator) -> np.ndarray:
+        """``n`` scaled designs drawn uniformly in the bounds: (n, number of slots)."""
+        d = self.formulation.design
+        return d.to_z(d.lower + (d.upper - d.lower) * rng.random((n, len(d))))
+
+    @property
+    def count(self) -> int:
+        return int(self.equalities.numel())
+
+    def summary(self) -> str:
+        """'leg/nominal 3' per block, and whether repeats were removed."""
+        parts = ", ".join(f"{sub}/{sc} {r}" for sub, sc, r in self.ranks)
+        total = sum(r for *_, r in self.ranks)
+        return parts + (f"; {total} before removing repeats across blocks" if total != self.count else "")
+
+
+def _sample_residuals(residual: Any, q: np.ndarray, z: np.ndarray, parameters: np.ndarray) -> np.ndarray:
+    """Residual entries at every (configuration, design) pair: (N·n_q) × K."""
+    n_conf, n_q = q.shape
+    n_design = z.shape[0]
+    mapped = residual.map(n_conf * n_design)
+    qq = np.tile(q.T, (1, n_design))
+    zz = np.repeat(z.T, n_conf, axis=1)
+    pp = np.tile(parameters[:, None], (1, n_conf * n_design))
+    out = np.array(mapped(qq, zz, pp))  # n_q × (K·N), column k*N + i
+    return out.reshape(n_q, n_design, n_conf).transpose(2, 0, 1).reshape(n_conf * n_q, n_design)
+
+

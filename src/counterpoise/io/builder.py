@@ -1,0 +1,172 @@
+"""Build a problem in Python code: the same sections as a problem file, the same checks.
+
+Tests, studies, notebooks and importers (URDF) build problems here instead of writing
+TOML strings. Each method adds one entry of the file format (see ``problems/README.md``)
+and returns the builder, so calls chain; :meth:`ProblemBuilder.build` validates the
+whole thing through :func:`counterpoise.io.loader.load_problem_data` and returns the typed
+:class:`~counterpoise.model.problem.Problem`, with errors naming the key as for a file::
+
+    from counterpoise import ProblemBuilder, design
+
+    b = ProblemBuilder("pendulum", gravity="9.81 m/s^2", direction=(0, -1, 0))
+    b.parameter("m", "0.8 kg").parameter("r", "0.3 m")
+    b.subsystem("arm", q=("-180 deg", "180 deg"))
+    b.frame("link", rotate("z", "q"))
+    b.body("tip", frame="link", mass="m", com=("r", 0, 0))
+    b.variable("M", "0 kg", "100 kg").variable("b", "0.02 m", "1 m")
+    b.counter_mass("cm", frame="link", mass="M", position=("-b", 0, 0))
+    b.objective(inertia_weight="16 1/m^2")
+    result = design(b.build())
+"""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from ..model.problem import Problem
+
+Value = str | int | float
+Vec3 = Sequence[Value]
+
+
+def rotate(axis: str | Vec3, angle: Value) -> dict[str, Any]:
+    """A rotation transform: ``axis`` is ``"x"``, ``"y"``, ``"z"`` or a 3-vector."""
+    return {"rotate": axis if isinstance(axis, str) else list(axis), "angle": angle}
+
+
+def translate(x: Value, y: Value = 0, z: Value = 0) -> dict[str, Any]:
+    """A translation transform."""
+    return {"translate": [x, y, z]}
+
+
+class ProblemBuilder:
+    """Collects the sections of a problem; :meth:`build` validates and resolves them."""
+
+    def __init__(
+        self,
+        name: str,
+        gravity: Value = "9.81 m/s^2",
+        direction: Vec3 = (0, -1, 0),
+        title: str = "",
+        source: str = "",
+        description: str = "",
+    ) -> None:
+        self._data: dict[str, Any] = {
+            "problem": {"name": name, "title": title, "source": source, "description": description},
+            "gravity": {"acceleration": gravity, "direction": list(direction)},
+        }
+
+    @property
+    def data(self) -> dict[str, Any]:
+        """A copy of the problem as nested dicts, exactly as a TOML file would parse."""
+        return copy.deepcopy(self._data)
+
+    def _put(self, section: str, name: str, entry: Any) -> "ProblemBuilder":
+        self._data.setdefault(section, {})[name] = entry
+        return self
+
+    @staticmethod
+    def _described(entry: dict[str, Any], description: str) -> dict[str, Any]:
+        if description:
+            entry["description"] = description
+        return entry
+
+    def parameter(self, name: str, value: Value, description: str = "") -> "ProblemBuilder":
+        return self._put("parameters", name, {"value": value, "description": description} if description else value)
+
+    def subsystem(
+        self, name: str, description: str = "", homes: Mapping[str, Value] | None = None, **coordinates: tuple[Value, Value]
+    ) -> "ProblemBuilder":
+        """A subsystem and its coordinates as ``name=(lower, upper)`` ranges (``homes`` optional)."""
+        coords: dict[str, Any] = {}
+        for cname, (lo, hi) in coordinates.items():
+            coords[cname] = {"range": [lo, hi]}
+            if homes and cname in homes:
+                coords[cname]["home"] = homes[cname]
+        return self._put("subsystems", name, self._described({"coordinates": coords}, description))
+
+    def frame(self, name: str, *transforms: Mapping[str, Any], parent: str = "ground", description: str = "") -> "ProblemBuilder":
+        """A frame: ``parent`` and transforms made with :func:`rotate` and :func:`translate`."""
+        entry = {"parent": parent, "transforms": [dict(t) for t in transforms]}
+        return self._put("frames", name, self._described(entry, description))
+
+    def body(self, name: str, frame: str, mass: Value, com: Vec3, description: str = "") -> "ProblemBuilder":
+        return self._put("bodies", name, self._described({"frame": frame, "mass": mass, "com": list(com)}, description))
+
+    def variable(
+        self,
+        name: str,
+        lower: Value,
+        upper: Value,
+        initial: Value | None = None,
+        unit: str | None = None,
+        adjustable: bool = False,
+        description: str = "",
+    ) -> "ProblemBuilder":
+        entry: dict[str, Any] = {"lower": lower, "upper": upper}
+        if initial is not None:
+            entry["initial"] = initial
+        if unit is not None:
+            entry["unit"] = unit
+        if adjustable:
+            entry["adjustable"] = True
+        return self._put("variables", name, self._described(entry, description))
+
+    def counter_mass(
+        self, name: str, frame: str, mass: Value, position: Vec3, joint: str | None = None, description: str = ""
+    ) -> "ProblemBuilder":
+        entry: dict[str, Any] = {"frame": frame, "mass": mass, "position": list(position)}
+        if joint is not None:
+            entry["joint"] = joint
+        return self._put("counter_masses", name, self._described(entry, description))
+
+    def spring(
+        self, name: str, stiffness: Value, from_: tuple[str, Vec3], to: tuple[str, Vec3], description: str = ""
+    ) -> "ProblemBuilder":
+        """A zero-free-length spring between a point of frame ``from_[0]`` and one of ``to[0]``."""
+        entry = {
+            "stiffness": stiffness,
+            "from": {"frame": from_[0], "point": list(from_[1])},
+            "to": {"frame": to[0], "point": list(to[1])},
+        }
+        return self._put("springs", name, self._described(entry, description))
+
+    def scenario(
+        self,
+        name: str,
+        parameters: Mapping[str, Value] | None = None,
+        gravity: Value | None = None,
+        direction: Vec3 | None = None,
+        description: str = "",
+    ) -> "ProblemBuilder":
+        """A working condition: its own parameter values and, optionally, its own gravity."""
+        entry: dict[str, Any] = {"parameters": dict(parameters or {})}
+        if gravity is not None or direction is not None:
+            base = self._data["gravity"]
+            entry["gravity"] = {
+                "acceleration": gravity if gravity is not None else base["acceleration"],
+                "direction": list(direction) if direction is not None else list(base["direction"]),
+            }
+        return self._put("scenarios", name, self._described(entry, description))
+
+    def objective(self, mass_weight: float = 1.0, inertia_weight: Value = 0) -> "ProblemBuilder":
+        self._data["objective"] = {"mass_weight": mass_weight, "inertia_weight": inertia_weight}
+        return self
+
+    def report(self, name: str, expression: str, unit: str = "", description: str = "") -> "ProblemBuilder":
+        return self._put("report", name, self._described({"expression": expression, "unit": unit}, description))
+
+    def settings(self, **values: Any) -> "ProblemBuilder":
+        self._data.setdefault("settings", {}).update(values)
+        return self
+
+    def build(self, label: str | None = None, overrides: Mapping[str, Any] | None = None) -> Problem:
+        """Validate and resolve; errors are ProblemFileErrors naming ``label`` and the key."""
+        from .loader import load_problem_data
+
+        name = self._data["problem"]["name"]
+        return load_problem_data(self._data, label or f"<built:{name}>", overrides)
+
+

@@ -1,0 +1,58 @@
+"""Resolution: a shape-checked :class:`~counterpoise.io.schema.ProblemFile` -> a typed
+:class:`~counterpoise.model.problem.Problem`, section by section.
+
+:mod:`.context` holds the symbol tables and shared checks; :mod:`.quantities`,
+:mod:`.mechanism` and :mod:`.report` resolve their sections in dependency order.
+"""
+
+from __future__ import annotations
+
+from ...model.problem import Problem, Settings
+from ..schema import ProblemFile
+from . import mechanism, quantities, report
+from .context import REPORT_FUNCTIONS, RESERVED, Context
+
+__all__ = ["REPORT_FUNCTIONS", "RESERVED", "resolve"]
+
+
+def resolve(spec: ProblemFile, label: str) -> Problem:
+    """Resolve ``spec`` (read from ``label``); every error is a one-line ProblemFileError."""
+    ctx = Context(spec, label)
+    for kind in ("parameters", "variables", "report"):
+        for name in getattr(spec, kind):
+            ctx.declare(kind, name)
+    for sub in spec.subsystems.values():
+        for cname in sub.coordinates:
+            ctx.declare("coordinates", cname)
+    parameters = quantities.parameters(ctx)
+    variables = quantities.variables(ctx)
+    subsystems, coordinates = mechanism.subsystems(ctx)
+    frames = mechanism.frames(ctx)
+    by_name = {f.name: f for f in frames}
+    bodies = mechanism.bodies(ctx, by_name)
+    counter_masses = mechanism.counter_masses(ctx, by_name)
+    springs = mechanism.springs(ctx, by_name)
+    gravity = quantities.gravity(ctx, spec.gravity, "gravity")
+    scenarios = quantities.scenarios(ctx, gravity, parameters)
+    objective = quantities.objective(ctx)
+    reports = report.report(ctx, subsystems, by_name)
+    meta = spec.problem
+    return Problem(
+        name=meta.name,
+        title=meta.title,
+        source=meta.source,
+        description=meta.description,
+        path=label,
+        parameters=parameters,
+        variables=variables,
+        subsystems=subsystems,
+        coordinates=coordinates,
+        frames=frames,
+        bodies=bodies,
+        counter_masses=counter_masses,
+        springs=springs,
+        scenarios=scenarios,
+        objective=objective,
+        report=reports,
+        settings=Settings(**spec.settings.model_dump()),
+    )

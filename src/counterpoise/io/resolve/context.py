@@ -1,0 +1,268 @@
+"""The resolution context: symbol tables and the checks every section of a file shares.
+
+A :class:`Context` knows the file's label, every declared name and its unit, and turns raw
+values into SI numbers or expression trees, checking dimensions, names and finiteness.
+Errors raised below it (units, expressions) get the file and key attached here.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Callable, Iterable, Iterator, Mapping
+from contextlib import contextmanager
+from typing import Any
+
+import numpy as np
+
+from ...errors import InputError, ProblemFileError, UnitError
+from ...mechanics.backends import NUMPY_FUNCTIONS
+from ...model import expr as ex
+from ...model.mechanism import GROUND, Frame, Point
+from ...model.problem import Parameter
+from ...model.units import (
+    DIMENSIONLESS,
+    LENGTH,
+    MASS,
+    STIFFNESS,
+    DisplayUnit,
+    Quantity,
+    check_dimension,
+    dimensionality_of,
+    looks_like_quantity,
+    parse_quantity,
+    pint_quantity,
+    ureg,
+)
+from ..schema import ProblemFile
+
+#: Functions report expressions may call besides the math functions. Their arguments name
+#: a subsystem (and a frame), e.g. ``total_mass(side_left)``, ``com_distance(leg, base)``.
+REPORT_FUNCTIONS = frozenset({"total_mass", "com_distance"})
+RESERVED = frozenset(ex.MATH_FUNCTIONS | REPORT_FUNCTIONS | set(ex.CONSTANTS) | {GROUND})
+AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
+
+
+class Context:
+    """Shared state of one file's resolution (see the module docstring)."""
+
+    def __init__(self, spec: ProblemFile, label: str) -> None:
+        self.spec = spec
+        self.label = label
+        self.symbol_unit: dict[str, DisplayUnit] = {}  # name -> unit (for dimension checks)
+        self.symbol_value: dict[str, float] = {}  # name -> representative SI value
+        self.symbol_kind: dict[str, str] = {}  # name -> 'parameters' | 'variables' | 'coordinates' | 'report'
+        self.literal_unit: dict[str, DisplayUnit] = {}  # key -> unit of a quantity literal written there
+        self.variable_lower: dict[str, float] = {}
+        self.signed: list[tuple[str, ex.Expr, Any, str]] = []  # (key, tree, raw, what) of masses and stiffnesses
+        self.derived_parameters: list[Parameter] = []
+
+    @contextmanager
+    def at(self, key: str) -> Iterator[None]:
+        """Attach the file and ``key`` to any input error raised inside the block."""
+        try:
+            yield
+        except InputError as exc:
+            raise ProblemFileError(self.label, key, str(exc)) from None
+
+    def fail(self, key: str, message: str) -> ProblemFileError:
+        return ProblemFileError(self.label, key, message)
+
+    # -- names ---------------------------------------------------------------------
+
+    def declare(self, kind: str, name: str) -> None:
+        key = f"{kind}.{name}"
+        if name in RESERVED:
+            raise self.fail(key, f"'{name}' is reserved (a function, constant or the ground frame)")
+        if name in self.symbol_kind:
+            raise self.fail(key, f"name '{name}' is already used by {self.symbol_kind[name]}.{name}")
+        self.symbol_kind[name] = kind
+
+    def literal(self, value: Any, key: str) -> Quantity:
+        """A value that must be a literal: a quantity string or a number."""
+        with self.at(key):
+            if isinstance(value, str) and not looks_like_quantity(value):
+                raise UnitError(f"expected a quantity such as '135 mm', got '{value}'")
+            return parse_quantity(value)
+
+    def expression(self, value: Any, key: str, allowed: Iterable[str], functions: frozenset[str] = ex.MATH_FUNCTIONS) -> ex.Expr:
+        """A value that may be a literal or an expression over ``allowed`` names.
+
+        Quantity literals become numbers in SI; a bare number means itself (in SI), and
+        is only accepted where the dimension allows it (see :meth:`dimension`).
+        """
+        with self.at(key):
+            if isinstance(value, (int, float)):
+                if not math.isfinite(value):
+                    raise UnitError(f"value must be finite, got {value}")
+                return ex.Num(float(value))
+            if looks_like_quantity(value):
+                try:
+                    q = parse_quantity(value)
+                except UnitError as exc:
+                    used = set(re.findall(r"[A-Za-z_][A-Za-z0-9_]*", value)) & set(self.symbol_kind)
+                    if used:
+                        raise UnitError(
+                            f"{exc}: a quantity cannot be part of an expression in '{value}'; "
+                            "declare it in [parameters] and use its name"
+                        ) from None
+                    raise
+                self.literal_unit[key] = q.unit
+                return ex.Num(q.si)
+            tree = ex.parse(value, functions)
+            ex.check_names(tree, allowed, value, REPORT_FUNCTIONS & functions)
+            return tree
+
+    def dimension(self, tree: ex.Expr, raw: Any, key: str, extra: Mapping[str, Callable[..., Any]] | None = None) -> str:
+        """The dimensionality of an expression (pint evaluation on representative values)."""
+        if isinstance(tree, ex.Num):
+            unit = self.literal_unit.get(key)
+            if unit is not None:
+                return unit.dimension
+            return "" if tree.value != 0 else "zero"
+        reg = ureg()
+        env = {n: pint_quantity(self.symbol_value[n], self.symbol_unit[n]) for n in ex.names(tree, REPORT_FUNCTIONS) if n in self.symbol_unit}
+        funcs = numpy_functions()
+        if extra:
+            funcs.update(extra)
+        with self.at(key):
+            result = evaluate_checked(tree, env, funcs, raw)
+        if not isinstance(result, reg.Quantity):
+            return ""
+        return dimensionality_of(result)
+
+    def expect(self, tree: ex.Expr, raw: Any, key: str, dimension: str, what: str) -> None:
+        found = self.dimension(tree, raw, key)
+        if found == "zero":
+            return  # a literal 0 fits any dimension
+        if found == "" and isinstance(tree, ex.Num) and dimension != DIMENSIONLESS and key not in self.literal_unit:
+            raise self.fail(key, f"{what} needs a unit: write e.g. '{raw} {example_unit(dimension)}'")
+        with self.at(key):
+            check_dimension(found, dimension, f"'{raw}'")
+        self.finite(tree, raw, key)
+
+    def finite(self, tree: ex.Expr, raw: Any, key: str) -> float:
+        """Evaluate at the given parameters and the initial design; the value must be finite."""
+        env = {n: v for n, v in self.symbol_value.items() if self.symbol_kind.get(n) in ("parameters", "variables", "coordinates")}
+        with np.errstate(all="ignore"):
+            try:
+                value = complex(ex.evaluate(tree, env, numpy_functions()))
+            except (ArithmeticError, ValueError, TypeError):
+                value = complex("nan")
+        if value.imag != 0 or not math.isfinite(value.real):
+            where = "" if ex.names(tree) <= self.parameter_names() else " at the initial design"
+            raise self.fail(key, f"'{raw}' does not evaluate to a finite number{where}")
+        return value.real
+
+    def parameter_names(self) -> set[str]:
+        return {n for n, k in self.symbol_kind.items() if k == "parameters"}
+
+    # -- sections ------------------------------------------------------------------
+
+    def geometry_names(self) -> set[str]:
+        return {n for n, k in self.symbol_kind.items() if k in ("parameters", "variables", "coordinates")}
+
+    def design_names(self) -> set[str]:
+        return {n for n, k in self.symbol_kind.items() if k in ("parameters", "variables")}
+
+    def vector(
+        self, values: Iterable[Any], key: str, dimension: str, what: str, allowed: set[str]
+    ) -> tuple[ex.Expr, ex.Expr, ex.Expr]:
+        out = []
+        for i, raw in enumerate(values):
+            k = f"{key}.{i}"
+            tree = self.expression(raw, k, allowed)
+            self.expect(tree, raw, k, dimension, what)
+            out.append(tree)
+        return (out[0], out[1], out[2])
+
+    def axis(self, value: Any, key: str) -> tuple[ex.Expr, ex.Expr, ex.Expr]:
+        if isinstance(value, str):
+            return tuple(ex.Num(c) for c in AXES[value])  # type: ignore[return-value]
+        # an axis may depend on parameters and variables (a tilt), not on coordinates
+        vec = self.vector(value, key, DIMENSIONLESS, "an axis component", self.design_names())
+        norm = math.sqrt(sum(self.finite(c, value, key) ** 2 for c in vec))
+        if norm == 0:
+            raise self.fail(key, "the rotation axis must not be the zero vector")
+        if all(isinstance(c, ex.Num) for c in vec):
+            return tuple(ex.Num(c.value / norm) for c in vec)  # type: ignore[union-attr,return-value]
+        return vec
+
+    def point(self, frame: str, position: Iterable[Any], key: str, frames: Mapping[str, Frame], frame_key: str) -> Point:
+        if frame != GROUND and frame not in frames:
+            raise self.fail(frame_key, f"unknown frame '{frame}'{suggest(frame, list(frames) + [GROUND])}")
+        # a point is fixed in its frame: it may not move with coordinates (use a frame for that)
+        return Point(frame, self.vector(position, key, LENGTH, "a position", self.design_names()))
+
+    def nonnegative(self, tree: ex.Expr, raw: Any, key: str, dimension: str, what: str) -> None:
+        """Type-check a mass or stiffness; it must not be negative.
+
+        Fixed values are checked here; values that depend on variables are checked at the
+        initial design here and kept ≥ 0 by constraints of the NLP.
+        """
+        self.expect(tree, raw, key, dimension, what)
+        if isinstance(tree, ex.Name) and self.variable_lower.get(tree.id, 0.0) < 0:
+            raise self.fail(f"variables.{tree.id}.lower", f"'{tree.id}' is {what}: its lower bound must not be negative")
+        value = self.finite(tree, raw, key)
+        if value < 0:
+            where = "" if ex.names(tree) <= self.parameter_names() else " at the initial design"
+            raise self.fail(key, f"{what} must not be negative, got '{raw}'{where}")
+        self.signed.append((key, tree, raw, what))
+
+    def subsystem_of(self, frame: str, frames: Mapping[str, Frame]) -> str | None:
+        return None if frame == GROUND else frames[frame].subsystem
+
+
+def numpy_functions() -> dict[str, Callable[..., Any]]:
+    """The numpy backend's functions, with a plain abs (pint quantities and complex floats)."""
+    return {**NUMPY_FUNCTIONS, "abs": np.abs}
+
+
+def evaluate_checked(tree: ex.Expr, env: Mapping[str, Any], functions: Mapping[str, Callable[..., Any]], raw: Any) -> Any:
+    """Evaluate on pint quantities; unit clashes and arithmetic failures become UnitErrors."""
+    import pint
+
+    with np.errstate(all="ignore"):
+        try:
+            return ex.evaluate(tree, env, functions)
+        except InputError:
+            raise
+        except pint.DimensionalityError as exc:
+            raise UnitError(f"inconsistent units in '{raw}': {_short(exc)}") from None
+        except Exception as exc:  # ZeroDivisionError, OverflowError, pint's offset errors, ...
+            raise UnitError(f"cannot evaluate '{raw}': {_short(exc)}") from None
+
+
+suggest = ex.suggest
+
+
+def _short(exc: Exception) -> str:
+    text = " ".join(str(exc).split())
+    return text[:160]
+
+
+def example_unit(dimension: str) -> str:
+    return {LENGTH: "mm", MASS: "g", STIFFNESS: "N/mm"}.get(dimension, "mm")
+
+
+def topological(nodes: Mapping[str, Any], deps: Callable[[str], set[str]], section: str, label: str, key_suffix: str = "") -> list[str]:
+    """Order ``nodes`` so that dependencies come first; a cycle is a ProblemFileError."""
+    order: list[str] = []
+    state: dict[str, int] = {}
+
+    def visit(n: str, path: list[str]) -> None:
+        if state.get(n) == 2:
+            return
+        if state.get(n) == 1:
+            cycle = path[path.index(n):] + [n]
+            key = f"{section}.{n}" + (f".{key_suffix}" if key_suffix else "")
+            raise ProblemFileError(label, key, f"cyclic definition: {' -> '.join(cycle)}")
+        state[n] = 1
+        for d in sorted(deps(n)):
+            visit(d, path + [n])
+        state[n] = 2
+        order.append(n)
+
+    for n in nodes:
+        visit(n, [])
+    return order

@@ -1,0 +1,143 @@
+"""The mechanism: subsystems and coordinates, frames, bodies, counter-masses, springs."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+
+from ...model import expr as ex
+from ...model.elements import CounterMass, ZeroFreeLengthSpring
+from ...model.mechanism import GROUND, Body, Coordinate, Frame, Rotation, Subsystem, Transform, Translation
+from ...model.units import (
+    DIMENSIONLESS,
+    LENGTH,
+    MASS,
+    STIFFNESS,
+    canonical_dimension,
+    dimension_name,
+)
+from ..schema import RotateSpec
+from .context import Context, suggest, topological
+
+
+def subsystems(ctx: Context) -> tuple[tuple[Subsystem, ...], tuple[Coordinate, ...]]:
+    subs, coords = [], []
+    for sname, sub in ctx.spec.subsystems.items():
+        for cname, c in sub.coordinates.items():
+            key = f"subsystems.{sname}.coordinates.{cname}"
+            lo = ctx.literal(c.range[0], f"{key}.range")
+            hi = ctx.literal(c.range[1], f"{key}.range")
+            if lo.dimension != hi.dimension:
+                raise ctx.fail(f"{key}.range", "both ends of a range need the same dimension")
+            if lo.dimension not in ("", canonical_dimension(LENGTH)):
+                raise ctx.fail(f"{key}.range", f"a coordinate is an angle or a length, got {dimension_name(lo.dimension)}")
+            if not lo.si < hi.si:
+                raise ctx.fail(f"{key}.range", f"empty range [{c.range[0]}, {c.range[1]}]: the lower end must be below the upper end")
+            home = ctx.literal(c.home, f"{key}.home").si if c.home is not None else 0.5 * (lo.si + hi.si)
+            if not lo.si <= home <= hi.si:
+                raise ctx.fail(f"{key}.home", "home lies outside the range")
+            ctx.symbol_unit[cname] = lo.unit
+            ctx.symbol_value[cname] = home
+            coords.append(Coordinate(cname, sname, lo.si, hi.si, home, lo.unit, c.description))
+        subs.append(Subsystem(sname, tuple(sub.coordinates), sub.description))
+    return tuple(subs), tuple(coords)
+
+
+def frames(ctx: Context) -> tuple[Frame, ...]:
+    specs = ctx.spec.frames
+    coordinate_subsystem = {c: s for s, sub in ctx.spec.subsystems.items() for c in sub.coordinates}
+    for name, f in specs.items():
+        if name == GROUND:
+            raise ctx.fail(f"frames.{name}", "'ground' is the fixed world frame and cannot be declared")
+        if f.parent != GROUND and f.parent not in specs:
+            close = suggest(f.parent, list(specs) + [GROUND])
+            raise ctx.fail(f"frames.{name}.parent", f"unknown frame '{f.parent}'{close}")
+    order = topological(
+        {n: None for n in specs}, lambda n: {specs[n].parent} - {GROUND}, "frames", ctx.label, key_suffix="parent"
+    )
+    frames: dict[str, Frame] = {}
+    for name in order:
+        f = specs[name]
+        key = f"frames.{name}"
+        transforms: list[Transform] = []
+        used: set[str] = set()
+        for i, t in enumerate(f.transforms):
+            tkey = f"{key}.transforms.{i}"
+            if isinstance(t, RotateSpec):
+                axis = ctx.axis(t.rotate, f"{tkey}.rotate")
+                angle = ctx.expression(t.angle, f"{tkey}.angle", ctx.geometry_names())
+                ctx.expect(angle, t.angle, f"{tkey}.angle", DIMENSIONLESS, "an angle")
+                used |= ex.names(angle)
+                transforms.append(Rotation(axis, angle))
+            else:
+                vec = ctx.vector(t.translate, f"{tkey}.translate", LENGTH, "a translation", ctx.geometry_names())
+                for comp in vec:
+                    used |= ex.names(comp)
+                transforms.append(Translation(vec))
+        subsystems = {coordinate_subsystem[n] for n in used if n in coordinate_subsystem}
+        parent_sub = frames[f.parent].subsystem if f.parent != GROUND else None
+        if parent_sub is not None:
+            subsystems.add(parent_sub)
+        if len(subsystems) > 1:
+            raise ctx.fail(
+                key, f"moves with coordinates of several subsystems ({', '.join(sorted(subsystems))}); subsystems must move independently"
+            )
+        frames[name] = Frame(name, f.parent, tuple(transforms), next(iter(subsystems), None), f.description)
+    return tuple(frames[n] for n in order)
+
+
+def bodies(ctx: Context, frames: Mapping[str, Frame]) -> tuple[Body, ...]:
+    out = []
+    for name, b in ctx.spec.bodies.items():
+        key = f"bodies.{name}"
+        mass = ctx.expression(b.mass, f"{key}.mass", ctx.design_names())
+        ctx.nonnegative(mass, b.mass, f"{key}.mass", MASS, "a mass")
+        com = ctx.point(b.frame, b.com, f"{key}.com", frames, f"{key}.frame")
+        out.append(Body(name, mass, com, ctx.subsystem_of(b.frame, frames), b.description))
+    return tuple(out)
+
+
+def counter_masses(ctx: Context, frames: Mapping[str, Frame]) -> tuple[CounterMass, ...]:
+    out = []
+    for name, c in ctx.spec.counter_masses.items():
+        key = f"counter_masses.{name}"
+        mass = ctx.expression(c.mass, f"{key}.mass", ctx.design_names())
+        ctx.nonnegative(mass, c.mass, f"{key}.mass", MASS, "a mass")
+        pos = ctx.point(c.frame, c.position, f"{key}.position", frames, f"{key}.frame")
+        carrier = joint(ctx, c.frame, c.joint, frames, f"{key}.joint")
+        out.append(CounterMass(name, mass, pos, carrier, ctx.subsystem_of(c.frame, frames), c.description))
+    return tuple(out)
+
+
+def joint(ctx: Context, frame: str, coordinate: str | None, frames: Mapping[str, Frame], key: str) -> tuple[str, int] | None:
+    """Innermost rotation of the chain driven by ``coordinate`` (any coordinate if None)."""
+    coordinates = {n for n, k in ctx.symbol_kind.items() if k == "coordinates"}
+    if coordinate is not None and coordinate not in coordinates:
+        raise ctx.fail(key, f"unknown coordinate '{coordinate}'{suggest(coordinate, coordinates)}")
+    wanted = {coordinate} if coordinate else coordinates
+    name: str | None = frame
+    while name is not None and name != GROUND:
+        f = frames[name]
+        for i in range(len(f.transforms) - 1, -1, -1):
+            t = f.transforms[i]
+            if isinstance(t, Rotation) and ex.names(t.angle) & wanted:
+                return (name, i)
+        name = f.parent
+    if coordinate is not None:
+        raise ctx.fail(key, f"no rotation driven by '{coordinate}' carries frame '{frame}'")
+    return None
+
+
+def springs(ctx: Context, frames: Mapping[str, Frame]) -> tuple[ZeroFreeLengthSpring, ...]:
+    out = []
+    for name, s in ctx.spec.springs.items():
+        key = f"springs.{name}"
+        k = ctx.expression(s.stiffness, f"{key}.stiffness", ctx.design_names())
+        ctx.nonnegative(k, s.stiffness, f"{key}.stiffness", STIFFNESS, "a stiffness")
+        a = ctx.point(s.from_.frame, s.from_.point, f"{key}.from.point", frames, f"{key}.from.frame")
+        b = ctx.point(s.to.frame, s.to.point, f"{key}.to.point", frames, f"{key}.to.frame")
+        subs = {ctx.subsystem_of(a.frame, frames), ctx.subsystem_of(b.frame, frames)} - {None}
+        if len(subs) > 1:
+            raise ctx.fail(key, f"connects subsystems {' and '.join(sorted(subs))}; subsystems must move independently")  # type: ignore[arg-type]
+        out.append(ZeroFreeLengthSpring(name, k, (a, b), next(iter(subs), None), s.description))
+    return tuple(out)

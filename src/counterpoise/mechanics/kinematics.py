@@ -1,0 +1,89 @@
+"""3-D kinematics on any backend: small vector algebra that skips exact zeros and ones.
+
+Vectors are lists of three scalars and matrices nested 3×3 lists, so that every entry may
+be a float, a numpy array or a CasADi symbol. Multiplying by a literal 0 or 1 is skipped,
+which keeps the CasADi graphs of planar mechanisms small.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+from .backends import Functions
+
+Scalar = Any  # float | numpy array | casadi.SX
+Vec = list  # three Scalars
+Mat = list  # 3x3 nested list of Scalars
+
+
+def _is_const(a: Any, c: float) -> bool:
+    return isinstance(a, (int, float)) and a == c
+
+
+def mul(a: Scalar, b: Scalar) -> Scalar:
+    if _is_const(a, 0.0) or _is_const(b, 0.0):
+        return 0.0
+    if _is_const(a, 1.0):
+        return b
+    if _is_const(b, 1.0):
+        return a
+    return a * b
+
+
+def add(a: Scalar, b: Scalar) -> Scalar:
+    if _is_const(a, 0.0):
+        return b
+    if _is_const(b, 0.0):
+        return a
+    return a + b
+
+
+def add_all(items: Sequence[Scalar]) -> Scalar:
+    out: Scalar = 0.0
+    for item in items:
+        out = add(out, item)
+    return out
+
+
+def dot(a: Vec, b: Vec) -> Scalar:
+    return add_all([mul(x, y) for x, y in zip(a, b)])
+
+
+def matvec(m: Mat, v: Vec) -> Vec:
+    return [dot(row, v) for row in m]
+
+
+def matmul(a: Mat, b: Mat) -> Mat:
+    return [[add_all([mul(a[i][k], b[k][j]) for k in range(3)]) for j in range(3)] for i in range(3)]
+
+
+def sub(a: Vec, b: Vec) -> Vec:
+    return [add(x, mul(-1.0, y)) for x, y in zip(a, b)]
+
+
+IDENTITY: Mat = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+
+
+def unit_vector(v: Vec, functions: Functions) -> Vec:
+    norm = functions["sqrt"](dot(v, v))
+    return [c / norm for c in v]
+
+
+def rotation_matrix(axis: Vec, angle: Scalar, functions: Functions) -> Mat:
+    """Rodrigues: R = c I + s [u]x + (1 − c) u uᵀ about a unit ``axis``."""
+    c = functions["cos"](angle)
+    s = functions["sin"](angle)
+    one_c = 1.0 - c
+    ux, uy, uz = axis
+    cross = [[0.0, mul(-1.0, uz), uy], [uz, 0.0, mul(-1.0, ux)], [mul(-1.0, uy), ux, 0.0]]
+    out: Mat = []
+    for i in range(3):
+        row = []
+        for j in range(3):
+            term = add(mul(c, IDENTITY[i][j]), mul(s, cross[i][j]) if not _is_const(cross[i][j], 0.0) else 0.0)
+            outer = mul(axis[i], axis[j])
+            row.append(add(term, mul(one_c, outer)))
+        out.append(row)
+    return out
+

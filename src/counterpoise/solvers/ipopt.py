@@ -1,0 +1,65 @@
+"""IPOPT through CasADi's ``nlpsol``: built once, called many times; statuses mapped here."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from .base import Bounds, SolverOutput, Status
+
+#: Options the designs rely on: tight tolerances, no bound relaxation (a variable on its
+#: bound stays exactly on it), quiet output.
+IPOPT_DEFAULTS: Mapping[str, Any] = {
+    "print_level": 0,
+    "sb": "yes",
+    "tol": 1e-10,
+    "constr_viol_tol": 1e-12,
+    "acceptable_tol": 1e-8,
+    "bound_relax_factor": 0.0,
+    "honor_original_bounds": "yes",
+    "mu_strategy": "adaptive",
+}
+
+#: IPOPT return codes and what they mean for a design.
+STATUS_MAP: Mapping[str, Status] = {
+    "Solve_Succeeded": Status.OPTIMAL,
+    "Solved_To_Acceptable_Level": Status.OPTIMAL,
+    "Infeasible_Problem_Detected": Status.INFEASIBLE,
+    "Restoration_Failed": Status.INFEASIBLE,
+    "Not_Enough_Degrees_Of_Freedom": Status.INFEASIBLE,
+}
+
+
+def map_status(return_status: str) -> Status:
+    """The project's status for an IPOPT return code (anything unlisted is a failure)."""
+    return STATUS_MAP.get(return_status, Status.FAILED)
+
+
+class IpoptBackend:
+    """``nlp`` is CasADi's dict {x, p, f, g} of SX expressions; the solver is built here once."""
+
+    name = "ipopt"
+
+    def __init__(self, nlp: Mapping[str, Any], options: Mapping[str, Any], label: str = "design") -> None:
+        import casadi as ca
+
+        self.options = dict(options)
+        self.solver = ca.nlpsol(label, "ipopt", dict(nlp), {"print_time": False, "ipopt": self.options})
+
+    def solve(self, z0: np.ndarray, p: np.ndarray, bounds: Bounds) -> SolverOutput:
+        t0 = time.perf_counter()
+        out = self.solver(x0=z0, p=p, lbx=bounds.lbz, ubx=bounds.ubz, lbg=bounds.lbg, ubg=bounds.ubg)
+        elapsed = time.perf_counter() - t0
+        stats = self.solver.stats()
+        code = str(stats.get("return_status", "unknown"))
+        return SolverOutput(
+            z=np.array(out["x"], dtype=float).reshape(-1),
+            status=map_status(code),
+            solver_status=code,
+            iterations=int(stats.get("iter_count", 0)),
+            solve_time=elapsed,
+            solver=self.name,
+        )

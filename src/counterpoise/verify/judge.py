@@ -1,0 +1,58 @@
+"""A design's final status and the one-line explanation a user reads."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from ..solvers.base import Status
+from .checks import FORCE_NAME, CoordinateCheck, Verification
+
+if TYPE_CHECKING:
+    from ..design.solution import Solution
+
+
+def judge(solution: "Solution", verification: Verification) -> tuple[Status, str]:
+    """``optimal`` needs the solver's optimum *and* the dense check; otherwise say why not."""
+    if solution.status is Status.OPTIMAL:
+        if verification.balanced:
+            return Status.OPTIMAL, solution.message
+        worst = verification.worst()
+        if worst is None or verification.ratio(worst) != verification.ratio(worst):  # NaN
+            return Status.FAILED, "verification failed: the residual could not be evaluated (NaN)"
+        return Status.FAILED, (
+            f"verification failed: subsystem '{worst.subsystem}', coordinate '{worst.coordinate}'"
+            f"{_scenario_text(solution, worst.scenario)} keeps a residual of {worst.max_residual:.3g} {worst.unit} "
+            f"(ratio {verification.residual_ratio:.2g} > {verification.tolerance:.0e})"
+        )
+    if solution.status is Status.INFEASIBLE:
+        return Status.INFEASIBLE, _unmet_message(solution, verification)
+    return Status.FAILED, solution.message
+
+
+def _scenario_text(solution: "Solution", scenario: str) -> str:
+    return f" in scenario '{scenario}'" if len(solution.problem.scenarios) > 1 else ""
+
+
+def _share(verification: Verification, check: CoordinateCheck) -> str:
+    ratio = verification.ratio(check)
+    if ratio != ratio or verification.reference(check.kind) <= 0:
+        return ""
+    return f" ({100 * ratio:.3g} % of the largest unbalanced {FORCE_NAME[check.kind]})"
+
+
+def _unmet_message(solution: "Solution", verification: Verification) -> str:
+    problem = solution.problem
+    parts = [
+        f"subsystem '{c.subsystem}', coordinate '{c.coordinate}'{_scenario_text(solution, c.scenario)}: "
+        f"residual up to {c.max_residual:.3g} {c.unit}{_share(verification, c)}"
+        for c in verification.unmet()[:3]
+    ]
+    at_bounds = []
+    for slot, value in solution.values.items():
+        side = problem.variable[slot.variable].bound_side(value)
+        if side:
+            at_bounds.append(f"{slot.variable} at its {side} bound")
+    text = "balance cannot be met within the bounds: " + ("; ".join(parts) or solution.message)
+    if at_bounds:
+        text += "; at the closest design " + ", ".join(at_bounds)
+    return text
