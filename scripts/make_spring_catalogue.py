@@ -1,0 +1,264 @@
+#!/usr/bin/env python3
+"""Generate the catalogue of helical extension springs shipped with counterpoise.
+
+Every row is computed from the spring design formulas of Shigley's Mechanical
+Engineering Design, chapter 10 ("Mechanical Springs", extension springs); no
+row is taken from a vendor catalogue.  See ``docs/spring-catalogue.md`` for the
+schema, the formulas and the assumptions.
+
+Usage::
+
+    python scripts/make_spring_catalogue.py            # (re)write the CSV
+    python scripts/make_spring_catalogue.py --check    # exit 1 if the CSV is stale
+    python scripts/make_spring_catalogue.py --out other.csv
+
+The output is deterministic: a fixed design grid, a fixed iteration order and
+values written with 6 significant digits.  Part numbers are assigned in grid
+order, so they stay the same from run to run as long as the grid below is not
+changed (append new grid entries at the end of ``GRID`` to keep existing
+numbers).
+
+Standard library + numpy only.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+import math
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+DEFAULT_OUT = REPO_ROOT / "src" / "counterpoise" / "data" / "extension_springs.csv"
+
+COLUMNS = (
+    "part_number",
+    "rate_N_per_m",
+    "free_length_m",
+    "initial_tension_N",
+    "max_load_N",
+    "max_length_m",
+    "outer_diameter_m",
+    "wire_diameter_m",
+    "material",
+    "mass_kg",
+    "price_eur",
+    "rate_tolerance",
+    "initial_tension_tolerance",
+)
+
+RATE_TOLERANCE = 0.10  # +/- fraction of the nominal rate
+INITIAL_TENSION_TOLERANCE = 0.20  # +/- fraction of the nominal initial tension
+SIG_DIGITS = 6  # significant digits written to the CSV
+
+
+@dataclass(frozen=True)
+class Material:
+    name: str  # value of the ``material`` column
+    G: float  # shear modulus, Pa            (Shigley table 10-5)
+    E: float  # Young's modulus, Pa          (Shigley table 10-5)
+    A: float  # Sut = A / d**m, A in MPa*mm**m (Shigley table 10-4)
+    m: float
+    body_shear_fraction: float  # allowable body shear / Sut (Shigley table 10-7)
+    density: float  # kg/m^3
+    price_per_kg: float  # EUR/kg, illustrative only
+
+
+MUSIC_WIRE = Material(
+    name="music wire ASTM A228",
+    G=81.7e9,
+    E=200.0e9,
+    A=2211.0,
+    m=0.145,
+    body_shear_fraction=0.45,
+    density=7850.0,
+    price_per_kg=15.0,
+)
+
+STAINLESS_302 = Material(
+    name="stainless steel 302",
+    G=69.0e9,
+    E=193.0e9,
+    A=1867.0,
+    m=0.146,
+    body_shear_fraction=0.35,
+    density=7900.0,
+    price_per_kg=40.0,
+)
+
+# Design grid: (material, wire diameters in mm, spring indices C = D/d, body coil counts).
+# Wire diameters are preferred metric sizes (Shigley table A-17 style).
+GRID = (
+    (
+        MUSIC_WIRE,
+        (0.30, 0.35, 0.40, 0.45, 0.50, 0.60, 0.70, 0.80, 0.90, 1.00,
+         1.10, 1.20, 1.40, 1.60, 1.80, 2.00, 2.20, 2.50, 2.80, 3.00),
+        (5.0, 6.0, 8.0, 10.0, 12.0),
+        (6, 12, 24, 48, 96),
+    ),
+    (
+        STAINLESS_302,
+        (0.40, 0.50, 0.60, 0.80, 1.00, 1.20, 1.40, 1.60, 1.80, 2.00, 2.50, 3.00),
+        (6.0, 8.0, 10.0),
+        (10, 20),
+    ),
+)
+
+C_MIN, C_MAX = 4.0, 12.0
+
+# Illustrative price model (NOT a quotation): a fixed set-up share, a per-coil
+# forming cost (hooks counted as one coil each) and the wire material cost.
+PRICE_BASE_EUR = 0.50
+PRICE_PER_COIL_EUR = 0.02
+
+
+def ultimate_tensile_strength(mat: Material, d: np.ndarray) -> np.ndarray:
+    """Sut in Pa for wire diameter d in m (Shigley eq. 10-14, table 10-4, SI constants)."""
+    return mat.A / (d * 1e3) ** mat.m * 1e6
+
+
+def bergstrasser_factor(C: np.ndarray) -> np.ndarray:
+    """Curvature + direct-shear correction K_B = (4C + 2) / (4C - 3) (Shigley eq. 10-5)."""
+    return (4.0 * C + 2.0) / (4.0 * C - 3.0)
+
+
+def initial_stress_mid(C: np.ndarray) -> np.ndarray:
+    """Middle of the preferred band of uncorrected initial stress, Pa (Shigley eq. 10-51).
+
+    tau_i = 231 / exp(0.105 C) +/- 6.9 (4 - (C - 3) / 6.5) MPa; the band is
+    symmetric, so its middle is the first term.
+    """
+    return 231.0e6 * np.exp(-0.105 * C)
+
+
+def design_rows() -> tuple[list[dict[str, object]], int]:
+    """Return (accepted rows without part numbers, number of rejected candidates)."""
+    rows: list[dict[str, object]] = []
+    rejected = 0
+    for mat, wire_mm, indices, body_coils in GRID:
+        d_mm, C, Nb = np.meshgrid(
+            np.asarray(wire_mm, dtype=float),
+            np.asarray(indices, dtype=float),
+            np.asarray(body_coils, dtype=float),
+            indexing="ij",
+        )
+        d = d_mm.ravel() * 1e-3  # wire diameter, m
+        C = C.ravel()
+        Nb = Nb.ravel()
+        D = C * d  # mean coil diameter, m
+
+        # Active coils: body coils plus the hook contribution G/E (Shigley eq. 10-40).
+        Na = Nb + mat.G / mat.E
+        # Rate (Shigley eq. 10-9).
+        k = mat.G * d**4 / (8.0 * D**3 * Na)
+
+        # Maximum load from the allowable body shear stress (K_B corrected).
+        Sut = ultimate_tensile_strength(mat, d)
+        tau_allow = mat.body_shear_fraction * Sut
+        F_max = tau_allow * math.pi * d**3 / (8.0 * bergstrasser_factor(C) * D)
+
+        # Initial tension from the middle of the preferred initial-stress band.
+        F0 = math.pi * d**3 * initial_stress_mid(C) / (8.0 * D)
+
+        # Free length inside the hooks, two full machine hooks (Shigley eq. 10-39).
+        L0 = (Nb + 1.0) * d + 2.0 * (D - d)
+        L_max = L0 + (F_max - F0) / k
+
+        # Mass: body coils plus each hook counted as one coil of mean diameter D.
+        wire_length = math.pi * D * (Nb + 2.0)
+        mass = mat.density * math.pi * d**2 / 4.0 * wire_length
+
+        price = PRICE_BASE_EUR + PRICE_PER_COIL_EUR * (Nb + 2.0) + mat.price_per_kg * mass
+
+        for i in range(d.size):
+            values = (k[i], L0[i], F0[i], F_max[i], L_max[i], D[i] + d[i], d[i], mass[i], price[i])
+            ok = (
+                all(math.isfinite(float(v)) and v > 0 for v in values)
+                and C_MIN <= C[i] <= C_MAX
+                and F_max[i] > F0[i]
+                and L_max[i] > L0[i]
+            )
+            if not ok:
+                rejected += 1
+                continue
+            rows.append(
+                {
+                    "rate_N_per_m": k[i],
+                    "free_length_m": L0[i],
+                    "initial_tension_N": F0[i],
+                    "max_load_N": F_max[i],
+                    "max_length_m": L_max[i],
+                    "outer_diameter_m": D[i] + d[i],
+                    "wire_diameter_m": d[i],
+                    "material": mat.name,
+                    "mass_kg": mass[i],
+                    "price_eur": round(float(price[i]), 2),
+                    "rate_tolerance": RATE_TOLERANCE,
+                    "initial_tension_tolerance": INITIAL_TENSION_TOLERANCE,
+                }
+            )
+    return rows, rejected
+
+
+def _fmt(value: object) -> str:
+    if isinstance(value, str):
+        return value
+    return f"{float(value):.{SIG_DIGITS}g}"
+
+
+def render_csv() -> tuple[str, int, int]:
+    """Return (CSV text, number of items, number of rejected candidates)."""
+    rows, rejected = design_rows()
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(COLUMNS)
+    for n, row in enumerate(rows, start=1):
+        row = {"part_number": f"CP-EXT-{n:04d}", **row}
+        writer.writerow([_fmt(row[c]) if c != "price_eur" else f"{row[c]:.2f}" for c in COLUMNS])
+    return buf.getvalue(), len(rows), rejected
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=DEFAULT_OUT,
+        help="output CSV (default: src/counterpoise/data/extension_springs.csv in the repo)",
+    )
+    parser.add_argument(
+        "--check",
+        action="store_true",
+        help="do not write; exit 1 if the file at --out differs from what would be generated",
+    )
+    args = parser.parse_args(argv)
+
+    text, count, rejected = render_csv()
+
+    if args.check:
+        try:
+            current = args.out.read_text(encoding="utf-8")
+        except FileNotFoundError:
+            print(f"{args.out}: missing; run scripts/make_spring_catalogue.py", file=sys.stderr)
+            return 1
+        if current != text:
+            print(f"{args.out}: out of date; run scripts/make_spring_catalogue.py", file=sys.stderr)
+            return 1
+        print(f"{args.out}: up to date ({count} items)")
+        return 0
+
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = args.out.with_name(args.out.name + ".tmp")
+    tmp.write_text(text, encoding="utf-8", newline="")
+    tmp.replace(args.out)
+    print(f"generated {count} items ({rejected} rejected) -> {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
