@@ -10,7 +10,7 @@ from builders import pendulum, pendulum_toml
 from counterpoise.pipeline import design
 from counterpoise.errors import ProblemFileError
 from counterpoise.io.loader import load_problem_text
-from counterpoise.design import Designer
+from counterpoise.designer import Designer
 from counterpoise.formulation import Slot
 from counterpoise.solvers import Status
 

@@ -11,7 +11,7 @@ pandas, pydantic) are imported on first use, not here.
 
 Layers, each a subpackage with one job: ``model`` (typed problem) → ``io`` (files) →
 ``mechanics`` (kinematics, energy) → ``formulation`` (symbols, exact conditions) →
-``solvers`` (one backend per module) → ``design`` (the designer) → ``verify`` (dense
+``solvers`` (one backend per module) → ``designer`` → ``verify`` (dense
 check) → ``report`` (CSV) → ``studies`` (many designs) → ``cli``.
 """
 
@@ -50,14 +50,14 @@ _LAZY = {
     "load_problem_data": ("io.loader", "load_problem_data"),
     "design": ("pipeline", "design"),
     "DesignResult": ("pipeline", "DesignResult"),
-    "Designer": ("design.designer", "Designer"),
+    "Designer": ("designer.designer", "Designer"),
     "Status": ("solvers.base", "Status"),
     "verify": ("verify.check", "verify"),
     "write_reports": ("report.files", "write_reports"),
 }
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .design.designer import Designer
+    from .designer.designer import Designer
     from .io.loader import load_problem, load_problem_data, load_problem_text
     from .io.builder import ProblemBuilder, rotate, translate
     from .pipeline import DesignResult, design

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .design.designer import Designer
-from .design.quantities import QuantityValue, evaluate_quantities
-from .design.solution import Solution
+from .designer.designer import Designer
+from .designer.quantities import QuantityValue, evaluate_quantities
+from .designer.solution import Solution
 from .model.problem import Problem
 from .solvers.base import Status
 from .verify.check import verify

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from .backends import NUMPY_FUNCTIONS, Functions, casadi_functions
+from ..model.functions import NUMPY_FUNCTIONS, Functions, casadi_functions
 from .energy import Mechanics
 
 __all__ = ["NUMPY_FUNCTIONS", "Functions", "Mechanics", "casadi_functions"]

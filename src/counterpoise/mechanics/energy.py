@@ -17,7 +17,7 @@ from collections.abc import Mapping, Sequence
 from ..model import expr as ex
 from ..model.mechanism import GROUND, Point, Rotation
 from ..model.problem import Problem
-from .backends import NUMPY_FUNCTIONS, Functions
+from ..model.functions import NUMPY_FUNCTIONS, Functions
 from .kinematics import IDENTITY, Mat, Scalar, Vec, add, add_all, dot, mul, matmul, matvec, rotation_matrix, sub, unit_vector
 
 

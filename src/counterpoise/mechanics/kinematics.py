@@ -10,7 +10,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from .backends import Functions
+from ..model.functions import Functions
 
 Scalar = Any  # float | numpy array | casadi.SX
 Vec = list  # three Scalars

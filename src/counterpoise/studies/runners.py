@@ -27,7 +27,7 @@ class StudyTask:
     ipopt_options: Mapping[str, Any] = field(default_factory=dict)
 
     def designer(self) -> Any:
-        from ..design.designer import Designer
+        from ..designer.designer import Designer
 
         return Designer(self.problem, self.ipopt_options)
 

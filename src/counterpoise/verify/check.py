@@ -15,7 +15,7 @@ from .checks import PRISMATIC, REVOLUTE, CoordinateCheck, Verification
 from .residuals import configurations, residuals
 
 if TYPE_CHECKING:
-    from ..design.solution import Solution
+    from ..designer.solution import Solution
 
 
 def verify(solution: "Solution", samples: int | None = None, seed: int | None = None) -> Verification:

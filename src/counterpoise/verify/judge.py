@@ -8,7 +8,7 @@ from ..solvers.base import Status
 from .checks import FORCE_NAME, CoordinateCheck, Verification
 
 if TYPE_CHECKING:
-    from ..design.solution import Solution
+    from ..designer.solution import Solution
 
 
 def judge(solution: "Solution", verification: Verification) -> tuple[Status, str]:

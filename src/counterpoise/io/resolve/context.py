@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from ...errors import InputError, ProblemFileError, UnitError
-from ...mechanics.backends import NUMPY_FUNCTIONS
+from ...model.functions import NUMPY_FUNCTIONS
 from ...model import expr as ex
 from ...model.mechanism import GROUND, Frame, Point
 from ...model.problem import Parameter

@@ -1,4 +1,4 @@
-"""Numeric backends: the function tables that decide what the physics is computed on.
+"""Function tables of the numeric backends: the tables that decide what the physics is computed on.
 
 The same expression trees and kinematics run on floats, numpy arrays (real, or complex
 for complex-step derivatives) and CasADi SX symbols; only the table of functions

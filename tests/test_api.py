@@ -1,0 +1,110 @@
+"""The Python API: the README's example runs, and code-built problems equal file-built ones."""
+
+from __future__ import annotations
+
+import pickle
+import re
+
+import pytest
+
+from conftest import ROOT
+
+README = (ROOT / "README.md").read_text(encoding="utf-8")
+
+
+def _readme_python_blocks() -> list[str]:
+    return re.findall(r"```python\n(.*?)```", README, flags=re.S)
+
+
+def test_readme_example_runs_and_prints_the_documented_design(capsys):
+    blocks = _readme_python_blocks()
+    assert blocks, "README has no python example"
+    namespace: dict = {}
+    exec(compile(blocks[0], "README.md", "exec"), namespace)  # noqa: S102 - our own documentation
+    printed = capsys.readouterr().out
+    assert printed.startswith("optimal ")
+    values = namespace["result"].solution.values
+    m, r, w = 0.8, 0.3, 16.0
+    b = {s.variable: v for s, v in values.items()}
+    assert b["b"] == pytest.approx(1 / w**0.5, rel=1e-7)
+    assert b["M"] * b["b"] == pytest.approx(m * r, rel=1e-9)
+
+
+def test_builder_and_file_give_the_same_problem():
+    from builders import pendulum, pendulum_toml
+    from counterpoise.io.loader import load_problem_text
+
+    built = pendulum(0.8, 0.3, (0.02, 1.0), 4.0).build("same.toml")
+    read = load_problem_text(pendulum_toml(0.8, 0.3, (0.02, 1.0), 4.0), "same.toml")
+    assert built == read
+
+
+def test_builder_errors_name_the_key():
+    from builders import pendulum
+    from counterpoise.errors import ProblemFileError
+
+    b = pendulum(0.8, 0.3, (0.02, 1.0), 4.0).body("bad", frame="nowhere", mass="1 kg", com=(0, 0, 0))
+    with pytest.raises(ProblemFileError) as info:
+        b.build("built.toml")
+    assert info.value.file == "built.toml" and info.value.key == "bodies.bad.frame"
+
+
+def test_designer_pickles_as_its_description_and_rebuilds():
+    from builders import pendulum
+    from counterpoise.designer import Designer
+    from counterpoise.formulation import Slot
+
+    designer = Designer(pendulum(0.8, 0.3, (0.02, 1.0), 25.0).build())
+    clone = pickle.loads(pickle.dumps(designer))
+    assert clone is not designer and clone.backend.solver is not designer.backend.solver
+    a, b = designer.solve(), clone.solve()
+    assert all(a.values[s] == pytest.approx(b.values[s], rel=1e-10) for s in a.values)
+    assert Slot("b", None) in b.values
+
+
+def test_bounds_per_call_do_not_rebuild():
+    from builders import pendulum
+    from counterpoise.designer import Designer
+    from counterpoise.formulation import Slot
+
+    designer = Designer(pendulum(0.8, 0.3, (0.02, 1.0), 25.0).build())
+    solver = designer.backend.solver
+    narrowed = designer.solve(bounds={"b": (0.5, 0.6)})
+    assert designer.backend.solver is solver
+    assert narrowed.values[Slot("b", None)] == 0.5  # b* = 0.2 lies below: the optimum sits on the new lower bound
+    free = designer.solve()
+    assert free.values[Slot("b", None)] == pytest.approx(0.2, rel=1e-7)  # the next call has the file's bounds again
+
+
+def test_process_runner_matches_serial():
+    from builders import pendulum
+    from counterpoise.studies import ProcessRunner, SerialRunner, StudyTask, run
+
+    task = StudyTask(pendulum(0.8, 0.3, (0.02, 1.0), 25.0).build())
+    points = [{"m": m} for m in (0.5, 0.8, 1.1, 1.4)]
+    serial = run(task, points, SerialRunner(), batch_size=2)
+    pooled = run(task, points, ProcessRunner(jobs=2), batch_size=2)
+    assert [p.values for p in serial] == [p.values for p in pooled]
+    assert all(p.status == "optimal" for p in serial)
+    assert [p.values["M"] * p.values["b"] for p in serial] == pytest.approx([m * 0.3 for m in (0.5, 0.8, 1.1, 1.4)], rel=1e-9)
+
+
+def test_layers_do_not_import_upwards():
+    """model imports nothing above it; io nothing from formulation and beyond; and so on."""
+    order = ["model", "io", "mechanics", "formulation", "solvers", "designer", "verify", "pipeline", "report", "studies", "cli"]
+    src = ROOT / "src" / "counterpoise"
+    rank = {name: i for i, name in enumerate(order)}
+    offenders = []
+    for path in src.rglob("*.py"):
+        rel = path.relative_to(src)
+        layer = rel.parts[0].removesuffix(".py")
+        if layer not in rank:
+            continue
+        for match in re.finditer(r"^\s*from \.+(\w+)", path.read_text(encoding="utf-8"), flags=re.M):
+            target = match.group(1)
+            depth = len(re.match(r"^\s*from (\.+)", match.group(0)).group(1))
+            if depth == 1 and len(rel.parts) > 1:
+                continue  # a sibling inside the same layer
+            if target in rank and rank[target] > rank[layer]:
+                offenders.append(f"{rel}: imports {target}")
+    assert not offenders, offenders
