@@ -89,10 +89,28 @@ class Designer:
         if out.status is Status.OPTIMAL:
             z, message = self.polish(z, p, b), "balanced design found"
         elif out.status is Status.INFEASIBLE:
+            # IPOPT's infeasibility verdict is local (its restoration phase got stuck). The
+            # least-squares closest design settles it: when that balances, restart from it.
             closest = self.closest_design(z, p, bounds)
-            z = closest.z
-            out = _with_time(out, out.solve_time + closest.solve_time)
+            elapsed = out.solve_time + closest.solve_time
+            if self.balances(closest.z, p):
+                out = self.backend.solve(closest.z, p, b)
+                elapsed += out.solve_time
+                z, message = out.z, f"{out.solver.upper()}: {out.solver_status}"
+                if out.status is Status.OPTIMAL:
+                    z, message = self.polish(z, p, b), "balanced design found (restarted from a balanced point)"
+                elif out.status is Status.INFEASIBLE:
+                    out = SolverOutput(closest.z, Status.FAILED, out.solver_status, out.iterations, out.solve_time, out.solver)
+                    z, message = closest.z, "IPOPT declared a balanceable problem infeasible; the closest design is reported"
+            else:
+                z = closest.z
+            out = _with_time(out, elapsed)
         return self._solution(z, p, b, out, message)
+
+    def balances(self, z: np.ndarray, p: np.ndarray, tolerance: float = 1e-9) -> bool:
+        """Whether the compressed balance equalities hold at ``z`` (scaled as in the NLP)."""
+        g = np.array(self.residual_jacobian()(z, p)[0]).reshape(-1)
+        return bool(g.size == 0 or np.abs(g).max() <= tolerance)
 
     # -- helpers -------------------------------------------------------------------
     def residual_jacobian(self) -> Any:
@@ -163,7 +181,7 @@ class Designer:
         f = self.formulation
         closest = self.closest_design(z0, p, bounds)
         g, jac, _ = (np.array(v) for v in self.residual_jacobian()(closest.z, p))
-        if np.abs(g).max() > 1e-9:
+        if not self.balances(closest.z, p):
             message = "more independent balance conditions than design variables, and no design within the bounds meets them"
             out = SolverOutput(closest.z, Status.INFEASIBLE, "overdetermined", closest.iterations, closest.solve_time, closest.solver)
             return self._solution(closest.z, p, b, out, message)
