@@ -97,7 +97,30 @@ MANIFEST: dict[str, Expect] = {
     # names and literals the schema rejects
     "invalid_parameter_name.toml": Expect("parameters.r-a", "invalid name 'r-a'"),
     "unknown_rotation_axis.toml": Expect("frames.link_a.transforms.0.rotate", "expected one of 'x', 'y' or 'z', got 'w'"),
+    # numbers too large for a float (Python integers have no limit)
+    "big_integer_in_expression.toml": Expect("bodies.tip.mass", "number too large in 'm_c * 1111"),
+    "big_integer_value.toml": Expect("parameters.b_a.value", "number too large (400 digits)"),
+    # objective weights: finite, and a zero still has to have the right dimension
+    "mass_weight_inf.toml": Expect("objective.mass_weight", "must be a finite number, got 'inf'"),
+    "mass_weight_nan.toml": Expect("objective.mass_weight", "must be a finite number, got 'nan'"),
+    "inertia_weight_zero_acceleration.toml": Expect(
+        "objective.inertia_weight", "expected an inverse area (1/length^2), got an acceleration ('0 m/s^2')"
+    ),
+    # text Python would read differently from what is written
+    "expr_non_ascii_name.toml": Expect(
+        "bodies.tip.mass", "non-ASCII character '\uff4d' (U+FF4D) in '\uff4d_c': names use ASCII letters, digits and '_'"
+    ),
+    "expr_comment_hash.toml": Expect("bodies.tip.mass", "'#' is not allowed in 'm_c # * 2'"),
+    # what an error line echoes is capped (see test_error_lines_are_short)
+    "long_unit_echo.toml": Expect("parameters.r_a", "unknown unit 'mmmmmmmmmm"),
+    # finite at the initial design is not enough: the NLP samples the whole box of bounds
+    "nan_on_variable_box.toml": Expect(
+        "counter_masses.M_a.mass", "'M_a * sqrt(x - 0.5)' is not a finite number everywhere within the bounds: nan at M_a = 0 g, x = 0"
+    ),
 }
+
+#: Longest error line (after ``<file>: ``) a bad file may produce: echoed input is clipped.
+MAX_LINE = 600
 
 VALID = sorted(name for name, e in MANIFEST.items() if not e.bug)
 
@@ -166,6 +189,7 @@ def test_load_problem_names_the_key(name):
     assert expect.fragment in err.message
     assert str(err) == f"{path}: {err.key}: {err.message}"
     assert "\n" not in str(err)
+    assert len(f"{err.key}: {err.message}") <= MAX_LINE, f"{len(str(err))} characters"
 
 
 # --------------------------------------------------------------------------------------
@@ -184,6 +208,7 @@ def test_solve_rejects_with_one_line(name, tmp_path):
     lines = proc.stderr.splitlines()
     assert len(lines) == 1 and lines[0].strip(), proc.stderr
     _assert_error_line(lines[0], path, expect)
+    assert len(lines[0]) <= len(f"{path}: ") + MAX_LINE, f"{len(lines[0])} characters"
     assert list(tmp_path.iterdir()) == [], "nothing may be written for bad input"
 
 

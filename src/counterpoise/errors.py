@@ -2,10 +2,31 @@
 
 Every error a user can cause by writing a problem file is a :class:`ProblemFileError`,
 whose ``str()`` is one line: ``<file>: <key>: <message>``. The CLI prints that line and
-exits with status 2.
+exits with status 2. What a message repeats of the input is clipped (:func:`clip`), so a
+line stays short however long the offending value is.
 """
 
 from __future__ import annotations
+
+import re
+
+#: Longest piece of user input an error message repeats (longer input is cut, with '…').
+ECHO_LIMIT = 200
+#: Longest key and message of an error line.
+KEY_LIMIT = 150
+MESSAGE_LIMIT = 440
+
+_QUOTED = re.compile(r"'([^']{%d,})'" % (ECHO_LIMIT + 1))
+
+
+def clip(text: str, limit: int = ECHO_LIMIT) -> str:
+    """``text`` cut to ``limit`` characters, ending in '…' when cut."""
+    return text if len(text) <= limit else text[: limit - 1] + "…"
+
+
+def clip_quoted(message: str) -> str:
+    """Every quoted piece of input in ``message`` ('...') cut to :data:`ECHO_LIMIT`."""
+    return _QUOTED.sub(lambda m: f"'{clip(m.group(1))}'", message)
 
 
 class CounterpoiseError(Exception):
@@ -21,8 +42,9 @@ class ProblemFileError(CounterpoiseError):
 
     def __init__(self, file: str, key: str, message: str) -> None:
         self.file = file
-        self.key = key
-        self.message = " ".join(str(message).split())  # always one line
+        # always one line, and bounded: input echoed in a message is clipped
+        self.key = clip(" ".join(str(key).split()), KEY_LIMIT)
+        self.message = clip(clip_quoted(" ".join(str(message).split())), MESSAGE_LIMIT)
         super().__init__(f"{file}: {key}: {self.message}")
 
 

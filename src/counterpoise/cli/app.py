@@ -17,7 +17,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from ..errors import CounterpoiseError, ProblemFileError
+from ..errors import CounterpoiseError, ProblemFileError, clip
 
 app = typer.Typer(
     add_completion=False,
@@ -42,7 +42,7 @@ def _overrides(items: list[str] | None) -> dict[str, str]:
     for item in items or []:
         key, sep, value = item.partition("=")
         if not sep or not key.strip():
-            err_console.print(f"--set {item}: expected KEY=VALUE", markup=False)
+            err_console.print(f"--set {clip(item)}: expected KEY=VALUE", markup=False)
             raise typer.Exit(2)
         out[key.strip()] = _coerce(value.strip())
     return out

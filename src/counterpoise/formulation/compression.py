@@ -23,6 +23,8 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import SolverError
+
 #: Singular values below RANK_TOLERANCE × the largest are treated as zero.
 RANK_TOLERANCE = 1e-10
 
@@ -67,6 +69,8 @@ def compress(samples: np.ndarray, tolerance: float | None = None) -> Compression
     """Compress conditions from ``samples`` (rows: residual entries, columns: random designs)."""
     if samples.size == 0:
         return Compression(np.zeros(0, dtype=int), np.zeros((0, 0)), np.zeros(0))
+    if not np.isfinite(samples).all():  # the loader checks the box, but only on samples
+        raise SolverError("the balance residual is not a finite number at some designs within the bounds (check expressions such as sqrt or log of a variable)")
     u, s, _ = np.linalg.svd(samples, full_matrices=False)
     r = numerical_rank(s, tolerance)
     basis = u[:, :r]

@@ -17,9 +17,39 @@ from pydantic import BaseModel, BeforeValidator, ConfigDict, Discriminator, Fiel
 def _value(v: Any) -> Any:
     if isinstance(v, bool) or not isinstance(v, (str, int, float)):
         raise ValueError("expected a quantity such as '135 mm', a number or an expression")
+    if isinstance(v, int):
+        _float(v)
     if isinstance(v, float) and not math.isfinite(v):
         raise ValueError(f"value must be finite, got {v}")
     return v
+
+
+def _float(v: int) -> float:
+    """A TOML integer as a float; Python integers have no size limit, floats do."""
+    try:
+        return float(v)
+    except OverflowError:
+        raise ValueError(f"number too large ({len(str(abs(v)))} digits)") from None
+
+
+def _finite_number(v: Any) -> Any:
+    """A plain number (``mass_weight``, ``verify_tolerance``) must be finite; said before
+    any range check, which would call NaN 'not greater than 0'."""
+    if isinstance(v, bool):
+        return v  # pydantic rejects it with its own message
+    if isinstance(v, int):
+        _float(v)
+    elif isinstance(v, (str, float)):
+        try:
+            x = float(v)
+        except ValueError:
+            return v  # not a number at all: pydantic says so
+        if not math.isfinite(x):
+            raise ValueError(f"must be a finite number, got {v!r}")
+    return v
+
+
+FiniteFloat = Annotated[float, BeforeValidator(_finite_number)]
 
 
 #: A quantity literal ("135 mm"), a number, or an expression ("r_a + b_b").
@@ -41,7 +71,7 @@ class ProblemMeta(_Table):
 
 class GravitySpec(_Table):
     acceleration: Value
-    direction: tuple[float, float, float]
+    direction: tuple[FiniteFloat, FiniteFloat, FiniteFloat]
 
 
 class ParameterSpec(_Table):
@@ -124,7 +154,7 @@ class VariableSpec(_Table):
 
 
 class ObjectiveSpec(_Table):
-    mass_weight: Annotated[float, Field(ge=0)] = 1.0
+    mass_weight: Annotated[FiniteFloat, Field(ge=0)] = 1.0
     inertia_weight: Value = 0
 
 
@@ -142,9 +172,9 @@ class ScenarioSpec(_Table):
 
 class SettingsSpec(_Table):
     verify_samples: Annotated[int, Field(ge=100, le=10_000_000)] = 10_000
-    verify_tolerance: Annotated[float, Field(gt=0, lt=1)] = 1e-8
-    seed: Annotated[int, Field(ge=0)] = 20190101
-    max_iterations: Annotated[int, Field(ge=1)] = 500
+    verify_tolerance: Annotated[FiniteFloat, Field(gt=0, lt=1)] = 1e-8
+    seed: Annotated[int, Field(ge=0, lt=2**63)] = 20190101
+    max_iterations: Annotated[int, Field(ge=1, le=1_000_000)] = 500
 
 
 class ProblemFile(_Table):

@@ -90,21 +90,43 @@ def parse(text: str, functions: Iterable[str] = MATH_FUNCTIONS) -> Expr:
         raise ExpressionError(f"expression longer than {MAX_LENGTH} characters")
     if not text.strip():
         raise ExpressionError("empty expression")
+    _check_characters(text)
     try:
         tree = ast.parse(text.strip(), mode="eval")
     except SyntaxError as exc:
         raise ExpressionError(f"cannot parse '{text}': {exc.msg}") from None
+    except (ValueError, MemoryError, RecursionError) as exc:  # null bytes, absurd nesting
+        raise ExpressionError(f"cannot parse '{text}': {type(exc).__name__}") from None
     allowed = frozenset(functions)
     return _convert(tree.body, text, allowed)
+
+
+def _check_characters(text: str) -> None:
+    """Reject text that Python would read differently from what it shows.
+
+    Python folds identifiers to NFKC, so the fullwidth 'ｍ' or the script 'ℓ' would silently
+    become the names 'm' and 'l'; and everything after '#' is a comment it ignores.
+    """
+    for ch in text:
+        if not ch.isascii():
+            raise ExpressionError(
+                f"non-ASCII character '{ch}' (U+{ord(ch):04X}) in '{text}': names use ASCII letters, digits and '_'"
+            )
+    if "#" in text:
+        raise ExpressionError(f"'#' is not allowed in '{text}' (a TOML comment goes after the closing quote)")
 
 
 def _convert(node: ast.AST, text: str, functions: frozenset[str]) -> Expr:
     if isinstance(node, ast.Constant):
         if isinstance(node.value, bool) or not isinstance(node.value, (int, float)):
             raise ExpressionError(f"only numbers may appear as constants in '{text}', got {node.value!r}")
-        if not math.isfinite(node.value):
+        try:
+            value = float(node.value)
+        except OverflowError:  # a Python int has no size limit
+            raise ExpressionError(f"number too large in '{text}'") from None
+        if not math.isfinite(value):
             raise ExpressionError(f"value must be finite in '{text}'")
-        return Num(float(node.value))
+        return Num(value)
     if isinstance(node, ast.Name):
         if node.id.startswith("_"):
             raise ExpressionError(f"names starting with '_' are not allowed: '{node.id}' in '{text}'")

@@ -133,7 +133,10 @@ def parse_quantity(value: str | int | float) -> Quantity:
     if isinstance(value, bool):
         raise UnitError(f"expected a quantity, got {value!r}")
     if isinstance(value, (int, float)):
-        number = float(value)
+        try:
+            number = float(value)
+        except OverflowError:  # a Python int has no size limit
+            raise UnitError(f"number too large ({len(str(abs(value)))} digits)") from None
         unit = SI_DIMENSIONLESS
     else:
         match = _UNIT_SPLIT_RE.match(value)

@@ -7,6 +7,7 @@ Errors raised below it (units, expressions) get the file and key attached here.
 
 from __future__ import annotations
 
+import itertools
 import math
 import re
 from collections.abc import Callable, Iterable, Iterator, Mapping
@@ -40,6 +41,9 @@ from ..schema import ProblemFile
 #: a subsystem (and a frame), e.g. ``total_mass(side_left)``, ``com_distance(leg, base)``.
 REPORT_FUNCTIONS = frozenset({"total_mass", "com_distance"})
 RESERVED = frozenset(ex.MATH_FUNCTIONS | REPORT_FUNCTIONS | set(ex.CONSTANTS) | {GROUND})
+#: Random points of the box on which expressions that depend on variables or coordinates
+#: are checked for finite values (besides its corners).
+BOX_SAMPLES = 256
 AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
 
 
@@ -54,6 +58,7 @@ class Context:
         self.symbol_kind: dict[str, str] = {}  # name -> 'parameters' | 'variables' | 'coordinates' | 'report'
         self.literal_unit: dict[str, DisplayUnit] = {}  # key -> unit of a quantity literal written there
         self.variable_lower: dict[str, float] = {}
+        self.box: dict[str, tuple[float, float]] = {}  # variable or coordinate -> its range (SI)
         self.signed: list[tuple[str, ex.Expr, Any, str]] = []  # (key, tree, raw, what) of masses and stiffnesses
         self.derived_parameters: list[Parameter] = []
 
@@ -152,7 +157,35 @@ class Context:
         if value.imag != 0 or not math.isfinite(value.real):
             where = "" if ex.names(tree) <= self.parameter_names() else " at the initial design"
             raise self.fail(key, f"'{raw}' does not evaluate to a finite number{where}")
+        self.finite_everywhere(tree, raw, key)
         return value.real
+
+    def finite_everywhere(self, tree: ex.Expr, raw: Any, key: str) -> None:
+        """The value must also be finite over the whole box of the variables' bounds and the
+        coordinates' ranges it depends on: the NLP samples random designs and configurations
+        in that box. Checked on every corner (up to 2^10) and :data:`BOX_SAMPLES` seeded
+        random points; the first point where it is not finite is named."""
+        moving = sorted(n for n in ex.names(tree) if n in self.box)
+        if not moving or isinstance(tree, ex.Name):
+            return
+        lo = np.array([self.box[n][0] for n in moving])
+        hi = np.array([self.box[n][1] for n in moving])
+        points = [lo + (hi - lo) * np.random.default_rng(0).random((BOX_SAMPLES, len(moving)))]
+        if len(moving) <= 10:
+            points.insert(0, np.array(list(itertools.product(*zip(lo, hi))), dtype=float))
+        q = np.vstack(points)
+        env: dict[str, Any] = {n: v for n, v in self.symbol_value.items() if self.symbol_kind.get(n) in ("parameters", "variables", "coordinates")}
+        env.update({n: q[:, i] for i, n in enumerate(moving)})
+        with np.errstate(all="ignore"):
+            try:
+                values = np.broadcast_to(np.asarray(ex.evaluate(tree, env, numpy_functions()), dtype=float), (len(q),))
+            except (ArithmeticError, ValueError, TypeError):
+                values = np.full(len(q), np.nan)
+        bad = np.flatnonzero(~np.isfinite(values))
+        if bad.size:
+            i = int(bad[0])
+            at = ", ".join(f"{n} = {_shown(q[i, j], self.symbol_unit[n])}" for j, n in enumerate(moving))
+            raise self.fail(key, f"'{raw}' is not a finite number everywhere within the bounds: {values[i]} at {at}")
 
     def parameter_names(self) -> set[str]:
         return {n for n, k in self.symbol_kind.items() if k == "parameters"}
@@ -211,6 +244,12 @@ class Context:
 
     def subsystem_of(self, frame: str, frames: Mapping[str, Frame]) -> str | None:
         return None if frame == GROUND else frames[frame].subsystem
+
+
+def _shown(si: float, unit: DisplayUnit) -> str:
+    """An SI value in its display unit, for a message: '250 g', '0.25'."""
+    text = f"{unit.from_si(si):.4g}"
+    return f"{text} {unit.symbol}" if unit.symbol else text
 
 
 def numpy_functions() -> dict[str, Callable[..., Any]]:

@@ -38,6 +38,7 @@ def subsystems(ctx: Context) -> tuple[tuple[Subsystem, ...], tuple[Coordinate, .
                 raise ctx.fail(f"{key}.home", "home lies outside the range")
             ctx.symbol_unit[cname] = lo.unit
             ctx.symbol_value[cname] = home
+            ctx.box[cname] = (lo.si, hi.si)
             coords.append(Coordinate(cname, sname, lo.si, hi.si, home, lo.unit, c.description))
         subs.append(Subsystem(sname, tuple(sub.coordinates), sub.description))
     return tuple(subs), tuple(coords)

@@ -84,6 +84,7 @@ def variables(ctx: Context) -> tuple[Variable, ...]:
         ctx.symbol_unit[name] = unit
         ctx.symbol_value[name] = init
         ctx.variable_lower[name] = lower.si
+        ctx.box[name] = (lower.si, upper.si)
         out.append(Variable(name, lower.si, upper.si, init, unit, v.adjustable, v.description))
     return tuple(out)
 
@@ -153,7 +154,7 @@ def objective(ctx: Context) -> Objective:
     o = ctx.spec.objective
     key = "objective.inertia_weight"
     w = ctx.literal(o.inertia_weight, key)
-    if w.si != 0:
+    if w.si != 0 or w.unit.symbol:  # only a bare 0 fits any dimension; '0 kg' is a mass
         with ctx.at(key):
             check_dimension(w.dimension, INVERSE_AREA, f"'{o.inertia_weight}'")
     if w.si < 0:
