@@ -48,6 +48,7 @@ MANIFEST: dict[str, Expect] = {
     "toml_syntax_error.toml": Expect("line 17", "TOML syntax error: Unclosed inline table"),
     "toml_duplicate_table.toml": Expect("line 53", "TOML syntax error: Cannot declare ('variables', 'M_a') twice"),
     "not_utf8.toml": Expect("file", "not UTF-8 text"),
+    "toml_nested_too_deeply.toml": Expect("toml", "TOML syntax error: arrays or tables nested too deeply"),
     # shape (schema)
     "missing_gravity_section.toml": Expect("gravity", "missing required key"),
     "unknown_key_typo_descripton.toml": Expect("parameters.r_a.descripton", "unknown key"),

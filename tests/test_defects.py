@@ -111,6 +111,15 @@ def test_nan_on_the_coordinate_box_is_rejected():
     assert "is not a finite number everywhere within the bounds: nan at q = -180 deg" in info.value.message
 
 
+def test_derived_parameter_may_use_pi():
+    """Found by the loader fuzz: ``pi`` in a derived parameter raised KeyError."""
+    text = pendulum_toml(0.8, 0.3, (0.02, 1.0), 0.0).replace('r = "0.3 m"', 'r0 = "0.3 m"\nr = "r0 * pi / pi"')
+    result = design(load_problem_text(text))
+    assert result.status is Status.OPTIMAL, result.message
+    M, b = result.solution.values[Slot("M", None)], result.solution.values[Slot("b", None)]
+    assert M * b == pytest.approx(0.8 * 0.3, rel=1e-9)  # m r = M b with r = 0.3 m
+
+
 # --------------------------------------------------------------------------------------
 # Report fields
 # --------------------------------------------------------------------------------------

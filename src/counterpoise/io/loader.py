@@ -54,6 +54,8 @@ def load_problem_text(text: str, label: str = "<string>", overrides: Mapping[str
         line = re.search(r"line (\d+)", msg)
         key = f"line {line.group(1)}" if line else "toml"
         raise ProblemFileError(label, key, f"TOML syntax error: {re.sub(r' ?[(]at line.*', '', msg)}") from None
+    except RecursionError:  # tomllib parses nested arrays and tables recursively
+        raise ProblemFileError(label, "toml", "TOML syntax error: arrays or tables nested too deeply") from None
     return load_problem_data(raw, label, overrides)
 
 
@@ -61,7 +63,10 @@ def load_problem_data(data: Mapping[str, Any], label: str = "<data>", overrides:
     """As :func:`load_problem`, from already parsed data (nested dicts, as TOML gives them)."""
     import copy
 
-    raw = copy.deepcopy(dict(data))
+    try:
+        raw = copy.deepcopy(dict(data))
+    except RecursionError:
+        raise ProblemFileError(label, "file", "arrays or tables nested too deeply") from None
     for key, value in (overrides or {}).items():
         _apply_override(raw, key, value, label)
     from pydantic import ValidationError

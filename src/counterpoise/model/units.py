@@ -105,8 +105,15 @@ def display_unit(symbol: str) -> DisplayUnit:
         unit = reg.Quantity(1.0, symbol)
     except Exception as exc:  # pint raises several unrelated types for bad units
         raise UnitError(f"unknown unit '{symbol}'") from exc
-    base = unit.to_base_units()
-    return DisplayUnit(symbol, float(base.magnitude), dimensionality_of(base))
+    try:
+        base = unit.to_base_units()
+        to_si = float(base.magnitude)
+        dimension = dimensionality_of(base)
+    except Exception as exc:  # absurd powers such as 'm**9999' overflow inside pint
+        raise UnitError(f"cannot use unit '{symbol}': {type(exc).__name__}") from exc
+    if not (math.isfinite(to_si) and to_si > 0):
+        raise UnitError(f"cannot use unit '{symbol}': its size in SI units is {to_si}")
+    return DisplayUnit(symbol, to_si, dimension)
 
 
 @dataclass(frozen=True)

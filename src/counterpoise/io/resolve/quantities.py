@@ -49,7 +49,7 @@ def parameters(ctx: Context) -> tuple[Parameter, ...]:
     for name in order:
         key = f"parameters.{name}"
         tree = derived[name]
-        env = {n: pint_quantity(ctx.symbol_value[n], ctx.symbol_unit[n]) for n in ex.names(tree)}
+        env = {n: pint_quantity(ctx.symbol_value[n], ctx.symbol_unit[n]) for n in ex.names(tree) if n in ctx.symbol_value}  # not pi
         with ctx.at(key):
             value = evaluate_checked(tree, env, numpy_functions(), raw_values[name])
         value = value if isinstance(value, ureg().Quantity) else ureg().Quantity(value, "")
