@@ -107,6 +107,26 @@ def test_random_planar_chains_balance(chain):
     assert result.verification.residual_ratio <= 1e-9
 
 
+def test_closest_design_escapes_a_bilinear_trap():
+    """Found by the random chains under --hypothesis-seed=12: a spring on a base tilted by
+    0.75 deg can carry link 0 only if the counter-mass M0 tilts the link's moment by the
+    same angle, M0 y0 ≈ tan(0.75°) × its first moment, with y0 < 0. IPOPT declared the
+    problem infeasible, and least squares from its point stopped at M0 = 0 with y0 > 0
+    (there y0 does not matter and more M0 makes it worse). The no-spring design (M_i =
+    ``required_masses``, y_i = 0, k = 0) proves it balanceable; the multi-start closest
+    design with Gauss-Newton refinement finds a balanced point and the restart is optimal."""
+    links = [
+        Link(0.5, 1.0, (0.5, 0.0), 0.078125, free_offset=True),
+        Link(0.5, 1.0, (0.5, 0.0), 0.25, free_offset=True),
+        Link(0.125, 1.0, (0.25, 0.0), 0.25, free_offset=True),
+        Link(0.5, 0.5, (0.25, 0.0), 0.25, free_offset=True),
+    ]
+    chain = Chain(links, base_angle=0.75, spring_on_first=0.125, inertia_weight=1.0)
+    result = design(chain.problem())
+    assert result.status is Status.OPTIMAL, result.message
+    assert result.verification.residual_ratio <= 1e-9
+
+
 def test_backends_agree():
     """The same energy code on numpy floats and on CasADi symbols gives the same numbers."""
     import casadi as ca

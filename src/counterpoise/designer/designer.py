@@ -27,6 +27,10 @@ from .solution import Solution
 
 BoundsOverride = Mapping["Slot | str", tuple[float, float]]
 
+#: Seeded random starts of the closest-design search after the given ones (see
+#: :meth:`Designer.closest_design_multistart`); only an infeasible-looking solve pays for them.
+CLOSEST_RANDOM_STARTS = 4
+
 
 class Designer:
     """Builds the solver for a problem once; :meth:`solve` may be called many times."""
@@ -91,7 +95,7 @@ class Designer:
         elif out.status is Status.INFEASIBLE:
             # IPOPT's infeasibility verdict is local (its restoration phase got stuck). The
             # least-squares closest design settles it: when that balances, restart from it.
-            closest = self.closest_design(z, p, bounds)
+            closest = self.closest_design_multistart([z, z0], p, b, bounds)
             elapsed = out.solve_time + closest.solve_time
             if self.balances(closest.z, p):
                 out = self.backend.solve(closest.z, p, b)
@@ -166,7 +170,55 @@ class Designer:
             nlp = {"x": f.z, "p": f.p, "f": 0.5 * ca.sumsqr(self.conditions.equalities), "g": f.nonnegative}
             self._feasibility = IpoptBackend(nlp, {**self.options, "tol": 1e-14, "acceptable_tol": 1e-12}, "closest")
         b = self.bounds(0, bounds)
-        return self._feasibility.solve(np.clip(z0, b.lbz, b.ubz), p, b)
+        out = self._feasibility.solve(np.clip(z0, b.lbz, b.ubz), p, b)
+        z = self.refine(out.z, p, b)
+        return SolverOutput(z, out.status, out.solver_status, out.iterations, out.solve_time, out.solver)
+
+    def closest_design_multistart(
+        self, starts: list[np.ndarray], p: np.ndarray, b: Bounds, bounds: BoundsOverride | None = None
+    ) -> SolverOutput:
+        """:meth:`closest_design` from each of ``starts``, then from :data:`CLOSEST_RANDOM_STARTS`
+        seeded random designs in the box, until one balances; else the one closest to balance.
+
+        Least squares on bilinear conditions (a mass times its offset) has local minima: a
+        counter-mass at its lower bound with its offset on the wrong side is one, where the
+        offset no longer matters and more mass only makes it worse. Other starts escape it.
+        """
+        rng = np.random.default_rng(self.problem.settings.seed)
+        randoms = [b.lbz + (b.ubz - b.lbz) * rng.random(len(b.lbz)) for _ in range(CLOSEST_RANDOM_STARTS)]
+        tried: list[tuple[float, int, SolverOutput]] = []
+        elapsed = 0.0
+        for i, z0 in enumerate([*starts, *randoms]):
+            out = self.closest_design(z0, p, bounds)
+            elapsed += out.solve_time
+            g = np.array(self.residual_jacobian()(out.z, p)[0]).reshape(-1)
+            tried.append((float(np.abs(g).max(initial=0.0)), i, out))
+            if self.balances(out.z, p):
+                break
+        return _with_time(min(tried)[2], elapsed)
+
+    def refine(self, z: np.ndarray, p: np.ndarray, b: Bounds, iterations: int = 8) -> np.ndarray:
+        """Gauss-Newton steps on the balance equalities from ``z``, within the bounds.
+
+        Least squares on ½|g|² stops near |g| ~ 1e-8 (squaring loses half the digits), just
+        short of :meth:`balances`; a few Newton steps on g itself finish the job when a
+        balanced design is that near. Kept only while |g| decreases and signs stay ≥ 0.
+        """
+        gj = self.residual_jacobian()
+        g, jac, _ = (np.array(v) for v in gj(z, p))
+        best, best_norm = z, float(np.abs(g).max(initial=0.0))
+        candidate = z.copy()
+        for _ in range(iterations):
+            if best_norm <= 1e-15 or g.size == 0:
+                break
+            step, *_ = np.linalg.lstsq(jac, -g.reshape(-1), rcond=None)
+            candidate = np.clip(candidate + step, b.lbz, b.ubz)
+            g, jac, signs = (np.array(v) for v in gj(candidate, p))
+            norm = float(np.abs(g).max(initial=0.0))
+            if not (norm < best_norm and (signs.size == 0 or signs.min() >= 0)):
+                break
+            best, best_norm = candidate.copy(), norm
+        return best
 
     def _overdetermined(self, z0: np.ndarray, p: np.ndarray, b: Bounds, bounds: BoundsOverride | None) -> Solution:
         """More independent conditions than variables: balance only at special designs.
@@ -179,7 +231,7 @@ class Designer:
         import casadi as ca
 
         f = self.formulation
-        closest = self.closest_design(z0, p, bounds)
+        closest = self.closest_design_multistart([z0], p, b, bounds)
         g, jac, _ = (np.array(v) for v in self.residual_jacobian()(closest.z, p))
         if not self.balances(closest.z, p):
             message = "more independent balance conditions than design variables, and no design within the bounds meets them"
