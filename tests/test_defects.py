@@ -120,6 +120,17 @@ def test_derived_parameter_may_use_pi():
     assert M * b == pytest.approx(0.8 * 0.3, rel=1e-9)  # m r = M b with r = 0.3 m
 
 
+def test_fixed_variable_gives_no_stray_warning(tmp_path):
+    """Found by fuzzing whole designs: a variable with equal bounds (here M = 0, so the
+    pendulum cannot be balanced) made CasADi print 'NLP is overconstrained' on stderr."""
+    path = tmp_path / "fixed.toml"
+    path.write_text(pendulum_toml(0.8, 0.3, (0.3, 0.3), 0.0).replace('upper = "100.0 kg"', 'upper = "0 kg"'))
+    proc = _cli("solve", str(path), "--out", str(tmp_path / "out"), cwd=tmp_path)
+    assert proc.returncode == 1
+    assert proc.stderr == ""
+    assert "balance cannot be met within the bounds" in (tmp_path / "out" / "pendulum" / "status.txt").read_text()
+
+
 # --------------------------------------------------------------------------------------
 # Report fields
 # --------------------------------------------------------------------------------------

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import contextlib
+import io
+import sys
 import time
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from typing import Any
 
 import numpy as np
@@ -33,6 +36,24 @@ STATUS_MAP: Mapping[str, Status] = {
 }
 
 
+#: CasADi warnings (written to Python's stderr) that say nothing to a user: a variable whose
+#: bounds are equal counts as an equality, so a fixed variable plus a square system of
+#: balance conditions "overconstrains" the NLP although IPOPT simply removes it.
+BENIGN_WARNINGS = ("NLP is overconstrained",)
+
+
+@contextlib.contextmanager
+def _quiet_benign_warnings() -> Iterator[None]:
+    buffer = io.StringIO()
+    try:
+        with contextlib.redirect_stderr(buffer):
+            yield
+    finally:
+        for line in buffer.getvalue().splitlines(keepends=True):
+            if not any(w in line for w in BENIGN_WARNINGS):
+                sys.stderr.write(line)
+
+
 def map_status(return_status: str) -> Status:
     """The project's status for an IPOPT return code (anything unlisted is a failure)."""
     return STATUS_MAP.get(return_status, Status.FAILED)
@@ -51,7 +72,8 @@ class IpoptBackend:
 
     def solve(self, z0: np.ndarray, p: np.ndarray, bounds: Bounds) -> SolverOutput:
         t0 = time.perf_counter()
-        out = self.solver(x0=z0, p=p, lbx=bounds.lbz, ubx=bounds.ubz, lbg=bounds.lbg, ubg=bounds.ubg)
+        with _quiet_benign_warnings():
+            out = self.solver(x0=z0, p=p, lbx=bounds.lbz, ubx=bounds.ubz, lbg=bounds.lbg, ubg=bounds.ubg)
         elapsed = time.perf_counter() - t0
         stats = self.solver.stats()
         code = str(stats.get("return_status", "unknown"))
