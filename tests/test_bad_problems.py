@@ -101,6 +101,8 @@ MANIFEST: dict[str, Expect] = {
     # numbers too large for a float (Python integers have no limit)
     "big_integer_in_expression.toml": Expect("bodies.tip.mass", "number too large in 'm_c * 1111"),
     "big_integer_value.toml": Expect("parameters.b_a.value", "number too large (400 digits)"),
+    "variable_span_overflows.toml": Expect("variables.M_b", "the bounds -1e308 kg and 1e308 kg are too far apart (their difference overflows)"),
+    "bound_overflows_in_si.toml": Expect("variables.M_a.upper", "value must be finite, got '1e308 t' (too large once converted to SI units)"),
     # objective weights: finite, and a zero still has to have the right dimension
     "mass_weight_inf.toml": Expect("objective.mass_weight", "must be a finite number, got 'inf'"),
     "mass_weight_nan.toml": Expect("objective.mass_weight", "must be a finite number, got 'nan'"),

@@ -153,7 +153,10 @@ def parse_quantity(value: str | int | float) -> Quantity:
         unit = display_unit(match.group(2)) if match.group(2) else SI_DIMENSIONLESS
     if not math.isfinite(number):
         raise UnitError(f"value must be finite, got {value!r}")
-    return Quantity(number * unit.to_si, unit)
+    si = number * unit.to_si
+    if not math.isfinite(si):
+        raise UnitError(f"value must be finite, got {value!r} (too large once converted to SI units)")
+    return Quantity(si, unit)
 
 
 def check_dimension(actual: str, expected: str, what: str) -> None:

@@ -78,6 +78,8 @@ def variables(ctx: Context) -> tuple[Variable, ...]:
                 raise ctx.fail(f"{key}.{part}", f"expected {dimension_name(unit.dimension)} like unit '{unit.label}', got {dimension_name(q.dimension)}")
         if lower.si > upper.si:
             raise ctx.fail(key, f"lower bound {v.lower} is greater than upper bound {v.upper}")
+        if not math.isfinite(upper.si - lower.si):
+            raise ctx.fail(key, f"the bounds {v.lower} and {v.upper} are too far apart (their difference overflows)")
         init = initial.si if initial is not None else 0.5 * (lower.si + upper.si)
         if not lower.si <= init <= upper.si:
             raise ctx.fail(f"{key}.initial", f"initial value {v.initial} lies outside [{v.lower}, {v.upper}]")
