@@ -36,21 +36,23 @@ STATUS_MAP: Mapping[str, Status] = {
 }
 
 
-#: CasADi warnings (written to Python's stderr) that say nothing to a user: a variable whose
-#: bounds are equal counts as an equality, so a fixed variable plus a square system of
-#: balance conditions "overconstrains" the NLP although IPOPT simply removes it.
-BENIGN_WARNINGS = ("NLP is overconstrained",)
+#: CasADi warnings (written to Python's stderr) that would be stray lines for a user: a
+#: variable whose bounds are equal counts as an equality, so a fixed variable plus a square
+#: system of balance conditions "overconstrains" the NLP although IPOPT simply removes it;
+#: an inf or NaN in an evaluation ends as IPOPT's Invalid_Number_Detected, which the
+#: design's status and message already report.
+QUIET_WARNINGS = ("NLP is overconstrained", "Inf detected for output", "NaN detected for output")
 
 
 @contextlib.contextmanager
-def _quiet_benign_warnings() -> Iterator[None]:
+def _quiet_warnings() -> Iterator[None]:
     buffer = io.StringIO()
     try:
         with contextlib.redirect_stderr(buffer):
             yield
     finally:
         for line in buffer.getvalue().splitlines(keepends=True):
-            if not any(w in line for w in BENIGN_WARNINGS):
+            if not any(w in line for w in QUIET_WARNINGS):
                 sys.stderr.write(line)
 
 
@@ -72,7 +74,7 @@ class IpoptBackend:
 
     def solve(self, z0: np.ndarray, p: np.ndarray, bounds: Bounds) -> SolverOutput:
         t0 = time.perf_counter()
-        with _quiet_benign_warnings():
+        with _quiet_warnings():
             out = self.solver(x0=z0, p=p, lbx=bounds.lbz, ubx=bounds.ubz, lbg=bounds.lbg, ubg=bounds.ubg)
         elapsed = time.perf_counter() - t0
         stats = self.solver.stats()
