@@ -232,14 +232,16 @@ def test_slider_infeasibility_speaks_of_force_in_newtons(tmp_path):
 def test_small_value_with_a_huge_span_is_not_at_a_bound():
     """m r = M b: 0.05 kg at 0.2 m balanced at b = 0.2 m needs M = 0.05 kg. With M in
     [0, 50 t] that is far from its lower bound (1e-6 of the span), so ``active_bound`` is
-    empty."""
+    empty. b sits on its upper bound, although IPOPT stops 1.1e-7 of the span inside it
+    here (the scales of M and b differ by 2.5e5): the polish puts it there."""
     result = design(pendulum(0.05, 0.2, (0.02, 0.2), 0.0, mass_upper=50_000.0).build())
     assert result.status is Status.OPTIMAL, result.message
     assert result.solution.values[Slot("M", None)] == pytest.approx(0.05, rel=1e-6)
     from counterpoise.report.rows import design_rows
 
     sides = {r["name"]: r["active_bound"] for r in design_rows(result)}
-    assert sides["M"] == ""
+    assert sides == {"M": "", "b": "upper"}
+    assert result.solution.values[Slot("b", None)] == 0.2
 
 
 # --------------------------------------------------------------------------------------

@@ -30,6 +30,10 @@ BoundsOverride = Mapping["Slot | str", tuple[float, float]]
 #: Seeded random starts of the closest-design search after the given ones (see
 #: :meth:`Designer.closest_design_multistart`); only an infeasible-looking solve pays for them.
 CLOSEST_RANDOM_STARTS = 4
+#: Variables this close to a bound (× span) are tried on it, one at a time, and kept there
+#: when that is no worse (see :meth:`Designer.polish`); within BOUND_TOLERANCE × span they
+#: are put on it as long as the balance holds.
+SNAP_BAND = 1e-5
 
 
 class Designer:
@@ -135,16 +139,41 @@ class Designer:
         reports use) is moved onto it and the balance equalities are re-solved for the
         other variables (Gauss-Newton). The polished point is kept only if it balances at
         least as well and respects the sign constraints; otherwise the solver's point stands.
+
+        When the variables' scales differ widely, IPOPT can stop farther inside an active
+        bound (1.1e-7 of the span for a lever whose counter-mass may reach 50 t). So each
+        variable within :data:`SNAP_BAND` × span is then tried on its bound, one at a time,
+        and kept there only if the objective does not get worse: a design exactly on the
+        bound and no worse is the better report.
         """
         lo, hi = bounds.lbz, bounds.ubz
         band = BOUND_TOLERANCE * (hi - lo)
         at_lo = (z - lo <= band) & (hi > lo)
-        at_hi = (hi - z <= band) & (hi > lo) & ~at_lo
+        z = self._snap(z, p, bounds, at_lo, (hi - z <= band) & (hi > lo) & ~at_lo, iterations, None)
+        near = SNAP_BAND * (hi - lo)
+        tries = [(min(z[i] - lo[i], hi[i] - z[i]) / (hi[i] - lo[i]), i) for i in range(len(z)) if hi[i] > lo[i] and lo[i] < z[i] < hi[i]]
+        for _, i in sorted(t for t in tries if t[0] * (hi[t[1]] - lo[t[1]]) <= near[t[1]]):
+            on_lo, on_hi = (z == lo) & (hi > lo), (z == hi) & (hi > lo)
+            if z[i] - lo[i] <= hi[i] - z[i]:
+                on_lo[i] = True
+            else:
+                on_hi[i] = True
+            f0 = float(self.formulation.report_function(z, p)[0])
+            z = self._snap(z, p, bounds, on_lo, on_hi, iterations, f0 + 1e-12 * max(1.0, abs(f0)))
+        return z
+
+    def _snap(
+        self, z: np.ndarray, p: np.ndarray, bounds: Bounds, at_lo: np.ndarray, at_hi: np.ndarray, iterations: int, objective_limit: float | None
+    ) -> np.ndarray:
+        """``z`` with the variables ``at_lo``/``at_hi`` on those bounds and the others
+        re-solved (see :meth:`polish`); or ``z`` itself if that balances worse, breaks a sign
+        constraint or makes the objective exceed ``objective_limit``."""
+        lo, hi = bounds.lbz, bounds.ubz
         active = at_lo | at_hi
-        if not active.any():
+        candidate = np.where(at_lo, lo, np.where(at_hi, hi, z))
+        if not active.any() or np.array_equal(candidate, z):
             return z
         gj = self.residual_jacobian()
-        candidate = np.where(at_lo, lo, np.where(at_hi, hi, z))
         free = ~active
         for _ in range(iterations):
             g, jac, _ = (np.array(v) for v in gj(candidate, p))
@@ -157,9 +186,11 @@ class Designer:
         g_old = np.array(gj(z, p)[0]).reshape(-1)
         worst_new = np.abs(g_new).max(initial=0.0)
         worst_old = np.abs(g_old).max(initial=0.0)
-        if worst_new <= max(worst_old, 1e-14) and (signs.size == 0 or signs.min() >= 0):
-            return candidate
-        return z
+        if not (worst_new <= max(worst_old, 1e-14) and (signs.size == 0 or signs.min() >= 0)):
+            return z
+        if objective_limit is not None and not float(self.formulation.report_function(candidate, p)[0]) <= objective_limit:
+            return z
+        return candidate
 
     def closest_design(self, z0: np.ndarray, p: np.ndarray, bounds: BoundsOverride | None = None) -> SolverOutput:
         """The design within the bounds that comes closest to balance (least squares)."""
