@@ -183,17 +183,28 @@ class SubsystemResiduals:
         self.cache = cache and size <= CACHE_BYTES
 
     # -- complex step --------------------------------------------------------------
-    def _columns(self, elements: Sequence[_Element], variables: Mapping[str, float], rows: slice, unit_factor: bool) -> list[np.ndarray]:
-        """∂(energy)/∂q of each element at the configurations ``rows``: one (n, n_q) array each."""
-        q = self.q[rows]
+    def _columns(
+        self,
+        elements: Sequence[_Element],
+        variables: Mapping[str, float],
+        rows: slice,
+        unit_factor: bool,
+        columns: Sequence[int] | None = None,
+        dtype: Any = np.float64,
+    ) -> list[np.ndarray]:
+        """∂(energy)/∂q of each element at the configurations ``rows``: one (n, n_q) array
+        each (only ``columns`` are computed when given; the others stay 0)."""
+        q = self.q[rows].astype(dtype)
         n, n_q = q.shape
-        out = [np.zeros((n, n_q)) for _ in elements]
+        out = [np.zeros((n, n_q), dtype=dtype) for _ in elements]
         if not elements:
             return out
         real = {name: q[:, i] for i, name in enumerate(self.names)}
         functions, rotations = _Functions(), {}  # shared by the perturbations of this chunk
         still = Mechanics(self.problem, self.base, variables, real, self.gravity, functions, rotations=rotations)
         for j, name in enumerate(self.names):
+            if columns is not None and j not in columns:
+                continue
             moving = [(k, e) for k, e in enumerate(elements) if name in e.moves_with]
             if not moving:
                 continue
