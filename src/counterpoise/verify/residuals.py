@@ -188,23 +188,19 @@ class SubsystemResiduals:
         elements: Sequence[_Element],
         variables: Mapping[str, float],
         rows: slice,
-        unit_factor: bool,
-        columns: Sequence[int] | None = None,
-        dtype: Any = np.float64,
+        unit_factor: Sequence[bool],
     ) -> list[np.ndarray]:
-        """∂(energy)/∂q of each element at the configurations ``rows``: one (n, n_q) array
-        each (only ``columns`` are computed when given; the others stay 0)."""
-        q = self.q[rows].astype(dtype)
+        """∂(energy)/∂q of each element (per unit factor where ``unit_factor``) at the
+        configurations ``rows``: one (n, n_q) array each."""
+        q = self.q[rows]
         n, n_q = q.shape
-        out = [np.zeros((n, n_q), dtype=dtype) for _ in elements]
+        out = [np.zeros((n, n_q)) for _ in elements]
         if not elements:
             return out
         real = {name: q[:, i] for i, name in enumerate(self.names)}
         functions, rotations = _Functions(), {}  # shared by the perturbations of this chunk
         still = Mechanics(self.problem, self.base, variables, real, self.gravity, functions, rotations=rotations)
         for j, name in enumerate(self.names):
-            if columns is not None and j not in columns:
-                continue
             moving = [(k, e) for k, e in enumerate(elements) if name in e.moves_with]
             if not moving:
                 continue
@@ -213,7 +209,7 @@ class SubsystemResiduals:
             known = {f: still.pose(f) for f in self.used_frames if name not in self.frames[f]}
             mech = Mechanics(self.problem, self.base, variables, coords, self.gravity, functions, poses=known, rotations=rotations)
             for k, e in moving:
-                energy = e.energy(mech, unit_factor)
+                energy = e.energy(mech, unit_factor[k])
                 if np.iscomplexobj(energy):
                     out[k][:, j] = np.imag(np.broadcast_to(energy, (n,))) / STEP
         return out
@@ -224,9 +220,10 @@ class SubsystemResiduals:
         # the design's variables do not enter these arrays: any value will do
         variables = {v.name: v.initial for v in self.problem.variables}
         bodies, balancers = np.zeros((n, n_q)), np.zeros((n, n_q))
-        for e, column in zip(self.constant, self._columns(self.constant, variables, rows, unit_factor=False)):
+        columns = self._columns([*self.constant, *self.separable], variables, rows, [False] * len(self.constant) + [True] * len(self.separable))
+        for e, column in zip(self.constant, columns):
             (bodies if e.is_body else balancers).__iadd__(column)
-        return bodies, balancers, self._columns(self.separable, variables, rows, unit_factor=True)
+        return bodies, balancers, columns[len(self.constant) :]
 
     def _arrays_of(self, index: int, rows: slice) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
         if not self.cache:
@@ -247,7 +244,7 @@ class SubsystemResiduals:
             r = balancers.copy()
             for e, factor, array in zip(self.separable, factors, separable):
                 (t if e.is_body else r).__iadd__(factor * array)
-            for e, column in zip(self.per_design, self._columns(self.per_design, variables, rows, unit_factor=False)):
+            for e, column in zip(self.per_design, self._columns(self.per_design, variables, rows, [False] * len(self.per_design))):
                 (t if e.is_body else r).__iadd__(column)
             torque[rows] = t
             residual[rows] = r + t
