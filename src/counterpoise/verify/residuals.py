@@ -33,7 +33,7 @@ from ..model.problem import Problem
 STEP = 1e-30  # complex step; any tiny value works, there is no subtractive cancellation
 MAX_CORNERS = 4096
 #: configurations evaluated at once (one coordinate perturbed at a time)
-CHUNK_CONFIGURATIONS = 8192
+CHUNK_CONFIGURATIONS = 4096
 #: the per-element arrays of one subsystem are kept between designs up to this size
 CACHE_BYTES = 96 * 2**20
 
@@ -189,12 +189,13 @@ class SubsystemResiduals:
         variables: Mapping[str, float],
         rows: slice,
         unit_factor: Sequence[bool],
+        slots: Sequence[int],
     ) -> list[np.ndarray]:
         """∂(energy)/∂q of each element (per unit factor where ``unit_factor``) at the
-        configurations ``rows``: one (n, n_q) array each."""
+        configurations ``rows``, added into (n, n_q) array number ``slots[k]`` of element k."""
         q = self.q[rows]
         n, n_q = q.shape
-        out = [np.zeros((n, n_q)) for _ in elements]
+        out = [np.zeros((n, n_q)) for _ in range(max(slots, default=-1) + 1)]
         if not elements:
             return out
         real = {name: q[:, i] for i, name in enumerate(self.names)}
@@ -211,7 +212,7 @@ class SubsystemResiduals:
             for k, e in moving:
                 energy = e.energy(mech, unit_factor[k])
                 if np.iscomplexobj(energy):
-                    out[k][:, j] = np.imag(np.broadcast_to(energy, (n,))) / STEP
+                    out[slots[k]][:, j] += np.imag(energy) / STEP
         return out
 
     def _fixed_arrays(self, rows: slice) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
@@ -219,11 +220,11 @@ class SubsystemResiduals:
         n, n_q = self.q[rows].shape
         # the design's variables do not enter these arrays: any value will do
         variables = {v.name: v.initial for v in self.problem.variables}
-        bodies, balancers = np.zeros((n, n_q)), np.zeros((n, n_q))
-        columns = self._columns([*self.constant, *self.separable], variables, rows, [False] * len(self.constant) + [True] * len(self.separable))
-        for e, column in zip(self.constant, columns):
-            (bodies if e.is_body else balancers).__iadd__(column)
-        return bodies, balancers, columns[len(self.constant) :]
+        elements = [*self.constant, *self.separable]
+        slots = [0 if e.is_body else 1 for e in self.constant] + list(range(2, 2 + len(self.separable)))
+        columns = self._columns(elements, variables, rows, [e.separable and not e.constant for e in elements], slots)
+        columns += [np.zeros((n, n_q)) for _ in range(2 + len(self.separable) - len(columns))]
+        return columns[0], columns[1], columns[2:]
 
     def _arrays_of(self, index: int, rows: slice) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
         if not self.cache:
@@ -244,8 +245,11 @@ class SubsystemResiduals:
             r = balancers.copy()
             for e, factor, array in zip(self.separable, factors, separable):
                 (t if e.is_body else r).__iadd__(factor * array)
-            for e, column in zip(self.per_design, self._columns(self.per_design, variables, rows, [False] * len(self.per_design))):
-                (t if e.is_body else r).__iadd__(column)
+            if self.per_design:
+                slots = [0 if e.is_body else 1 for e in self.per_design]
+                columns = self._columns(self.per_design, variables, rows, [False] * len(slots), slots)
+                for slot, column in enumerate(columns):
+                    (t if slot == 0 else r).__iadd__(column)
             torque[rows] = t
             residual[rows] = r + t
         return residual, torque
