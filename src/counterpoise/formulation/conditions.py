@@ -42,7 +42,10 @@ class BalanceConditions:
                 weights = _coordinate_weights(values, n_q)
                 return values * np.tile(weights, n_conf)[:, None], (q, weights)
 
-            comp, (q, weights) = adaptive_compression(sample, start_configurations=16 + 8 * n_q, start_designs=32)
+            # at least as many designs as a residual affine in the design variables needs (2·rank + 8), so that
+            # a long chain is sampled once rather than twice
+            start_designs = max(32, 2 * (len(f.design) + 1) + 8)
+            comp, (q, weights) = adaptive_compression(sample, start_configurations=16 + 8 * n_q, start_designs=start_designs)
             self.ranks.append((block.subsystem, block.scenario, comp.rank))
             if comp.rank:
                 residual_at = {i: block.residual(q[i], f.z, f.p) for i in sorted({int(r) // n_q for r in comp.rows})}
