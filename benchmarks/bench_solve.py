@@ -176,16 +176,18 @@ def bench_warm(files: list[Path], repeats: int) -> dict:
 BREAKDOWN = r"""
 import time
 T_START = time.perf_counter()
-import json, sys, tempfile
+import json, os, sys, tempfile
 t = {}
 def step(name, fn, *a):
     t0 = time.perf_counter(); v = fn(*a); t[name] = time.perf_counter() - t0; return v
 def _cli():
     import counterpoise.cli
 def _modules():
-    import counterpoise.pipeline, counterpoise.io.loader, counterpoise.designer.designer, counterpoise.report.files, counterpoise.verify.check
-step('import counterpoise.cli (typer, rich)', _cli)
-step('import solve modules (numpy, pydantic, schema...)', _modules)
+    from counterpoise.threads import limit_blas_environment
+    limit_blas_environment()  # as the command line does before numpy is imported
+    import counterpoise.cli.app, counterpoise.pipeline, counterpoise.io.loader, counterpoise.report.files
+step('import counterpoise.cli (light entry point)', _cli)
+step('import solve modules (typer, rich, numpy, pydantic, schema...)', _modules)
 from counterpoise.model import units
 from counterpoise.designer.quantities import evaluate_quantities
 from counterpoise.pipeline import design
@@ -196,7 +198,6 @@ from counterpoise.verify.check import verify
 # one-time costs that the phases below would otherwise pay on first use
 step('import pint + build unit registry', getattr(units, 'ureg', lambda: None))
 step('import casadi', lambda: __import__('casadi'))
-step('import pandas', lambda: __import__('pandas'))
 problem = step('load_problem', load_problem, sys.argv[1])
 designer = step('Designer build', Designer, problem)
 solution = step('designer.solve()', designer.solve)
@@ -208,6 +209,8 @@ duplicate = time.perf_counter() - t0
 with tempfile.TemporaryDirectory() as tmp:
     step('write_reports', write_reports, result, tmp)
 print(json.dumps({"phases": t, "duplicate": duplicate, "t_start": T_START, "t_end": time.perf_counter()}))
+sys.stdout.flush()
+os._exit(0)  # as the command line ends after solve (counterpoise.cli)
 """
 
 IMPORT_LINE = re.compile(r"^import time:\s+(\d+)\s*\|\s*(\d+)\s*\|( *)(\S+)\s*$")
