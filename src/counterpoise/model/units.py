@@ -80,11 +80,14 @@ def ureg() -> Any:
     the registry in ~0.05 s. When the folder cannot be written the registry is built
     without it.
     """
+    import pickle
+
     pint = _import_pint()
     folder = _cache_folder()
     try:
         registry = pint.UnitRegistry(autoconvert_offset_to_baseunit=True, cache_folder=folder)
-    except (OSError, EOFError, ValueError, TypeError, AttributeError, ImportError):  # unwritable or stale cache
+    except (OSError, EOFError, pickle.UnpicklingError, ValueError, TypeError, AttributeError, ImportError):
+        # an unwritable folder, or a file another process is still writing (pint writes in place)
         registry = pint.UnitRegistry(autoconvert_offset_to_baseunit=True)
     registry.formatter.default_format = "~"
     return registry

@@ -98,3 +98,44 @@ def test_blas_is_single_threaded_after_a_designer_is_built():
 
     Designer(Chain([Link(0.3, 1.0, (0.1, 0.0), 0.1)]).problem())
     assert all(pool["num_threads"] == 1 for pool in threadpool_info())
+
+
+def _fresh(code: str, **env: str) -> str:
+    """Run ``code`` in a fresh interpreter with this checkout's sources; return its stdout."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    src = str(Path(__file__).resolve().parent.parent / "src")
+    environ = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [src, os.environ.get("PYTHONPATH")])), **env}
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=environ)
+    assert run.returncode == 0, run.stderr
+    return run.stdout
+
+
+def test_top_level_help_imports_no_heavy_module():
+    out = _fresh(
+        "import sys\n"
+        "from counterpoise.cli import main\n"
+        "try:\n    main(['--help'])\nexcept SystemExit as e:\n    code = e.code\n"
+        "heavy = sorted(m for m in ('typer', 'rich', 'numpy', 'pint', 'pydantic', 'casadi', 'pandas') if m in sys.modules)\n"
+        "print(code, heavy)\n"
+    )
+    assert out.strip().splitlines()[-1] == "0 []"
+
+
+def test_units_without_dask_and_without_a_usable_cache():
+    """pint is imported without probing dask (which stays importable), and a cache folder
+    that cannot be created falls back to building the registry from pint's definitions."""
+    out = _fresh(
+        "import sys, importlib.util\n"
+        "from counterpoise.model import units\n"
+        "q = units.ureg().Quantity(1, 'N/mm').to_base_units()\n"
+        "print(round(q.magnitude), 'dask' in sys.modules, units.ureg().cache_folder, importlib.util.find_spec('dask') is not None)\n",
+        COUNTERPOISE_PINT_CACHE="/dev/null/not-a-folder",
+    )
+    import importlib.util
+
+    has_dask = importlib.util.find_spec("dask") is not None
+    assert out.split() == ["1000", "False", "None", str(has_dask)]
