@@ -25,30 +25,28 @@ if TYPE_CHECKING:
 
 
 def evaluators(solution: "Solution", samples: int | None = None, seed: int | None = None) -> list[tuple[str, str, SubsystemResiduals]]:
-    """(scenario, subsystem, evaluator) of every pair, built once per problem, scenario
-    values, sample count and seed, and reused by later checks of the same problem."""
+    """(scenario, subsystem, evaluator) of every pair, built once per problem, sample count
+    and seed, and reused by later checks of the same problem (the configurations do not
+    depend on parameter values; each evaluator rebuilds its arrays when the geometry does)."""
     problem = solution.problem
     settings = problem.settings
     seed = settings.seed + 1 if seed is None else seed
     n = settings.verify_samples if samples is None else samples
-    key = (n, seed, tuple(sorted((name, values[0], tuple(sorted(values[1].items()))) for name, values in solution.scenario_parameters.items())))
     entry = _cache.get(id(problem))
     if entry is None or entry[0]() is not problem:
         if len(_cache) >= _CACHE_SIZE:
             _cache.pop(next(iter(_cache)))
         entry = (weakref.ref(problem), {})
         _cache[id(problem)] = entry
-    found = entry[1].get(key)
+    found = entry[1].get((n, seed))
     if found is None:
         rng = np.random.default_rng(seed)  # the draws follow (scenario, subsystem) order, as always
         found = []
         for scenario in problem.scenarios:
-            gravity, base = solution.scenario_parameters[scenario.name]
             for sub in problem.subsystems:
                 q = configurations(problem, sub.name, n, rng)
-                found.append((scenario.name, sub.name, SubsystemResiduals(problem, sub.name, q, base, gravity)))
-        entry[1].clear()  # one set of scenario values per problem: a study moves through many
-        entry[1][key] = found
+                found.append((scenario.name, sub.name, SubsystemResiduals(problem, sub.name, q)))
+        entry[1][(n, seed)] = found
     return found
 
 
@@ -59,7 +57,8 @@ def verify(solution: "Solution", samples: int | None = None, seed: int | None = 
     for scenario, subsystem, evaluator in evaluators(solution, samples, seed):
         variables = solution.variable_values(scenario)
         q = evaluator.q
-        r, t = evaluator.evaluate(variables)
+        gravity, base = solution.scenario_parameters[scenario]
+        r, t = evaluator.evaluate(variables, base, gravity)
         for j, name in enumerate(evaluator.names):
             column = np.abs(r[:, j])
             worst = int(np.nanargmax(column)) if not np.isnan(column).all() else 0

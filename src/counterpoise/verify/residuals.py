@@ -99,13 +99,15 @@ class _Element:
         self.factor: ex.Expr = element.stiffness if self.spring else element.mass
         coordinates = {c.name for c in problem.coordinates}
         variables = set(problem.variable)
-        geometry = set().union(*(ex.names(t) for p in self.points for t in p.position), *(frames[p.frame] for p in self.points))
+        #: every name its frames and points depend on
+        self.geometry: set[str] = set().union(*(ex.names(t) for p in self.points for t in p.position), *(frames[p.frame] for p in self.points))
         factor = ex.names(self.factor)
         #: the coordinates its energy depends on (its residual is 0 for the others)
-        self.moves_with = (geometry | factor) & coordinates
-        #: residual = factor(design) × an array fixed once the configurations are
-        self.separable = not factor & coordinates and not geometry & variables
-        self.constant = self.separable and not factor & variables
+        self.moves_with = (self.geometry | factor) & coordinates
+        #: residual = factor(design, parameters) × an array fixed by the configurations and the geometry
+        self.separable = not factor & coordinates and not self.geometry & variables
+        #: ... with a literal factor: such arrays are summed into one
+        self.constant = self.separable and not factor
 
     def energy(self, mech: Mechanics, unit_factor: bool) -> Any:
         """The element's energy (per unit factor if ``unit_factor``)."""
@@ -150,15 +152,11 @@ class SubsystemResiduals:
         problem: Problem,
         subsystem: str,
         q: np.ndarray,
-        base: Mapping[str, float],
-        gravity: Sequence[float],
         cache: bool = True,
     ) -> None:
         self.problem = problem
         self.subsystem = subsystem
         self.q = q
-        self.base = dict(base)
-        self.gravity = tuple(gravity)
         self.names = [c.name for c in problem.subsystem_coordinates(subsystem)]
         self.frames = frame_names(problem)
         mine = [(b, True) for b in problem.bodies if b.subsystem == subsystem]
@@ -173,13 +171,18 @@ class SubsystemResiduals:
                     chain.append(frame)
                     frame = problem.frame[frame].parent
                 self.used_frames.extend(reversed(chain))
+        #: base parameters the arrays depend on (through the geometry): the arrays are rebuilt when they change
+        self.geometry_parameters = _base_parameters(problem, set().union(*(e.geometry for e in self.elements if e.separable)))
         self.constant = [e for e in self.elements if e.constant]
-        self.separable = [e for e in self.elements if e.separable and not e.constant]
+        separable = [e for e in self.elements if e.separable and not e.constant]
+        self.separable = [e for e in separable if e.is_body] + [e for e in separable if not e.is_body]  # bodies first
+        self.separable_bodies = sum(e.is_body for e in separable)
         self.per_design = [e for e in self.elements if not e.separable]
         n, n_q = q.shape
         self.chunks = [slice(i, min(i + CHUNK_CONFIGURATIONS, n)) for i in range(0, n, CHUNK_CONFIGURATIONS)] if n_q else []
         size = (len(self.separable) + 2) * n * n_q * 8
-        self._arrays: list[tuple[np.ndarray, np.ndarray, list[np.ndarray]]] | None = None
+        self._arrays: list[tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None
+        self._arrays_key: tuple[Any, ...] | None = None
         self.cache = cache and size <= CACHE_BYTES
 
     # -- complex step --------------------------------------------------------------
@@ -187,6 +190,8 @@ class SubsystemResiduals:
         self,
         elements: Sequence[_Element],
         variables: Mapping[str, float],
+        base: Mapping[str, float],
+        gravity: Sequence[float],
         rows: slice,
         unit_factor: Sequence[bool],
         slots: Sequence[int],
@@ -200,7 +205,7 @@ class SubsystemResiduals:
             return out
         real = {name: q[:, i] for i, name in enumerate(self.names)}
         functions, rotations = _Functions(), {}  # shared by the perturbations of this chunk
-        still = Mechanics(self.problem, self.base, variables, real, self.gravity, functions, rotations=rotations)
+        still = Mechanics(self.problem, base, variables, real, gravity, functions, rotations=rotations)
         for j, name in enumerate(self.names):
             moving = [(k, e) for k, e in enumerate(elements) if name in e.moves_with]
             if not moving:
@@ -208,50 +213,61 @@ class SubsystemResiduals:
             coords = dict(real)
             coords[name] = q[:, j] + 1j * STEP
             known = {f: still.pose(f) for f in self.used_frames if name not in self.frames[f]}
-            mech = Mechanics(self.problem, self.base, variables, coords, self.gravity, functions, poses=known, rotations=rotations)
+            mech = Mechanics(self.problem, base, variables, coords, gravity, functions, poses=known, rotations=rotations)
             for k, e in moving:
                 energy = e.energy(mech, unit_factor[k])
                 if np.iscomplexobj(energy):
                     out[slots[k]][:, j] += np.imag(energy) / STEP
         return out
 
-    def _fixed_arrays(self, rows: slice) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
-        """Per chunk: (constant bodies, constant balancers, one array per separable element)."""
+    def _fixed_arrays(self, base: Mapping[str, float], gravity: Sequence[float], rows: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per chunk: (literal-factor bodies, literal-factor balancers, one array per other separable element)."""
         n, n_q = self.q[rows].shape
         # the design's variables do not enter these arrays: any value will do
         variables = {v.name: v.initial for v in self.problem.variables}
         elements = [*self.constant, *self.separable]
         slots = [0 if e.is_body else 1 for e in self.constant] + list(range(2, 2 + len(self.separable)))
-        columns = self._columns(elements, variables, rows, [e.separable and not e.constant for e in elements], slots)
+        columns = self._columns(elements, variables, base, gravity, rows, [not e.constant for e in elements], slots)
         columns += [np.zeros((n, n_q)) for _ in range(2 + len(self.separable) - len(columns))]
-        return columns[0], columns[1], columns[2:]
+        separable = np.stack(columns[2:]) if self.separable else np.zeros((0, n, n_q))
+        return columns[0], columns[1], separable
 
-    def _arrays_of(self, index: int, rows: slice) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
+    def _arrays_of(self, index: int, base: Mapping[str, float], gravity: Sequence[float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if not self.cache:
-            return self._fixed_arrays(rows)
-        if self._arrays is None:
-            self._arrays = [self._fixed_arrays(r) for r in self.chunks]
+            return self._fixed_arrays(base, gravity, self.chunks[index])
+        key = (tuple(gravity), tuple(base[name] for name in self.geometry_parameters))
+        if self._arrays is None or key != self._arrays_key:
+            self._arrays = [self._fixed_arrays(base, gravity, r) for r in self.chunks]
+            self._arrays_key = key
         return self._arrays[index]
 
     # -- one design ----------------------------------------------------------------
-    def evaluate(self, variables: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
+    def evaluate(self, variables: Mapping[str, float], base: Mapping[str, float], gravity: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+        """(residual, unbalanced gravity torque) of a design: ``variables``, base parameters
+        ``base`` and ``gravity`` (SI). The arrays are rebuilt only when gravity or a base
+        parameter the geometry depends on changes: a study of masses reuses them."""
         n, n_q = self.q.shape
         residual, torque = np.zeros((n, n_q)), np.zeros((n, n_q))
-        real = Mechanics(self.problem, self.base, variables, {}, self.gravity, NUMPY_FUNCTIONS)
+        real = Mechanics(self.problem, base, variables, {}, gravity, NUMPY_FUNCTIONS)
         factors = [float(real.value(e.factor)) for e in self.separable]
+        k = self.separable_bodies
+        body_factors, balancer_factors = np.array(factors[:k]), np.array(factors[k:])
         for index, rows in enumerate(self.chunks):
-            bodies, balancers, separable = self._arrays_of(index, rows)
-            t = bodies.copy()
-            r = balancers.copy()
-            for e, factor, array in zip(self.separable, factors, separable):
-                (t if e.is_body else r).__iadd__(factor * array)
+            bodies, balancers, separable = self._arrays_of(index, base, gravity)
+            t, r = torque[rows], residual[rows]  # views, filled in place
+            t[...] = bodies
+            r[...] = balancers
+            flat = separable.reshape(len(separable), t.size)
+            if k:
+                t += (body_factors @ flat[:k]).reshape(t.shape)
+            if len(separable) > k:
+                r += (balancer_factors @ flat[k:]).reshape(r.shape)
             if self.per_design:
                 slots = [0 if e.is_body else 1 for e in self.per_design]
-                columns = self._columns(self.per_design, variables, rows, [False] * len(slots), slots)
+                columns = self._columns(self.per_design, variables, base, gravity, rows, [False] * len(slots), slots)
                 for slot, column in enumerate(columns):
                     (t if slot == 0 else r).__iadd__(column)
-            torque[rows] = t
-            residual[rows] = r + t
+            r += t
         return residual, torque
 
 
@@ -263,4 +279,18 @@ def residuals(
     Returns (residual, unbalanced gravity torque), each (N, n_q). One-off use; the dense
     check keeps a :class:`SubsystemResiduals` per problem and reuses it.
     """
-    return SubsystemResiduals(problem, subsystem, q, base, gravity, cache=False).evaluate(variables)
+    return SubsystemResiduals(problem, subsystem, q, cache=False).evaluate(variables, base, gravity)
+
+
+def _base_parameters(problem: Problem, names: set[str]) -> tuple[str, ...]:
+    """The base parameters among ``names``, and those the derived parameters among them use."""
+    parameter = {p.name: p for p in problem.parameters}
+    out: set[str] = set()
+    todo = [n for n in names if n in parameter]
+    while todo:
+        p = parameter[todo.pop()]
+        if p.is_base:
+            out.add(p.name)
+        elif p.expr is not None:
+            todo += [n for n in ex.names(p.expr) if n in parameter and n not in out]
+    return tuple(sorted(out))
