@@ -195,12 +195,13 @@ class SubsystemResiduals:
         rows: slice,
         unit_factor: Sequence[bool],
         slots: Sequence[int],
-    ) -> list[np.ndarray]:
+        n_slots: int,
+    ) -> np.ndarray:
         """∂(energy)/∂q of each element (per unit factor where ``unit_factor``) at the
-        configurations ``rows``, added into (n, n_q) array number ``slots[k]`` of element k."""
+        configurations ``rows``, added into ``out[slots[k]]`` for element k: (n_slots, n, n_q)."""
         q = self.q[rows]
         n, n_q = q.shape
-        out = [np.zeros((n, n_q)) for _ in range(max(slots, default=-1) + 1)]
+        out = np.zeros((n_slots, n, n_q))
         if not elements:
             return out
         real = {name: q[:, i] for i, name in enumerate(self.names)}
@@ -222,15 +223,12 @@ class SubsystemResiduals:
 
     def _fixed_arrays(self, base: Mapping[str, float], gravity: Sequence[float], rows: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Per chunk: (literal-factor bodies, literal-factor balancers, one array per other separable element)."""
-        n, n_q = self.q[rows].shape
         # the design's variables do not enter these arrays: any value will do
         variables = {v.name: v.initial for v in self.problem.variables}
         elements = [*self.constant, *self.separable]
         slots = [0 if e.is_body else 1 for e in self.constant] + list(range(2, 2 + len(self.separable)))
-        columns = self._columns(elements, variables, base, gravity, rows, [not e.constant for e in elements], slots)
-        columns += [np.zeros((n, n_q)) for _ in range(2 + len(self.separable) - len(columns))]
-        separable = np.stack(columns[2:]) if self.separable else np.zeros((0, n, n_q))
-        return columns[0], columns[1], separable
+        columns = self._columns(elements, variables, base, gravity, rows, [not e.constant for e in elements], slots, 2 + len(self.separable))
+        return columns[0], columns[1], columns[2:]
 
     def _arrays_of(self, index: int, base: Mapping[str, float], gravity: Sequence[float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if not self.cache:
@@ -264,7 +262,7 @@ class SubsystemResiduals:
                 r += (balancer_factors @ flat[k:]).reshape(r.shape)
             if self.per_design:
                 slots = [0 if e.is_body else 1 for e in self.per_design]
-                columns = self._columns(self.per_design, variables, base, gravity, rows, [False] * len(slots), slots)
+                columns = self._columns(self.per_design, variables, base, gravity, rows, [False] * len(slots), slots, 2)
                 for slot, column in enumerate(columns):
                     (t if slot == 0 else r).__iadd__(column)
             r += t
