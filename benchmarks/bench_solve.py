@@ -22,7 +22,8 @@ a bare ``python -c pass`` for interpreter start-up, a per-phase breakdown of one
 fresh interpreter, and ``python -X importtime`` of a full CLI solve, summed by top-level
 package to name the big imports.
 
-Only the standard library and numpy are used; timings use ``time.perf_counter``.
+Only the standard library and numpy are used; warm phases are CPU seconds of the process
+(``time.process_time``), fresh processes are wall seconds (``time.perf_counter``).
 """
 
 from __future__ import annotations
@@ -50,23 +51,21 @@ SRC = ROOT / "src"
 TARGET_SOLVE_S = 0.050
 TARGET_CLI_S = 2.0
 
-try:  # the package is normally installed (editable) in the venv running this script
-    import counterpoise  # noqa: F401  (light: heavy dependencies are imported lazily)
-
-    FROM_SOURCE = False
-except ImportError:  # pragma: no cover - fall back to the source tree
-    sys.path.insert(0, str(SRC))
-    FROM_SOURCE = True
+# Measure this checkout's sources (COUNTERPOISE_BENCH_SRC=path to measure others), in the subprocesses too.
+SRC = Path(os.environ.get("COUNTERPOISE_BENCH_SRC", SRC)).resolve()
+sys.path.insert(0, str(SRC))
+FROM_SOURCE = True
 
 
 # --------------------------------------------------------------------------- helpers
 
 
 def timed(fn, *args, **kwargs):
-    """(seconds, return value) of one call."""
-    t0 = time.perf_counter()
+    """(CPU seconds of this process, return value) of one call: robust on a shared machine,
+    and equal to wall time when nothing else runs (BLAS is limited to one thread)."""
+    t0 = time.process_time()
     value = fn(*args, **kwargs)
-    return time.perf_counter() - t0, value
+    return time.process_time() - t0, value
 
 
 def summary(samples: list[float]) -> dict[str, float]:
@@ -120,11 +119,11 @@ def run(cmd: list[str], marks: list[float] | None = None, env: dict[str, str] | 
 
 
 def bench_warm(files: list[Path], repeats: int) -> dict:
-    from counterpoise.design import design
-    from counterpoise.loader import load_problem
-    from counterpoise.nlp import Designer
-    from counterpoise.report import write_reports
-    from counterpoise.verify import verify
+    from counterpoise.designer.designer import Designer
+    from counterpoise.io.loader import load_problem
+    from counterpoise.pipeline import design
+    from counterpoise.report.files import write_reports
+    from counterpoise.verify.check import verify
 
     out: dict = {"problems": {}}
     with tempfile.TemporaryDirectory(prefix="counterpoise-bench-") as tmp:
@@ -163,7 +162,7 @@ def bench_warm(files: list[Path], repeats: int) -> dict:
                 "status": result.status.value,
                 "iterations": sorted(iterations),
                 "conditions": solution.conditions,
-                "slots": len(designer.formulation.slots),
+                "slots": len(designer.formulation.design),
                 "configurations": result.verification.configurations,
                 "first": first,
                 "phases": {k: summary(v) for k, v in t.items()},
@@ -177,26 +176,28 @@ def bench_warm(files: list[Path], repeats: int) -> dict:
 BREAKDOWN = r"""
 import time
 T_START = time.perf_counter()
-import json, sys, tempfile
+import json, os, sys, tempfile
 t = {}
 def step(name, fn, *a):
     t0 = time.perf_counter(); v = fn(*a); t[name] = time.perf_counter() - t0; return v
 def _cli():
     import counterpoise.cli
 def _modules():
-    import counterpoise.design, counterpoise.loader, counterpoise.nlp, counterpoise.report, counterpoise.verify
-step('import counterpoise.cli (typer, rich)', _cli)
-step('import solve modules (numpy, pydantic, schema...)', _modules)
-from counterpoise import units
-from counterpoise.design import DesignResult, evaluate_quantities, design
-from counterpoise.loader import load_problem
-from counterpoise.nlp import Designer
-from counterpoise.report import write_reports
-from counterpoise.verify import verify
+    from counterpoise.threads import limit_blas_environment
+    limit_blas_environment()  # as the command line does before numpy is imported
+    import counterpoise.cli.app, counterpoise.pipeline, counterpoise.io.loader, counterpoise.report.files
+step('import counterpoise.cli (light entry point)', _cli)
+step('import solve modules (typer, rich, numpy, pydantic, schema...)', _modules)
+from counterpoise.model import units
+from counterpoise.designer.quantities import evaluate_quantities
+from counterpoise.pipeline import design
+from counterpoise.io.loader import load_problem
+from counterpoise.designer.designer import Designer
+from counterpoise.report.files import write_reports
+from counterpoise.verify.check import verify
 # one-time costs that the phases below would otherwise pay on first use
 step('import pint + build unit registry', getattr(units, 'ureg', lambda: None))
 step('import casadi', lambda: __import__('casadi'))
-step('import pandas', lambda: __import__('pandas'))
 problem = step('load_problem', load_problem, sys.argv[1])
 designer = step('Designer build', Designer, problem)
 solution = step('designer.solve()', designer.solve)
@@ -208,6 +209,8 @@ duplicate = time.perf_counter() - t0
 with tempfile.TemporaryDirectory() as tmp:
     step('write_reports', write_reports, result, tmp)
 print(json.dumps({"phases": t, "duplicate": duplicate, "t_start": T_START, "t_end": time.perf_counter()}))
+sys.stdout.flush()
+os._exit(0)  # as the command line ends after solve (counterpoise.cli)
 """
 
 IMPORT_LINE = re.compile(r"^import time:\s+(\d+)\s*\|\s*(\d+)\s*\|( *)(\S+)\s*$")
@@ -326,12 +329,13 @@ def render(warm: dict, cli: dict | None, info: dict, markdown: bool, repeats: in
     for rel, r in warm["problems"].items():
         p = r["phases"]
         rows.append([r["name"]] + [f"{ms(p[k]['median'])} / {ms(p[k]['min'])}" for k, _ in phases]
-                    + [f"{ms(p['build']['median'] + p['design']['median'])}", ", ".join(map(str, r["iterations"])), r["status"]])
-    parts.append(table(["problem"] + [label for _, label in phases] + ["build + design", "IPOPT iter", "status"], rows, markdown,
-                       right=set(range(1, len(phases) + 3))))
+                    + [f"{ms(p['build']['median'] + p['design']['median'])}", f"{1 / p['design']['median']:.0f}",
+                       ", ".join(map(str, r["iterations"])), r["status"]])
+    parts.append(table(["problem"] + [label for _, label in phases] + ["build + design", "designs/s", "IPOPT iter", "status"], rows, markdown,
+                       right=set(range(1, len(phases) + 4))))
     parts.append(
         ("\n" if markdown else "")
-        + "design(p, d) = designer.solve() + verify + report quantities, with the prebuilt designer; "
+        + "design(p, d) = designer.solve() + verify + report quantities, with the prebuilt designer (designs/s = 1 / its median, one core); "
         "'build + design' (sum of medians) is what a warm process pays for a problem it has not built yet."
     )
 

@@ -287,7 +287,7 @@ def test_verification_catches_lost_conditions(monkeypatch):
     """If the compression dropped a condition, the dense check must fail the design."""
     from counterpoise.formulation import compression as balance
 
-    monkeypatch.setattr(balance, "RANK_TOLERANCE", 0.5)  # keep only the dominant condition
+    monkeypatch.setattr(balance, "RANK_TOLERANCE", 0.9999)  # keep only the dominant condition
     chain = Chain([Link(0.3, 1.0, (0.1, 0.0), 0.1), Link(0.2, 0.5, (0.15, 0.0), 0.05)])
     result = design(chain.problem())
     assert result.status is Status.FAILED

@@ -2,8 +2,17 @@
 
 The matrices here are small (a few hundred rows); on a shared machine a threaded BLAS
 spends far longer synchronising than computing (a 0.4 ms SVD was measured at 146 ms under
-load). The designer calls :func:`limit_blas_threads` before it builds anything. Set
-``COUNTERPOISE_BLAS_THREADS`` to allow more threads.
+load). Two mechanisms, because BLAS libraries read their thread count when they are loaded:
+
+- :func:`limit_blas_environment` sets ``OPENBLAS_NUM_THREADS``, ``OMP_NUM_THREADS`` and
+  ``MKL_NUM_THREADS`` (unless the user set them) for libraries loaded later: CasADi loads
+  its own OpenBLAS and OpenMP runtime with the IPOPT plugin, when the first solver is
+  built. The command line calls it before numpy is imported.
+- :func:`limit_blas_threads` also limits the thread pools already loaded (numpy's
+  OpenBLAS) through threadpoolctl, once per process. The designer calls it before it
+  builds anything.
+
+Set ``COUNTERPOISE_BLAS_THREADS`` to allow more threads.
 """
 
 from __future__ import annotations
@@ -12,15 +21,29 @@ import os
 
 _limited = False
 
+#: environment variables BLAS and OpenMP runtimes read when they are loaded
+ENVIRONMENT = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def blas_threads() -> int:
+    return max(1, int(os.environ.get("COUNTERPOISE_BLAS_THREADS", "1")))
+
+
+def limit_blas_environment() -> None:
+    """Set the thread counts of BLAS/OpenMP libraries not loaded yet (user settings win)."""
+    for name in ENVIRONMENT:
+        os.environ.setdefault(name, str(blas_threads()))
+
 
 def limit_blas_threads() -> None:
-    """Limit BLAS/OpenMP thread pools already loaded in this process (once)."""
+    """Limit BLAS/OpenMP thread pools: those loaded later and those already loaded (once)."""
     global _limited
     if _limited:
         return
     _limited = True
+    limit_blas_environment()
     try:
         from threadpoolctl import threadpool_limits
     except ImportError:  # pragma: no cover - threadpoolctl is a dependency
         return
-    threadpool_limits(limits=int(os.environ.get("COUNTERPOISE_BLAS_THREADS", "1")))
+    threadpool_limits(limits=blas_threads())

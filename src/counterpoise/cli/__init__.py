@@ -1,7 +1,65 @@
-"""The command line (typer), a thin layer over the library."""
+"""The command line: a thin layer over the library.
+
+:func:`main` is the console-script entry point. It imports nothing heavy: ``counterpoise``
+and ``counterpoise --help`` are answered from :mod:`.light` (the standard library only),
+every command goes to the typer app in :mod:`.app`, imported then. When the console script
+runs ``solve`` or ``validate``, the process ends with ``os._exit`` once the app has
+returned and stdout and stderr are flushed: every report is already closed and renamed
+into place by then (:mod:`counterpoise.report.files`), and tearing down the imported
+modules (numpy, CasADi, pint, pydantic) would take longer than the work.
+"""
 
 from __future__ import annotations
 
-from .app import main
+import os
+import sys
 
-__all__ = ["main"]
+from ..threads import limit_blas_environment
+from .light import COMMANDS, top_level_help, wants_top_level_help
+
+__all__ = ["COMMANDS", "main"]
+
+#: Commands after which the process may end without interpreter teardown (they start no
+#: worker processes or threads and write every file before returning).
+FAST_EXIT = frozenset({"solve", "validate"})
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Entry point: ``argv`` defaults to ``sys.argv[1:]``. Exits with the command's status."""
+    args = list(sys.argv[1:] if argv is None else argv)
+    help_status = wants_top_level_help(args)
+    if help_status is not None:
+        sys.stdout.write(top_level_help())
+        sys.stdout.flush()
+        raise SystemExit(help_status)
+    limit_blas_environment()  # before numpy and CasADi load their BLAS (see counterpoise.threads)
+    from .app import main as app_main
+
+    if argv is not None or not FAST_EXIT & set(args[:1]):
+        app_main(args)
+        return
+    try:
+        app_main(args)
+        code = 0
+    except SystemExit as exc:
+        code = _status(exc.code)
+    _fast_exit(code)
+
+
+def _status(code: object) -> int:
+    if code is None:
+        return 0
+    if isinstance(code, int):
+        return code
+    print(code, file=sys.stderr)
+    return 1
+
+
+def _fast_exit(code: int) -> None:
+    """End the process now: flush the standard streams, skip interpreter teardown."""
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):  # closed pipe: nothing more can be said
+            pass
+    os._exit(code)

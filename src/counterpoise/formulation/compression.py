@@ -13,6 +13,11 @@ when R(x) = 0. Handing IPOPT c instead of the raw sampled equalities keeps the N
 or under-determined (raw equalities outnumber the design variables and IPOPT stops with
 Not_Enough_Degrees_Of_Freedom). Whether the samples were enough is checked independently,
 and densely, by :mod:`counterpoise.verify`.
+
+The rank tolerance is relative to the largest singular value, so the rows handed in must
+be of comparable size: :mod:`.conditions` scales each coordinate's rows by its largest
+sampled residual first (a 24-link chain's base joint carries residuals ten orders of
+magnitude above its tip's, whose conditions would otherwise fall under the tolerance).
 """
 
 from __future__ import annotations

@@ -26,7 +26,7 @@ class BalanceConditions:
         check_exact_conditions(formulation.problem)
         self.formulation = formulation
         rng = np.random.default_rng(seed)
-        f, d = formulation, formulation.design
+        f = formulation
         stacked = []
         #: (subsystem, scenario, number of independent conditions) of every block
         self.ranks: list[tuple[str, str, int]] = []
@@ -38,16 +38,19 @@ class BalanceConditions:
 
             def sample(n_conf: int, n_design: int, block: Block = block) -> tuple[np.ndarray, Any]:
                 q = lo + (hi - lo) * rng.random((n_conf, n_q))
-                return _sample_residuals(block.residual, q, self._random_designs(n_design, rng), parameters), q
+                values = _sample_residuals(block.residual, q, self._random_designs(n_design, rng), parameters)
+                weights = _coordinate_weights(values, n_q)
+                return values * np.tile(weights, n_conf)[:, None], (q, weights)
 
-            comp, q = adaptive_compression(sample, start_configurations=16 + 8 * n_q, start_designs=32)
-            torque = np.abs(_sample_residuals(block.gravity_torque, q, d.to_z(d.initial)[None, :], parameters)).max(initial=0.0)
-            scale = torque if torque > 0 else max(float(np.abs(comp.singular_values).max(initial=0.0)), 1.0)
+            # at least as many designs as a residual affine in the design variables needs (2·rank + 8), so that
+            # a long chain is sampled once rather than twice
+            start_designs = max(32, 2 * (len(f.design) + 1) + 8)
+            comp, (q, weights) = adaptive_compression(sample, start_configurations=16 + 8 * n_q, start_designs=start_designs)
             self.ranks.append((block.subsystem, block.scenario, comp.rank))
             if comp.rank:
                 residual_at = {i: block.residual(q[i], f.z, f.p) for i in sorted({int(r) // n_q for r in comp.rows})}
-                rows = [residual_at[int(r) // n_q][int(r) % n_q] for r in comp.rows]
-                stacked.append(ca.mtimes(ca.DM(comp.matrix), ca.vertcat(*rows)) / scale)
+                rows = [residual_at[int(r) // n_q][int(r) % n_q] * float(weights[int(r) % n_q]) for r in comp.rows]
+                stacked.append(ca.mtimes(ca.DM(comp.matrix), ca.vertcat(*rows)))
         per_block = ca.vertcat(*stacked) if stacked else ca.SX(0, 1)
         # Across blocks: identical legs, or scenarios that repeat a condition, collapse here.
         self.equalities = self._compress_stack(per_block, parameters, rng)
@@ -82,6 +85,18 @@ class BalanceConditions:
         parts = ", ".join(f"{sub}/{sc} {r}" for sub, sc, r in self.ranks)
         total = sum(r for *_, r in self.ranks)
         return parts + (f"; {total} before removing repeats across blocks" if total != self.count else "")
+
+
+def _coordinate_weights(values: np.ndarray, n_q: int) -> np.ndarray:
+    """One weight per coordinate: 1 / its largest sampled |residual| (1 when it is never loaded).
+
+    Scaling each coordinate's rows changes no zero set (r = 0 exactly when w·r = 0) but
+    puts every coordinate on the same footing before the SVD: in a long chain the inner
+    joints carry residuals ten orders of magnitude larger than the outer ones, and a rank
+    tolerance relative to the largest singular value would drop the outer conditions.
+    """
+    largest = np.abs(values).reshape(-1, n_q, values.shape[1]).max(axis=(0, 2)) if values.size else np.zeros(n_q)
+    return np.where(largest > 0, 1.0 / np.where(largest > 0, largest, 1.0), 1.0)
 
 
 def _sample_residuals(residual: Any, q: np.ndarray, z: np.ndarray, parameters: np.ndarray) -> np.ndarray:

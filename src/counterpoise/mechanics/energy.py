@@ -27,7 +27,8 @@ class Mechanics:
     ``base_parameters``: SI values of the literal parameters (a scenario's values);
     ``variables``: values of the design variables; ``coordinates``: values of the
     coordinates (arrays evaluate many configurations at once); ``gravity``: the gravity
-    vector (m/s²). Derived parameters are evaluated here, so a study that changes a base
+    vector (m/s²); ``poses``: world poses already known for these values (they are not
+    recomputed); ``rotations``: a memo of rotation matrices shared between instances. Derived parameters are evaluated here, so a study that changes a base
     parameter sees every parameter built on it change too.
     """
 
@@ -39,6 +40,8 @@ class Mechanics:
         coordinates: Mapping[str, Scalar],
         gravity: Sequence[Scalar],
         functions: Functions = NUMPY_FUNCTIONS,
+        poses: Mapping[str, tuple[Mat, Vec]] | None = None,
+        rotations: dict[tuple[str, int], tuple[Scalar, Mat]] | None = None,
     ) -> None:
         self.problem = problem
         self.functions = functions
@@ -49,7 +52,8 @@ class Mechanics:
         env.update(variables)
         env.update(coordinates)
         self.env = env
-        self._poses: dict[str, tuple[Mat, Vec]] = {}
+        self._poses: dict[str, tuple[Mat, Vec]] = dict(poses or {})  # known poses (e.g. of frames a perturbation leaves alone)
+        self._rotations = rotations  # shared by instances whose angles may be the very same arrays
 
     def value(self, tree: ex.Expr) -> Scalar:
         return ex.evaluate(tree, self.env, self.functions)
@@ -66,15 +70,28 @@ class Mechanics:
             return self._poses[frame]
         f = self.problem.frame[frame]
         rot, origin = self.pose(f.parent) if f.parent is not None else (IDENTITY, [0.0, 0.0, 0.0])
-        for t in f.transforms[:upto]:
+        for i, t in enumerate(f.transforms[:upto]):
             if isinstance(t, Rotation):
-                rot = matmul(rot, rotation_matrix(self.axis(t), self.value(t.angle), self.functions))
+                rot = matmul(rot, self.rotation(frame, i, t))
             else:
                 step = matvec(rot, self.vector(t.vector))
                 origin = [add(o, d) for o, d in zip(origin, step)]
         if upto is None:
             self._poses[frame] = (rot, origin)
         return rot, origin
+
+    def rotation(self, frame: str, index: int, t: Rotation) -> Mat:
+        """Rotation matrix of transform ``index`` of ``frame`` (remembered in ``rotations``
+        for the same angle value when the axis is literal)."""
+        angle = self.value(t.angle)
+        if self._rotations is None or not all(isinstance(c, ex.Num) for c in t.axis):
+            return rotation_matrix(self.axis(t), angle, self.functions)
+        hit = self._rotations.get((frame, index))
+        if hit is not None and hit[0] is angle:
+            return hit[1]
+        matrix = rotation_matrix(self.axis(t), angle, self.functions)
+        self._rotations[(frame, index)] = (angle, matrix)
+        return matrix
 
     def axis(self, rotation: Rotation) -> Vec:
         """Unit axis of a rotation (literal axes arrive normalised from the loader)."""

@@ -38,12 +38,57 @@ _DIMENSION_NAMES = {
 }
 
 
+#: Optional array libraries pint probes for when it is imported; counterpoise hands pint
+#: plain floats only, and importing dask alone costs ~0.1 s (see :func:`_import_pint`).
+_PINT_OPTIONAL = ("dask", "xarray", "sparse", "uncertainties", "babel", "mip", "scipy")
+
+
+def _import_pint() -> Any:
+    """Import pint without letting it import the array libraries it probes for (dask,
+    xarray...): they stay importable afterwards, pint just does not wrap them."""
+    import sys
+
+    if "pint" in sys.modules:
+        return sys.modules["pint"]
+    blocked = [name for name in _PINT_OPTIONAL if name not in sys.modules]
+    for name in blocked:
+        sys.modules[name] = None  # type: ignore[assignment]  # import fails, find_spec returns None
+    try:
+        import pint
+    finally:
+        for name in blocked:
+            if sys.modules.get(name, 0) is None:
+                del sys.modules[name]
+    return pint
+
+
+def _cache_folder() -> Any:
+    """pint's on-disk cache of the parsed definitions (``COUNTERPOISE_PINT_CACHE``: a
+    folder, or ``off``); None when it cannot be used."""
+    import os
+
+    setting = os.environ.get("COUNTERPOISE_PINT_CACHE", ":auto:")
+    return None if setting.lower() in ("", "off", "none", "0") else setting
+
+
 @lru_cache(maxsize=1)
 def ureg() -> Any:
-    """The process-wide pint registry (created lazily: it costs ~0.3 s)."""
-    import pint
+    """The process-wide pint registry, created lazily.
 
-    registry = pint.UnitRegistry(autoconvert_offset_to_baseunit=True)
+    Parsing pint's definition files costs ~0.2 s per process; pint keeps the parsed result
+    in a cache folder (``cache_folder=":auto:"``: the user cache directory) and then builds
+    the registry in ~0.05 s. When the folder cannot be written the registry is built
+    without it.
+    """
+    import pickle
+
+    pint = _import_pint()
+    folder = _cache_folder()
+    try:
+        registry = pint.UnitRegistry(autoconvert_offset_to_baseunit=True, cache_folder=folder)
+    except (OSError, EOFError, pickle.UnpicklingError, ValueError, TypeError, AttributeError, ImportError):
+        # an unwritable folder, or a file another process is still writing (pint writes in place)
+        registry = pint.UnitRegistry(autoconvert_offset_to_baseunit=True)
     registry.formatter.default_format = "~"
     return registry
 

@@ -4,19 +4,76 @@ The derivative is taken by complex step on :class:`counterpoise.mechanics.Mechan
 same energy code the NLP was built from, but neither CasADi's derivatives nor the sampled
 configurations of the compression — so it is exact to rounding and catches a compression
 that sampled too little.
+
+**Built once, evaluated per design.** The energy is a sum of element terms (a body or a
+counter-mass: −m g·p; a spring: ½ k |a − b|²). When an element's geometry (its frames and
+points) does not depend on the design, and its mass or stiffness does not depend on the
+coordinates, its residual is ``factor(design) × B(q)``: :class:`SubsystemResiduals`
+computes B by complex step once for the fixed configurations and then evaluates any design
+as a weighted sum of these arrays. Other elements (a counter-mass at a variable distance,
+a frame moved by a variable) are evaluated per design, by complex step on the whole
+element energy. Either way the configurations are processed in chunks of
+:data:`CHUNK_CONFIGURATIONS` configurations, so memory stays bounded for long chains; the arrays
+B are kept only while they fit in :data:`CACHE_BYTES`.
 """
 
 from __future__ import annotations
 
 import itertools
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
 from ..mechanics import NUMPY_FUNCTIONS, Mechanics
+from ..model import expr as ex
+from ..model.mechanism import GROUND, Point, Rotation
 from ..model.problem import Problem
 
 STEP = 1e-30  # complex step; any tiny value works, there is no subtractive cancellation
 MAX_CORNERS = 4096
+#: configurations evaluated at once (one coordinate perturbed at a time)
+CHUNK_CONFIGURATIONS = 4096
+#: the per-element arrays of one subsystem are kept between designs up to this size
+CACHE_BYTES = 96 * 2**20
+
+
+def _small_imaginary(z: Any) -> bool:
+    return np.iscomplexobj(z) and bool(np.all(np.abs(np.imag(z)) <= 1e-100))
+
+
+class _Functions(dict):
+    """numpy functions, with sin and cos specialised for complex-step arguments and
+    remembered per argument array (a joint angle is the same array in every perturbation
+    that leaves it alone)."""
+
+    def __init__(self) -> None:
+        super().__init__(NUMPY_FUNCTIONS)
+        self._memo: dict[tuple[str, int], tuple[Any, Any]] = {}
+        self["sin"] = lambda z: self._remember("sin", z)
+        self["cos"] = lambda z: self._remember("cos", z)
+
+    def _remember(self, name: str, z: Any) -> Any:
+        if not isinstance(z, np.ndarray):
+            return np.sin(z) if name == "sin" else np.cos(z)
+        key = (name, id(z))
+        hit = self._memo.get(key)
+        if hit is not None and hit[0] is z:
+            return hit[1]
+        value = _complex_step(name, z)
+        self._memo[key] = (z, value)  # keeps z alive, so its id is not reused
+        return value
+
+
+def _complex_step(name: str, z: np.ndarray) -> np.ndarray:
+    """sin(a + ib) = sin a cosh b + i cos a sinh b, and for a complex step b (|b| ≤ 1e-100)
+    cosh b = 1 and sinh b = b exactly in floating point: two real functions instead of four."""
+    if not _small_imaginary(z):
+        return np.sin(z) if name == "sin" else np.cos(z)
+    a, b = np.real(z), np.imag(z)
+    if name == "sin":
+        return np.sin(a) + 1j * (b * np.cos(a))
+    return np.cos(a) - 1j * (b * np.sin(a))
 
 
 def configurations(problem: Problem, subsystem: str, samples: int, rng: np.random.Generator) -> np.ndarray:
@@ -31,28 +88,207 @@ def configurations(problem: Problem, subsystem: str, samples: int, rng: np.rando
     return q
 
 
+class _Element:
+    """One energy term: a body, a counter-mass or a spring, and how its residual is evaluated."""
+
+    def __init__(self, problem: Problem, element: Any, is_body: bool, frames: Mapping[str, frozenset[str]]) -> None:
+        self.element = element
+        self.is_body = is_body
+        self.spring = hasattr(element, "ends")
+        self.points: tuple[Point, ...] = element.ends if self.spring else ((element.com if is_body else element.position),)
+        self.factor: ex.Expr = element.stiffness if self.spring else element.mass
+        coordinates = {c.name for c in problem.coordinates}
+        variables = set(problem.variable)
+        #: every name its frames and points depend on
+        self.geometry: set[str] = set().union(*(ex.names(t) for p in self.points for t in p.position), *(frames[p.frame] for p in self.points))
+        factor = ex.names(self.factor)
+        #: the coordinates its energy depends on (its residual is 0 for the others)
+        self.moves_with = (self.geometry | factor) & coordinates
+        #: residual = factor(design, parameters) × an array fixed by the configurations and the geometry
+        self.separable = not factor & coordinates and not self.geometry & variables
+        #: ... with a literal factor: such arrays are summed into one
+        self.constant = self.separable and not factor
+
+    def energy(self, mech: Mechanics, unit_factor: bool) -> Any:
+        """The element's energy (per unit factor if ``unit_factor``)."""
+        factor = 1.0 if unit_factor else mech.value(self.factor)
+        if self.spring:
+            a, b = (mech.position(p) for p in self.points)
+            d = [x - y for x, y in zip(a, b)]
+            return 0.5 * factor * (d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+        return mech.gravity_energy(factor, self.points[0])
+
+
+def frame_names(problem: Problem) -> dict[str, frozenset[str]]:
+    """Every name (coordinate, variable, parameter) the pose of each frame depends on."""
+    out: dict[str, frozenset[str]] = {GROUND: frozenset()}
+
+    def names(name: str) -> frozenset[str]:
+        if name not in out:
+            frame = problem.frame[name]
+            own: set[str] = set()
+            for t in frame.transforms:
+                for tree in (*t.axis, t.angle) if isinstance(t, Rotation) else tuple(t.vector):
+                    own |= ex.names(tree)
+            out[name] = frozenset(own) | (names(frame.parent) if frame.parent is not None else frozenset())
+        return out[name]
+
+    for name in problem.frame:
+        names(name)
+    return out
+
+
+class SubsystemResiduals:
+    """∂V/∂q of one subsystem in one scenario at fixed configurations ``q``, for any design.
+
+    ``evaluate(variables)`` returns (residual, unbalanced gravity torque), each (N, n_q):
+    the design's ∂V/∂q, and that of the given bodies alone. Coordinate j is perturbed on
+    its own: frames that do not move with it keep their real poses, computed once, and
+    elements that do not move with it contribute 0 to column j.
+    """
+
+    def __init__(
+        self,
+        problem: Problem,
+        subsystem: str,
+        q: np.ndarray,
+        cache: bool = True,
+    ) -> None:
+        self.problem = problem
+        self.subsystem = subsystem
+        self.q = q
+        self.names = [c.name for c in problem.subsystem_coordinates(subsystem)]
+        self.frames = frame_names(problem)
+        mine = [(b, True) for b in problem.bodies if b.subsystem == subsystem]
+        mine += [(c, False) for c in problem.counter_masses if c.subsystem == subsystem]
+        mine += [(s, False) for s in problem.springs if s.subsystem == subsystem]
+        self.elements = [_Element(problem, e, is_body, self.frames) for e, is_body in mine]
+        self.used_frames: list[str] = []  # the elements' frames and their ancestors, parents first
+        for e in self.elements:
+            for point in e.points:
+                chain, frame = [], point.frame
+                while frame is not None and frame != GROUND and frame not in self.used_frames and frame not in chain:
+                    chain.append(frame)
+                    frame = problem.frame[frame].parent
+                self.used_frames.extend(reversed(chain))
+        #: base parameters the arrays depend on (through the geometry): the arrays are rebuilt when they change
+        self.geometry_parameters = _base_parameters(problem, set().union(*(e.geometry for e in self.elements if e.separable)))
+        self.constant = [e for e in self.elements if e.constant]
+        separable = [e for e in self.elements if e.separable and not e.constant]
+        self.separable = [e for e in separable if e.is_body] + [e for e in separable if not e.is_body]  # bodies first
+        self.separable_bodies = sum(e.is_body for e in separable)
+        self.per_design = [e for e in self.elements if not e.separable]
+        n, n_q = q.shape
+        self.chunks = [slice(i, min(i + CHUNK_CONFIGURATIONS, n)) for i in range(0, n, CHUNK_CONFIGURATIONS)] if n_q else []
+        size = (len(self.separable) + 2) * n * n_q * 8
+        self._arrays: list[tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None
+        self._arrays_key: tuple[Any, ...] | None = None
+        self.cache = cache and size <= CACHE_BYTES
+
+    # -- complex step --------------------------------------------------------------
+    def _columns(
+        self,
+        elements: Sequence[_Element],
+        variables: Mapping[str, float],
+        base: Mapping[str, float],
+        gravity: Sequence[float],
+        rows: slice,
+        unit_factor: Sequence[bool],
+        slots: Sequence[int],
+        n_slots: int,
+    ) -> np.ndarray:
+        """∂(energy)/∂q of each element (per unit factor where ``unit_factor``) at the
+        configurations ``rows``, added into ``out[slots[k]]`` for element k: (n_slots, n, n_q)."""
+        q = self.q[rows]
+        n, n_q = q.shape
+        out = np.zeros((n_slots, n, n_q))
+        if not elements:
+            return out
+        real = {name: q[:, i] for i, name in enumerate(self.names)}
+        functions, rotations = _Functions(), {}  # shared by the perturbations of this chunk
+        still = Mechanics(self.problem, base, variables, real, gravity, functions, rotations=rotations)
+        for j, name in enumerate(self.names):
+            moving = [(k, e) for k, e in enumerate(elements) if name in e.moves_with]
+            if not moving:
+                continue
+            coords = dict(real)
+            coords[name] = q[:, j] + 1j * STEP
+            known = {f: still.pose(f) for f in self.used_frames if name not in self.frames[f]}
+            mech = Mechanics(self.problem, base, variables, coords, gravity, functions, poses=known, rotations=rotations)
+            for k, e in moving:
+                energy = e.energy(mech, unit_factor[k])
+                if np.iscomplexobj(energy):
+                    out[slots[k]][:, j] += np.imag(energy) / STEP
+        return out
+
+    def _fixed_arrays(self, base: Mapping[str, float], gravity: Sequence[float], rows: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per chunk: (literal-factor bodies, literal-factor balancers, one array per other separable element)."""
+        # the design's variables do not enter these arrays: any value will do
+        variables = {v.name: v.initial for v in self.problem.variables}
+        elements = [*self.constant, *self.separable]
+        slots = [0 if e.is_body else 1 for e in self.constant] + list(range(2, 2 + len(self.separable)))
+        columns = self._columns(elements, variables, base, gravity, rows, [not e.constant for e in elements], slots, 2 + len(self.separable))
+        return columns[0], columns[1], columns[2:]
+
+    def _arrays_of(self, index: int, base: Mapping[str, float], gravity: Sequence[float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        if not self.cache:
+            return self._fixed_arrays(base, gravity, self.chunks[index])
+        key = (tuple(gravity), tuple(base[name] for name in self.geometry_parameters))
+        if self._arrays is None or key != self._arrays_key:
+            self._arrays = [self._fixed_arrays(base, gravity, r) for r in self.chunks]
+            self._arrays_key = key
+        return self._arrays[index]
+
+    # -- one design ----------------------------------------------------------------
+    def evaluate(self, variables: Mapping[str, float], base: Mapping[str, float], gravity: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+        """(residual, unbalanced gravity torque) of a design: ``variables``, base parameters
+        ``base`` and ``gravity`` (SI). The arrays are rebuilt only when gravity or a base
+        parameter the geometry depends on changes: a study of masses reuses them."""
+        n, n_q = self.q.shape
+        residual, torque = np.zeros((n, n_q)), np.zeros((n, n_q))
+        real = Mechanics(self.problem, base, variables, {}, gravity, NUMPY_FUNCTIONS)
+        factors = [float(real.value(e.factor)) for e in self.separable]
+        k = self.separable_bodies
+        body_factors, balancer_factors = np.array(factors[:k]), np.array(factors[k:])
+        for index, rows in enumerate(self.chunks):
+            bodies, balancers, separable = self._arrays_of(index, base, gravity)
+            t, r = torque[rows], residual[rows]  # views, filled in place
+            t[...] = bodies
+            r[...] = balancers
+            flat = separable.reshape(len(separable), t.size)
+            if k:
+                t += (body_factors @ flat[:k]).reshape(t.shape)
+            if len(separable) > k:
+                r += (balancer_factors @ flat[k:]).reshape(r.shape)
+            if self.per_design:
+                slots = [0 if e.is_body else 1 for e in self.per_design]
+                columns = self._columns(self.per_design, variables, base, gravity, rows, [False] * len(slots), slots, 2)
+                for slot, column in enumerate(columns):
+                    (t if slot == 0 else r).__iadd__(column)
+            r += t
+        return residual, torque
+
+
 def residuals(
     problem: Problem, subsystem: str, q: np.ndarray, variables: dict[str, float], base: dict[str, float], gravity: tuple[float, float, float]
 ) -> tuple[np.ndarray, np.ndarray]:
     """∂V/∂q at each row of ``q`` by complex step, for the design and for the bodies alone.
 
-    All n_q perturbations are stacked into one array of n_q·N configurations, so the energy
-    code runs once. Returns (residual, unbalanced gravity torque), each (N, n_q).
+    Returns (residual, unbalanced gravity torque), each (N, n_q). One-off use; the dense
+    check keeps a :class:`SubsystemResiduals` per problem and reuses it.
     """
-    names = [c.name for c in problem.subsystem_coordinates(subsystem)]
-    n, n_q = q.shape
-    stacked = np.tile(q.astype(complex), (n_q, 1))  # block j perturbs coordinate j
-    for j in range(n_q):
-        stacked[j * n : (j + 1) * n, j] += 1j * STEP
-    coords = {name: stacked[:, i] for i, name in enumerate(names)}
-    mech = Mechanics(problem, base, variables, coords, gravity, NUMPY_FUNCTIONS)
-
-    def derivative(energy: object) -> np.ndarray:
-        if not np.iscomplexobj(energy):
-            return np.zeros((n, n_q))
-        return (np.imag(np.broadcast_to(energy, (n * n_q,))) / STEP).reshape(n_q, n).T
-
-    bodies, balancers = mech.energy_terms(subsystem)
-    return derivative(bodies + balancers), derivative(bodies)
+    return SubsystemResiduals(problem, subsystem, q, cache=False).evaluate(variables, base, gravity)
 
 
+def _base_parameters(problem: Problem, names: set[str]) -> tuple[str, ...]:
+    """The base parameters among ``names``, and those the derived parameters among them use."""
+    parameter = {p.name: p for p in problem.parameters}
+    out: set[str] = set()
+    todo = [n for n in names if n in parameter]
+    while todo:
+        p = parameter[todo.pop()]
+        if p.is_base:
+            out.add(p.name)
+        elif p.expr is not None:
+            todo += [n for n in ex.names(p.expr) if n in parameter and n not in out]
+    return tuple(sorted(out))

@@ -1,0 +1,164 @@
+"""Long chains, the reusable dense check, the light command-line entry and BLAS threads.
+
+Speed itself is measured in ``benchmarks/`` (no timed tests); these tests pin what the
+speed-ups must not change.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from builders import Chain, Link
+from conftest import PROBLEMS
+from counterpoise.designer.designer import Designer
+from counterpoise.io.loader import load_problem
+from counterpoise.pipeline import design
+from counterpoise.solvers.base import Status
+from counterpoise.verify import verify
+from counterpoise.verify.residuals import SubsystemResiduals, configurations
+
+
+def tapered_chain(n: int) -> Chain:
+    """n links of 0.2 m, body 0.7^i kg at 0.1 m, counter-mass 0.12 m behind each joint.
+
+    Each counter-mass carries everything beyond its joint (``Chain.required_masses``), so
+    the balancing masses grow inwards by about (1 + 0.2/0.12)·(its share): for 24 links
+    they span 1.9e10 (base 4.2e6 kg, tip 2.3e-4 kg).
+    """
+    return Chain([Link(0.2, 0.7**i, (0.1, 0.0), 0.12) for i in range(n)])
+
+
+def test_24_link_chain_is_optimal_and_verified():
+    """The balancing masses span ten orders of magnitude. Before each coordinate's sampled
+    residual rows were scaled, a rank tolerance relative to the largest singular value
+    could not see the outer joints' conditions next to the base's; now all 24 are kept
+    and the design is the unique one that puts every subtree's centre of mass on its
+    joint, to rounding."""
+    chain = tapered_chain(24)
+    required = chain.required_masses()
+    assert max(required) / min(required) > 1e10
+    result = design(chain.problem())
+    assert result.status is Status.OPTIMAL, result.message
+    assert result.solution.conditions == 24
+    assert result.verification.residual_ratio <= 1e-9
+    found = [result.solution.values[s] for s in sorted(result.solution.values, key=lambda s: int(s.variable[1:]))]
+    np.testing.assert_allclose(found, required, rtol=1e-9)
+
+
+@pytest.mark.parametrize("name", ["yasir2019_hybrid", "yasir2019_free_extensions"])
+def test_cached_arrays_match_complex_step_per_design(name):
+    """The dense check evaluates an element as factor(design) × a complex-step array
+    computed once; the same elements evaluated by complex step on their whole energy for
+    each design must agree (the hybrid: masses that depend on a variable; free extensions:
+    counter-masses at variable distances, always evaluated per design)."""
+    problem = load_problem(PROBLEMS / f"{name}.toml")
+    solution = Designer(problem).solve()
+    scenario = problem.scenarios[0]
+    gravity, base = solution.scenario_parameters[scenario.name]
+    rng = np.random.default_rng(3)
+    variables = {v.name: rng.uniform(v.lower, v.upper) for v in problem.variables}
+    for sub in problem.subsystems:
+        q = configurations(problem, sub.name, 500, rng)
+        fast = SubsystemResiduals(problem, sub.name, q)
+        slow = SubsystemResiduals(problem, sub.name, q, cache=False)
+        slow.per_design, slow.constant, slow.separable = slow.elements, [], []
+        for got, want in zip(fast.evaluate(variables, base, gravity), slow.evaluate(variables, base, gravity)):
+            np.testing.assert_allclose(got, want, rtol=1e-11, atol=1e-12 * np.abs(want).max())
+
+
+def test_repeated_verification_reuses_and_matches():
+    """A second check of the same problem reuses the evaluators and gives the same figures;
+    other parameter values (a study point) get their own."""
+    problem = load_problem(PROBLEMS / "yasir2019_counter_mass.toml")
+    designer = Designer(problem)
+    first = verify(designer.solve())
+    again = verify(designer.solve())
+    assert first == again
+    name = problem.base_parameters[0].name
+    other = designer.solve(parameters={name: 1.1 * problem.base_parameters[0].value})
+    assert verify(other).checks != first.checks
+
+
+def test_a_study_of_masses_reuses_the_arrays_and_matches_a_fresh_check():
+    """Changing a mass parameter keeps the geometry, so the arrays are reused; changing a
+    length rebuilds them. Either way the figures equal those of a one-off evaluation."""
+    from counterpoise.verify.check import evaluators
+    from counterpoise.verify.residuals import residuals
+
+    problem = load_problem(PROBLEMS / "yasir2019_hybrid.toml")
+    designer = Designer(problem)
+    verify(designer.solve())
+    evaluator = evaluators(designer.solve())[0][2]
+    arrays = evaluator._arrays
+    for parameters, reused in (({"m_endo": 0.8}, True), ({"r_a": 0.14}, False)):
+        solution = designer.solve(parameters=parameters)
+        verification = verify(solution)
+        assert (evaluator._arrays is arrays) is reused
+        scenario, subsystem, _ = evaluators(solution)[0]
+        gravity, base = solution.scenario_parameters[scenario]
+        r, t = residuals(problem, subsystem, evaluator.q, solution.variable_values(scenario), base, gravity)
+        check = verification.checks[0]
+        assert check.max_residual == pytest.approx(float(np.abs(r[:, 0]).max()), rel=1e-9, abs=1e-14)
+        assert check.max_gravity_torque == pytest.approx(float(np.abs(t[:, 0]).max()), rel=1e-12)
+
+
+def test_light_help_lists_the_apps_commands():
+    """``counterpoise --help`` is printed without importing typer; it must list exactly
+    the commands of the typer app, with their help."""
+    from counterpoise.cli import app as cli_app
+    from counterpoise.cli.light import COMMANDS, DESCRIPTION, top_level_help
+
+    registered = {(c.name or c.callback.__name__): (c.callback.__doc__ or "").strip().splitlines()[0] for c in cli_app.app.registered_commands}
+    assert registered == COMMANDS
+    assert cli_app.app.info.help == DESCRIPTION
+    text = top_level_help()
+    assert all(name in text for name in COMMANDS)
+
+
+def test_blas_is_single_threaded_after_a_designer_is_built():
+    from threadpoolctl import threadpool_info
+
+    Designer(Chain([Link(0.3, 1.0, (0.1, 0.0), 0.1)]).problem())
+    assert all(pool["num_threads"] == 1 for pool in threadpool_info())
+
+
+def _fresh(code: str, **env: str) -> str:
+    """Run ``code`` in a fresh interpreter with this checkout's sources; return its stdout."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    src = str(Path(__file__).resolve().parent.parent / "src")
+    environ = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [src, os.environ.get("PYTHONPATH")])), **env}
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=environ)
+    assert run.returncode == 0, run.stderr
+    return run.stdout
+
+
+def test_top_level_help_imports_no_heavy_module():
+    out = _fresh(
+        "import sys\n"
+        "from counterpoise.cli import main\n"
+        "try:\n    main(['--help'])\nexcept SystemExit as e:\n    code = e.code\n"
+        "heavy = sorted(m for m in ('typer', 'rich', 'numpy', 'pint', 'pydantic', 'casadi', 'pandas') if m in sys.modules)\n"
+        "print(code, heavy)\n"
+    )
+    assert out.strip().splitlines()[-1] == "0 []"
+
+
+def test_units_without_dask_and_without_a_usable_cache():
+    """pint is imported without probing dask (which stays importable), and a cache folder
+    that cannot be created falls back to building the registry from pint's definitions."""
+    out = _fresh(
+        "import sys, importlib.util\n"
+        "from counterpoise.model import units\n"
+        "q = units.ureg().Quantity(1, 'N/mm').to_base_units()\n"
+        "print(round(q.magnitude), 'dask' in sys.modules, units.ureg().cache_folder, importlib.util.find_spec('dask') is not None)\n",
+        COUNTERPOISE_PINT_CACHE="/dev/null/not-a-folder",
+    )
+    import importlib.util
+
+    has_dask = importlib.util.find_spec("dask") is not None
+    assert out.split() == ["1000", "False", "None", str(has_dask)]
