@@ -36,9 +36,11 @@ class BalanceConditions:
             hi = np.array([c.upper for c in coords])
             n_q = len(coords)
 
-            def sample(n_conf: int, n_design: int, block: Block = block) -> tuple[np.ndarray, Any]:
+            def sample(n_conf: int, n_design: int, block: Block = block) -> tuple[np.ndarray, Any, float]:
                 q = lo + (hi - lo) * rng.random((n_conf, n_q))
-                return _sample_residuals(block.residual, q, self._random_designs(n_design, rng), parameters), q
+                z = self._random_designs(n_design, rng)
+                scale = _largest(block.magnitude, q, z, parameters)
+                return _sample_residuals(block.residual, q, z, parameters), q, scale
 
             comp, q = adaptive_compression(sample, start_configurations=16 + 8 * n_q, start_designs=32)
             torque = np.abs(_sample_residuals(block.gravity_torque, q, d.to_z(d.initial)[None, :], parameters)).max(initial=0.0)
@@ -96,3 +98,11 @@ def _sample_residuals(residual: Any, q: np.ndarray, z: np.ndarray, parameters: n
     return out.reshape(n_q, n_design, n_conf).transpose(2, 0, 1).reshape(n_conf * n_q, n_design)
 
 
+
+
+def _largest(function: Any, q: np.ndarray, z: np.ndarray, parameters: np.ndarray) -> float:
+    """Largest |value| of a scalar function of (q, z, p) over every (configuration, design) pair."""
+    n_conf, n_design = q.shape[0], z.shape[0]
+    mapped = function.map(n_conf * n_design)
+    out = np.array(mapped(np.tile(q.T, (1, n_design)), np.repeat(z.T, n_conf, axis=1), np.tile(parameters[:, None], (1, n_conf * n_design))))
+    return float(np.abs(out).max(initial=0.0))

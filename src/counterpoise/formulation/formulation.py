@@ -26,6 +26,7 @@ class Block:
     coordinates: tuple[str, ...]
     residual: Any  # casadi.Function (q, z, p) -> ∂V/∂q
     gravity_torque: Any  # casadi.Function (q, z, p) -> ∂V/∂q of the given bodies alone
+    magnitude: Any  # casadi.Function (q, z, p) -> Σ |energy of each element| (scale of rounding noise)
 
 
 class Formulation:
@@ -57,7 +58,8 @@ class Formulation:
             for sub in problem.subsystems:
                 q = ca.SX.sym("q", len(sub.coordinates))
                 coords = {name: q[i] for i, name in enumerate(sub.coordinates)}
-                bodies, balancers = Mechanics(problem, base, variables, coords, gravity, functions).energy_terms(sub.name)
+                block_mech = Mechanics(problem, base, variables, coords, gravity, functions)
+                bodies, balancers = block_mech.energy_terms(sub.name)
                 self.blocks.append(
                     Block(
                         sub.name,
@@ -65,6 +67,7 @@ class Formulation:
                         sub.coordinates,
                         ca.Function(f"r_{sub.name}_{scenario.name}", [q, self.z, self.p], [ca.gradient(bodies + balancers, q)]),
                         ca.Function(f"t_{sub.name}_{scenario.name}", [q, self.z, self.p], [ca.gradient(bodies, q)]),
+                        ca.Function(f"e_{sub.name}_{scenario.name}", [q, self.z, self.p], [block_mech.energy_magnitude(sub.name)]),
                     )
                 )
         n = len(problem.scenarios)

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .checks import PRISMATIC, REVOLUTE, CoordinateCheck, Verification
-from .residuals import configurations, residuals
+from .residuals import configurations, energy_scale, residuals
 
 if TYPE_CHECKING:
     from ..designer.solution import Solution
@@ -31,6 +31,7 @@ def verify(solution: "Solution", samples: int | None = None, seed: int | None = 
         for sub in problem.subsystems:
             q = configurations(problem, sub.name, n, rng)
             r, t = residuals(problem, sub.name, q, variables, base, gravity)
+            scale = energy_scale(problem, sub.name, q, variables, base, gravity)
             for j, name in enumerate(sub.coordinates):
                 column = np.abs(r[:, j])
                 worst = int(np.nanargmax(column)) if not np.isnan(column).all() else 0
@@ -44,6 +45,7 @@ def verify(solution: "Solution", samples: int | None = None, seed: int | None = 
                         max_residual=float(column.max()),  # NaN if any is NaN
                         max_gravity_torque=float(np.abs(t[:, j]).max()),
                         max_balancer_force=float(np.abs(r[:, j] - t[:, j]).max()),
+                        energy_scale=scale,
                         configurations=int(q.shape[0]),
                         worst_configuration=tuple(float(v) for v in q[worst]),
                     )
