@@ -29,6 +29,7 @@ SUMMARY_COLUMNS = [
     "solver",
     "max_residual_N",
     "max_gravity_force_N",
+    "worst_scenario",
 ]
 VERIFICATION_COLUMNS = [
     "subsystem",
@@ -101,6 +102,7 @@ def summary_row(result: DesignResult) -> Row:
         "solver": s.solver,
         "max_residual_N": v.max_residual(PRISMATIC),
         "max_gravity_force_N": v.max_gravity_torque(PRISMATIC),
+        "worst_scenario": worst.scenario if (worst := v.worst()) is not None else "",
     }
 
 
