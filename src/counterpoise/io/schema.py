@@ -114,6 +114,18 @@ class SpringSpec(_Table):
     description: str = ""
 
 
+class SubstitutionPointSpec(_Table):
+    at: Vec3  # the point in the substituted body's frame
+    frame: str  # the frame that receives the point mass
+    point: Vec3  # the same point in that frame
+    description: str = ""
+
+
+class SubstitutionSpec(_Table):
+    description: str = ""
+    points: Annotated[dict[Name, SubstitutionPointSpec], Field(min_length=1)]
+
+
 class VariableSpec(_Table):
     lower: Value
     upper: Value
@@ -156,6 +168,7 @@ class ProblemFile(_Table):
     bodies: dict[Name, BodySpec] = Field(default_factory=dict)
     counter_masses: dict[Name, CounterMassSpec] = Field(default_factory=dict)
     springs: dict[Name, SpringSpec] = Field(default_factory=dict)
+    substitutions: dict[Name, SubstitutionSpec] = Field(default_factory=dict)
     variables: dict[Name, VariableSpec] = Field(default_factory=dict)
     objective: ObjectiveSpec = Field(default_factory=ObjectiveSpec)
     report: dict[Name, ReportSpec] = Field(default_factory=dict)

@@ -15,6 +15,7 @@ from functools import cached_property
 from .elements import CounterMass, ZeroFreeLengthSpring
 from .expr import Expr
 from .mechanism import Body, Coordinate, Frame, Subsystem
+from .substitution import Substitution
 from .units import DisplayUnit
 
 
@@ -138,6 +139,7 @@ class Problem:
     objective: Objective
     report: tuple[ReportQuantity, ...]
     settings: Settings = field(default_factory=Settings)
+    substitutions: tuple[Substitution, ...] = ()  # bodies replaced by point masses (already in ``bodies``)
 
     @cached_property
     def frame(self) -> Mapping[str, Frame]:

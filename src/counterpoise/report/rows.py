@@ -44,6 +44,31 @@ VERIFICATION_COLUMNS = [
 ]
 
 
+SUBSTITUTION_COLUMNS = ["body", "point", "frame", "scenario", "mass", "unit"]
+
+
+def substitution_rows(result: DesignResult) -> list[Row]:
+    """One row per substituted point mass (and scenario, when it differs between scenarios)."""
+    problem = result.problem
+    units = {q.name: q.unit for q in problem.report}
+    rows: list[Row] = []
+    for sub in problem.substitutions:
+        for m in sub.masses:
+            for qv in result.quantities:
+                if qv.name == m.name:
+                    rows.append(
+                        {
+                            "body": sub.body,
+                            "point": m.name,
+                            "frame": m.point.frame,
+                            "scenario": qv.scenario or "",
+                            "mass": units[m.name].from_si(qv.value),
+                            "unit": units[m.name].label,
+                        }
+                    )
+    return rows
+
+
 def design_rows(result: DesignResult) -> list[Row]:
     """One row per design-vector slot (``variable``) and per report quantity (``quantity``)."""
     problem = result.problem
