@@ -8,6 +8,7 @@ texts built below), never from the paper's formulas. Tolerance 0.1 % unless stat
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import pytest
 
@@ -172,3 +173,177 @@ def test_appendix_b_attachment_on_the_line_through_the_com(approx, b):
     r = math.hypot(15.0, 48.0)  # mm
     assert value(result, "h", "mm") == approx(0.4 * G * r / (300 * b) * 1000)
     assert result.verification.residual_ratio <= 1e-9
+
+
+# --------------------------------------------------------------------------------------
+# Mass moment substitution (section 4.1): the Bennett plano-spherical example
+# --------------------------------------------------------------------------------------
+
+BENNETT = """
+[problem]
+name = "bennett_plano_spherical"
+[gravity]
+acceleration = "9.81 m/s^2"
+direction = [0, 0, -1]
+[parameters]
+m = "0.2 kg"
+m_half = "0.1 kg"
+L = "300 mm"
+k = "100 N/m"
+# link 1: on the fixed horizontal axis R1 (world x), R2 at its far end
+[subsystems.planar]
+coordinates.q1 = { range = ["-180 deg", "180 deg"] }
+[frames.link1]
+transforms = [{ rotate = "x", angle = "q1" }]
+[bodies.link1]
+frame = "link1"
+mass = "m"
+com = [0, "L/2", 0]
+# link 3: the last link of the spherical part, turning about O (R4's end at O), R3 at its far end
+[subsystems.spherical]
+coordinates.q4 = { range = ["-180 deg", "180 deg"] }
+coordinates.q3 = { range = ["-180 deg", "180 deg"] }
+[frames.link3]
+transforms = [{ rotate = "y", angle = "q4" }, { rotate = "x", angle = "35 deg" }, { rotate = "z", angle = "q3" }]
+[bodies.link3]
+frame = "link3"
+mass = "m_half"
+com = [0, "L/2", 0]
+# link 2 (between R2 and R3), mass m at mid-length, is not simulated: substituted
+[bodies.link2]
+frame = "ground"
+mass = "m"
+com = [0, "L/2", 0]
+[substitutions.link2]
+points.mu_R2 = { at = [0, 0, 0], frame = "link1", point = [0, "L", 0] }
+points.mu_R3 = { at = [0, "L", 0], frame = "link3", point = [0, "L", 0] }
+[variables.h1]
+lower = "0 mm"
+upper = "200 mm"
+[variables.h3]
+lower = "0 mm"
+upper = "200 mm"
+# springs at the top third of link 1 and the top quarter of link 3
+[springs.s1]
+stiffness = "k"
+from = { frame = "ground", point = [0, 0, "h1"] }
+to = { frame = "link1", point = [0, "2*L/3", 0] }
+[springs.s3]
+stiffness = "k"
+from = { frame = "ground", point = [0, 0, "h3"] }
+to = { frame = "link3", point = [0, "3*L/4", 0] }
+[report.M1]
+expression = "total_mass(planar)"
+unit = "g"
+[report.r1]
+expression = "com_distance(planar)"
+unit = "mm"
+[report.M3]
+expression = "total_mass(spherical)"
+unit = "g"
+[report.r3]
+expression = "com_distance(spherical)"
+unit = "mm"
+[settings]
+verify_tolerance = 1e-9
+"""
+
+
+@lru_cache(maxsize=1)
+def _bennett():
+    return design(load_problem_text(BENNETT, "bennett"))
+
+
+class TestBennettSubstitution:
+    """Link 2 (m, centre midway) becomes m/2 on R2 and m/2 on R3 (I3)."""
+
+    @pytest.fixture
+    def result(self):
+        return _bennett()
+
+    def test_substituted_masses(self, result, approx):
+        assert value(result, "mu_R2", "kg") == approx(0.1)
+        assert value(result, "mu_R3", "kg") == approx(0.1)
+
+    def test_augmented_links(self, result, approx):
+        # link 1: m + m/2 = 3m/2 with its centre of mass at 2L/3; link 3: m/2 + m/2 = m at 3L/4
+        assert value(result, "M1", "g") == approx(300.0)
+        assert value(result, "r1", "mm") == approx(200.0)
+        assert value(result, "M3", "g") == approx(200.0)
+        assert value(result, "r3", "mm") == approx(225.0)
+
+    def test_spring_heights(self, result, approx):
+        assert result.status.value == "optimal"
+        assert result.verification.residual_ratio <= 1e-9
+        assert value(result, "h1", "mm") == approx(1000 * 3 * 0.2 * G / (2 * 100))  # 3mg/(2k) = 29.43 mm
+        assert value(result, "h3", "mm") == approx(1000 * 0.2 * G / 100)  # mg/k = 19.62 mm
+
+
+# --------------------------------------------------------------------------------------
+# The 3-RRS parallel mechanism (example 4): problems/rrs3_parallel.toml
+# --------------------------------------------------------------------------------------
+
+
+class TestRRS3:
+    def test_symmetric_platform_splits_in_thirds(self, approx):
+        result = solved("rrs3_parallel")
+        assert result.status.value == "optimal"
+        assert result.verification.residual_ratio <= 1e-9
+        for name in ("m_u1", "m_u2", "m_u3"):
+            assert value(result, name, "g") == approx(900.0 / 3)
+
+    def test_off_centre_platform_splits_unequally_and_still_balances(self, approx):
+        result = solved("rrs3_parallel", (("parameters.u_x", "20 mm"), ("parameters.u_y", "-10 mm")))
+        assert result.status.value == "optimal"
+        assert result.verification.residual_ratio <= 1e-9
+        mu = [value(result, f"m_u{i}", "g") for i in (1, 2, 3)]
+        assert max(mu) - min(mu) > 100  # clearly unequal
+        # mass and first moment are kept: Σμ = m_u, Σμ s = m_u c (S joints at r = 100 mm, 30/150/270 deg)
+        assert sum(mu) == approx(900.0)
+        phis = [math.radians(a) for a in (30, 150, 270)]
+        assert sum(m * 100 * math.cos(p) for m, p in zip(mu, phis)) == pytest.approx(900 * 20, rel=1e-6)
+        assert sum(m * 100 * math.sin(p) for m, p in zip(mu, phis)) == pytest.approx(900 * -10, rel=1e-6)
+
+    def test_substitution_report_file(self, tmp_path):
+        from counterpoise.report import write_reports
+
+        folder = write_reports(solved("rrs3_parallel"), tmp_path)
+        lines = (folder / "substitution.csv").read_text().splitlines()
+        assert lines[0] == "body,point,frame,scenario,mass,unit"
+        assert [line.split(",")[1] for line in lines[1:]] == ["m_u1", "m_u2", "m_u3"]
+        assert all(line.endswith(",300,g") for line in lines[1:])
+
+    def test_centre_of_mass_off_the_plane_has_no_substitution(self):
+        from counterpoise.errors import ProblemFileError
+        from counterpoise.io.loader import load_problem
+
+        from conftest import PROBLEMS
+
+        with pytest.raises(ProblemFileError) as info:
+            load_problem(PROBLEMS / "rrs3_parallel.toml", {"parameters.u_z": "100 mm"})
+        assert info.value.key == "substitutions.platform"
+        assert "no substitution exists for body 'platform'" in info.value.message
+
+
+# --------------------------------------------------------------------------------------
+# The linear system itself: exact, least-norm, impossible
+# --------------------------------------------------------------------------------------
+
+
+def test_substitution_matrix_exact_and_least_norm():
+    import numpy as np
+
+    from counterpoise.model.substitution import substitution_gap, substitution_matrix
+
+    # two points, centre of mass on their line at 1/4: exact, 3/4 and 1/4 of the mass
+    two = np.array([[0.0, 0.0, 0.0], [0.4, 0.0, 0.0]])
+    mu = substitution_matrix(two) @ np.array([2.0, 2.0 * 0.1, 0.0, 0.0])
+    assert mu == pytest.approx([1.5, 0.5])
+    assert substitution_gap(two, np.array([0.1, 0.0, 0.0])) == pytest.approx(0.0, abs=1e-12)
+    # off the line: no substitution
+    assert substitution_gap(two, np.array([0.1, 0.05, 0.0])) > 1e-3
+    # four coplanar points (a square), centre of mass at its centre: under-determined, and
+    # the least-norm solution is the equal split
+    square = np.array([[1.0, 1.0, 0.0], [-1.0, 1.0, 0.0], [-1.0, -1.0, 0.0], [1.0, -1.0, 0.0]])
+    mu = substitution_matrix(square) @ np.array([4.0, 0.0, 0.0, 0.0])
+    assert mu == pytest.approx([1.0, 1.0, 1.0, 1.0])
