@@ -44,7 +44,7 @@ class Formulation:
         functions = casadi_functions()
 
         self.blocks: list[Block] = []
-        added_mass, added_inertia = [], []
+        added_mass, added_inertia, added_stiffness = [], [], []
         nonnegative: dict[str, Any] = {}  # keyed by the expression's text: one row per distinct constraint
         home = {k.name: k.home for k in problem.coordinates}
         for c, scenario in enumerate(problem.scenarios):
@@ -53,6 +53,7 @@ class Formulation:
             mech = Mechanics(problem, base, variables, home, gravity, functions)
             added_mass.append(mech.added_mass())
             added_inertia.append(mech.added_inertia())
+            added_stiffness.append(mech.added_stiffness())
             for expression in self._sign_constraints(mech):
                 nonnegative.setdefault(str(expression), expression)
             for sub in problem.subsystems:
@@ -74,7 +75,10 @@ class Formulation:
         self.added_mass = sum(added_mass) / n
         self.added_inertia = sum(added_inertia) / n
         w = problem.objective
+        self.added_stiffness = sum(added_stiffness) / n
         self.objective = w.mass_weight * self.added_mass + w.inertia_weight * self.added_inertia
+        if w.stiffness_weight:
+            self.objective = self.objective + w.stiffness_weight * self.added_stiffness
         self.nonnegative = ca.vertcat(*nonnegative.values()) if nonnegative else ca.SX(0, 1)
         self.report_function = ca.Function("mass_report", [self.z, self.p], [self.objective, self.added_mass, self.added_inertia])
 

@@ -133,6 +133,14 @@ class ProblemBuilder:
         }
         return self._put("springs", name, self._described(entry, description))
 
+    def substitution(
+        self, body: str, points: Mapping[str, tuple[Vec3, str, Vec3]], description: str = ""
+    ) -> "ProblemBuilder":
+        """Replace ``body`` by point masses: ``points[name] = (at, frame, point)``, ``at`` in the
+        body's frame, ``point`` the same point in the receiving ``frame``."""
+        entry = {name: {"at": list(at), "frame": frame, "point": list(point)} for name, (at, frame, point) in points.items()}
+        return self._put("substitutions", body, self._described({"points": entry}, description))
+
     def scenario(
         self,
         name: str,
@@ -151,8 +159,8 @@ class ProblemBuilder:
             }
         return self._put("scenarios", name, self._described(entry, description))
 
-    def objective(self, mass_weight: float = 1.0, inertia_weight: Value = 0) -> "ProblemBuilder":
-        self._data["objective"] = {"mass_weight": mass_weight, "inertia_weight": inertia_weight}
+    def objective(self, mass_weight: float = 1.0, inertia_weight: Value = 0, stiffness_weight: Value = 0) -> "ProblemBuilder":
+        self._data["objective"] = {"mass_weight": mass_weight, "inertia_weight": inertia_weight, "stiffness_weight": stiffness_weight}
         return self
 
     def report(self, name: str, expression: str, unit: str = "", description: str = "") -> "ProblemBuilder":

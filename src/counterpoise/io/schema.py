@@ -138,6 +138,7 @@ class VariableSpec(_Table):
 class ObjectiveSpec(_Table):
     mass_weight: Annotated[float, Field(ge=0)] = 1.0
     inertia_weight: Value = 0
+    stiffness_weight: Value = 0
 
 
 class ReportSpec(_Table):

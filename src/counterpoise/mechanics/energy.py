@@ -163,6 +163,10 @@ class Mechanics:
     def added_mass(self) -> Scalar:
         return add_all([self.value(c.mass) for c in self.problem.counter_masses])
 
+    def added_stiffness(self) -> Scalar:
+        """Σ k_s over springs (a spring shared by several attachments counts each time)."""
+        return add_all([self.value(s.stiffness) for s in self.problem.springs])
+
     def added_inertia(self) -> Scalar:
         """Σ M_j d_j² (with d_j² rather than d_j, smooth where d_j = 0)."""
         return add_all([mul(self.value(c.mass), self.arm_squared(j)) for j, c in enumerate(self.problem.counter_masses)])

@@ -92,14 +92,16 @@ class Scenario:
 
 @dataclass(frozen=True)
 class Objective:
-    """minimise mass_weight * added_mass + inertia_weight * added_inertia (in kg).
+    """minimise mass_weight * added_mass + inertia_weight * added_inertia
+    + stiffness_weight * added_stiffness (in kg).
 
-    added_mass = Σ M_j, added_inertia = Σ M_j d_j² over counter-masses; with several
-    scenarios both are averaged over scenarios.
+    added_mass = Σ M_j, added_inertia = Σ M_j d_j² over counter-masses, added_stiffness
+    = Σ k_s over springs; with several scenarios each is averaged over scenarios.
     """
 
     mass_weight: float = 1.0
     inertia_weight: float = 0.0  # 1/m^2
+    stiffness_weight: float = 0.0  # kg per N/m (s^2 in SI)
 
 
 @dataclass(frozen=True)
