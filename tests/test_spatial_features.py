@@ -55,3 +55,80 @@ def test_stiffness_weight_needs_mass_per_stiffness():
     with pytest.raises(ProblemFileError) as info:
         lever_with_spring_and_counter_mass("1 kg").build()
     assert info.value.key == "objective.stiffness_weight"
+
+
+# --------------------------------------------------------------------------------------
+# Denavit-Hartenberg rows
+# --------------------------------------------------------------------------------------
+
+
+def test_dh_row_is_rot_x_trans_x_rot_z_trans_z():
+    """A DH row places a frame exactly as its four elementary transforms written out."""
+    import numpy as np
+
+    from counterpoise import dh, translate
+    from counterpoise.mechanics import Mechanics
+    from counterpoise.model.mechanism import Point
+
+    def frame_of(*transforms):
+        b = ProblemBuilder("dh")
+        b.parameter("L", "0.3 m").subsystem("s", q=("-180 deg", "180 deg"))
+        b.frame("link", *transforms)
+        b.body("tip", frame="link", mass="1 kg", com=("0.1 m", "0.2 m", "0.05 m"))
+        problem = b.build()
+        mech = Mechanics(problem, {"L": 0.3}, {}, {"q": 0.7}, (0.0, -9.81, 0.0))
+        return np.array(mech.position(Point("link", problem.bodies[0].com.position)), dtype=float)
+
+    row = frame_of(dh(a="L", alpha="30 deg", d="0.05 m", theta="q"))
+    written = frame_of(rotate("x", "30 deg"), translate("L"), rotate("z", "q"), translate(0, 0, "0.05 m"))
+    assert row == pytest.approx(written, abs=1e-15)
+
+
+def test_dh_row_in_a_seed_file_gives_the_same_design():
+    """spherical_chain_3r.toml writes links 2 and 3 as DH rows: h_i = m_i g/k_i still."""
+    from conftest import solved, value
+
+    result = solved("spherical_chain_3r")
+    assert value(result, "h_2", "mm") == pytest.approx(7.848, rel=1e-6)
+
+
+# --------------------------------------------------------------------------------------
+# Coupled coordinates: closed chains as expressions of the independent coordinates
+# --------------------------------------------------------------------------------------
+
+
+def parallelogram(coupled: bool) -> ProblemBuilder:
+    """A crank (m1 = 0.5 kg at r = 0.1 m, length L = 0.3 m) carries a coupler (m2 = 0.8 kg)
+    whose centre of mass sits c = 0.12 m along it. In a parallelogram the coupler keeps its
+    orientation: its frame turns by psi = −theta relative to the crank (a coupled
+    coordinate). Gravity then sees m1 r + m2 L on the crank, not c, and a counter-mass at
+    b = 0.2 m behind the pivot needs M = (m1 r + m2 L)/b = 1.45 kg. If the coupler turned with
+    the crank instead, its c would add to the lever: M = (m1 r + m2 (L + c))/b = 1.93 kg."""
+    b = ProblemBuilder("parallelogram", direction=(0, -1, 0))
+    b.parameter("L", "0.3 m").parameter("c", "0.12 m")
+    b.subsystem("crank_sub", q=("-180 deg", "180 deg"), coupled={"psi": "-q"} if coupled else None)
+    b.frame("crank", rotate("z", "q"))
+    b.frame("coupler", {"translate": ["L", 0, 0]}, rotate("z", "psi" if coupled else "0 deg"), parent="crank")
+    b.body("crank", frame="crank", mass="0.5 kg", com=("0.1 m", 0, 0))
+    b.body("coupler", frame="coupler", mass="0.8 kg", com=("c", 0, 0))
+    b.variable("M", "0 kg", "10 kg")
+    b.counter_mass("cm", frame="crank", mass="M", position=("-0.2 m", 0, 0))
+    return b
+
+
+@pytest.mark.parametrize(("coupled", "expected"), [(True, 1.45), (False, 1.93)])
+def test_coupled_coordinate_keeps_the_coupler_level(coupled, expected):
+    result = design(parallelogram(coupled).build())
+    assert result.status.value == "optimal"
+    assert result.verification.residual_ratio <= 1e-9
+    (m,) = result.solution.values.values()
+    assert m == pytest.approx(expected, rel=1e-6)
+
+
+def test_coupled_coordinate_must_use_its_subsystems_coordinates():
+    from counterpoise.errors import ProblemFileError
+
+    with pytest.raises(ProblemFileError) as info:
+        parallelogram(True).build(overrides={"subsystems.crank_sub.coupled.psi": "-q_other"})
+    assert info.value.key == "subsystems.crank_sub.coupled.psi"
+    assert "unknown name 'q_other'" in info.value.message

@@ -64,6 +64,9 @@ class CoordinateSpec(_Table):
 class SubsystemSpec(_Table):
     description: str = ""
     coordinates: Annotated[dict[Name, CoordinateSpec], Field(min_length=1)]
+    #: coupled coordinates: names for expressions of this subsystem's coordinates (a
+    #: parallelogram's opposite link, a five-bar's passive joints), usable in frames
+    coupled: dict[Name, Value] = Field(default_factory=dict)
 
 
 class RotateSpec(_Table):
@@ -75,9 +78,29 @@ class TranslateSpec(_Table):
     translate: Vec3
 
 
+class DHRow(_Table):
+    """Modified (Craig) Denavit-Hartenberg: Rot_x(alpha) Trans_x(a) Rot_z(theta) Trans_z(d)."""
+
+    a: Value
+    alpha: Value
+    d: Value
+    theta: Value
+
+
+class DHSpec(_Table):
+    dh: DHRow
+
+
+def _transform_tag(v: Any) -> str:
+    for tag, spec in (("rotate", RotateSpec), ("dh", DHSpec)):
+        if (isinstance(v, dict) and tag in v) or isinstance(v, spec):
+            return tag
+    return "translate"
+
+
 TransformEntry = Annotated[
-    Union[Annotated[RotateSpec, Tag("rotate")], Annotated[TranslateSpec, Tag("translate")]],
-    Discriminator(lambda v: "rotate" if (isinstance(v, dict) and "rotate" in v) or isinstance(v, RotateSpec) else "translate"),
+    Union[Annotated[RotateSpec, Tag("rotate")], Annotated[TranslateSpec, Tag("translate")], Annotated[DHSpec, Tag("dh")]],
+    Discriminator(_transform_tag),
 ]
 
 
