@@ -132,3 +132,94 @@ def test_coupled_coordinate_must_use_its_subsystems_coordinates():
         parallelogram(True).build(overrides={"subsystems.crank_sub.coupled.psi": "-q_other"})
     assert info.value.key == "subsystems.crank_sub.coupled.psi"
     assert "unknown name 'q_other'" in info.value.message
+
+
+# --------------------------------------------------------------------------------------
+# Repeated structure: [repeat.<name>]
+# --------------------------------------------------------------------------------------
+
+MASSES = [0.30, 0.25, 0.2, 0.18, 0.15, 0.12, 0.1, 0.09, 0.08, 0.06, 0.05, 0.04]  # kg
+STIFFNESSES = [400, 300, 250, 200, 180, 150, 120, 100, 90, 80, 60, 50]  # N/m
+TWISTS = [90, 40, 65, 75, 30, 55, 80, 45, 60, 35, 70, 50]  # deg; the first turns axis 1 horizontal
+
+
+def chain_text(n: int) -> str:
+    values = {
+        "i": list(range(1, n + 1)),
+        "parent": ["ground"] + [f"link{i}" for i in range(1, n)],
+        "alpha": [f"{a} deg" for a in TWISTS[:n]],
+        "m": [f"{m} kg" for m in MASSES[:n]],
+        "k": [f"{k} N/m" for k in STIFFNESSES[:n]],
+    }
+    inline = ", ".join(f"{key} = {list_toml(v)}" for key, v in values.items())
+    return f"""
+[problem]
+name = "spherical_chain_{n}"
+[gravity]
+acceleration = "9.81 m/s^2"
+direction = [0, 0, -1]
+[subsystems.chain]
+description = "coordinates come from the repeat"
+[settings]
+verify_samples = 2000
+verify_tolerance = 1e-9
+[repeat.links]
+values = {{ {inline} }}
+[repeat.links.parameters]
+"m{{i}}" = "{{m}}"
+"k{{i}}" = "{{k}}"
+[repeat.links.subsystems.chain.coordinates."q{{i}}"]
+range = ["-180 deg", "180 deg"]
+[repeat.links.frames."link{{i}}"]
+parent = "{{parent}}"
+transforms = [{{ dh = {{ a = 0, alpha = "{{alpha}}", d = 0, theta = "q{{i}}" }} }}]
+[repeat.links.bodies."link{{i}}"]
+frame = "link{{i}}"
+mass = "m{{i}}"
+com = ["20 mm", "-15 mm", "60 mm"]
+[repeat.links.variables."h{{i}}"]
+lower = "0 mm"
+upper = "100 mm"
+[repeat.links.springs."s{{i}}"]
+stiffness = "k{{i}}"
+from = {{ frame = "ground", point = [0, 0, "h{{i}}"] }}
+to = {{ frame = "link{{i}}", point = ["20 mm", "-15 mm", "60 mm"] }}
+"""
+
+
+def list_toml(items: list) -> str:
+    return "[" + ", ".join(str(v) if isinstance(v, int) else f'"{v}"' for v in items) + "]"
+
+
+def test_repeat_writes_a_twelve_link_spherical_chain():
+    """Twelve links from one template; each needs h_i = m_i g / k_i (seed 002, eqs. 11-18)."""
+    from counterpoise.io.loader import load_problem_text
+
+    problem = load_problem_text(chain_text(12), "chain12")
+    assert [c.name for c in problem.coordinates] == [f"q{i}" for i in range(1, 13)]
+    assert problem.frame["link7"].parent == "link6"
+    result = design(problem)
+    assert result.status.value == "optimal"
+    assert result.verification.residual_ratio <= 1e-9
+    values = {s.variable: v for s, v in result.solution.values.items()}
+    for i, (m, k) in enumerate(zip(MASSES, STIFFNESSES), start=1):
+        assert values[f"h{i}"] == pytest.approx(m * G / k, rel=1e-6)
+
+
+@pytest.mark.parametrize(
+    ("edit", "key", "fragment"),
+    [
+        (lambda t: t.replace("i = [1, 2, 3]", "i = [1, 2]"), "repeat.links.values", "different lengths"),
+        (lambda t: t.replace('frame = "link{i}"\nmass', 'frame = "link{j}"\nmass'), "repeat.links.bodies.link{i}.frame", "unknown placeholder '{j}'"),
+        (lambda t: t + '[bodies.link2]\nframe = "link2"\nmass = "1 kg"\ncom = [0, 0, 0]\n', "bodies.link2", "defined twice"),
+    ],
+    ids=["unequal_lists", "unknown_placeholder", "defined_twice"],
+)
+def test_repeat_errors_name_the_key(edit, key, fragment):
+    from counterpoise.errors import ProblemFileError
+    from counterpoise.io.loader import load_problem_text
+
+    with pytest.raises(ProblemFileError) as info:
+        load_problem_text(edit(chain_text(3)), "chain3")
+    assert info.value.key == key
+    assert fragment in info.value.message
