@@ -40,6 +40,20 @@ class TestOrientation:
         assert value(result, name, "N/mm") == approx(expected)
 
 
+def test_orientation_with_full_centres_of_mass_needs_stiffer_a_and_b(approx):
+    """C's c_x and D's d_y move with θ_A and θ_B: springs A and B carry them too
+    (docs/derivations.md#essomba-2021-orientation-gap); C and D keep their springs."""
+    result = solved("essomba2021_orientation_full_com")
+    assert result.status.value == "optimal"
+    assert result.verification.residual_ratio <= 1e-9
+    assert value(result, "k_A", "N/mm") == approx((197.48 * 99.21 + 48.74 * 72.63) * G / 1e3 / 1500)  # 0.15128
+    assert value(result, "k_B", "N/mm") == approx((197.48 * 99.18 + 48.52 * 69.72) * G / 1e3 / 1500)  # 0.15022
+    assert value(result, "k_A", "N/mm") == approx(0.15128)
+    assert value(result, "k_B", "N/mm") == approx(0.15022)
+    assert value(result, "k_C", "N/mm") == approx(0.013236)
+    assert value(result, "k_D", "N/mm") == approx(0.012169)
+
+
 MODES = ("down", "horizontal", "up")
 
 
