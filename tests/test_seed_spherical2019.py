@@ -313,6 +313,18 @@ class TestRRS3:
         assert [line.split(",")[1] for line in lines[1:]] == ["m_u1", "m_u2", "m_u3"]
         assert all(line.endswith(",300,g") for line in lines[1:])
 
+    def test_a_scenario_cannot_move_the_substitution_points(self):
+        """The split is solved once, at the file's values: a scenario changing r is an error."""
+        from counterpoise.errors import ProblemFileError
+        from counterpoise.io.loader import load_problem
+
+        from conftest import PROBLEMS
+
+        with pytest.raises(ProblemFileError) as info:
+            load_problem(PROBLEMS / "rrs3_parallel.toml", {"scenarios.wide.parameters.r": "120 mm"})
+        assert info.value.key == "scenarios.wide.parameters.r"
+        assert "substitution points of body 'platform'" in info.value.message
+
     def test_centre_of_mass_off_the_plane_has_no_substitution(self):
         from counterpoise.errors import ProblemFileError
         from counterpoise.io.loader import load_problem

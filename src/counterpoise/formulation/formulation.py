@@ -85,7 +85,10 @@ class Formulation:
     def _sign_constraints(self, mech: Mechanics) -> list[Any]:
         """Masses and stiffnesses that depend on variables must stay ≥ 0 (≥ 0 rows of g)."""
         p = self.problem
-        trees = [b.mass for b in p.bodies] + [c.mass for c in p.counter_masses] + [s.stiffness for s in p.springs]
+        # substituted point masses may be negative (a least-norm split): only gravity's moments count
+        substituted = {m.name for sub in p.substitutions for m in sub.masses}
+        trees = [b.mass for b in p.bodies if b.name not in substituted]
+        trees += [c.mass for c in p.counter_masses] + [s.stiffness for s in p.springs]
         out = []
         for tree in trees:
             if not ex.names(tree) & set(p.variable):

@@ -34,6 +34,7 @@ def substitutions(
     replaced: dict[str, list[Body]] = {}
     out_subs, reports = [], []
     names = set(by_name)
+    fixed_by: dict[str, str] = {}  # parameter -> body whose substitution points it places
     for body_name, spec in specs.items():
         key = f"substitutions.{body_name}"
         body = by_name.get(body_name)
@@ -47,6 +48,8 @@ def substitutions(
             ctx.symbol_kind[pname] = "substitutions"
             names.add(pname)
             at = ctx.vector(p.at, f"{pkey}.at", LENGTH, "a position", ctx.parameter_names())
+            for c in at:
+                fixed_by.update({n: body_name for n in ex.names(c)})
             at_points.append([ctx.finite(c, raw, f"{pkey}.at.{i}") for i, (c, raw) in enumerate(zip(at, p.at))])
             masses_points.append((pname, ctx.point(p.frame, p.point, f"{pkey}.point", frames, f"{pkey}.frame")))
         points = np.array(at_points)
@@ -74,7 +77,27 @@ def substitutions(
     new: list[Body] = []
     for b in bodies:
         new.extend(replaced.get(b.name, [b]))
+    _check_scenarios(ctx, fixed_by)
     return tuple(new), tuple(out_subs), tuple(reports)
+
+
+def _check_scenarios(ctx: Context, fixed_by: Mapping[str, str]) -> None:
+    """The substitution is solved once, at the file's values: a scenario may not move its points."""
+    derived = {p.name: p for p in ctx.derived_parameters}
+    roots: dict[str, str] = {}
+    stack = list(fixed_by.items())
+    while stack:  # a derived parameter fixes the literal parameters it is built on
+        name, body = stack.pop()
+        if name in derived and derived[name].expr is not None:
+            stack.extend((n, body) for n in ex.names(derived[name].expr) if n not in roots)
+        roots[name] = body
+    for sname, sc in ctx.spec.scenarios.items():
+        for pname in sc.parameters:
+            if pname in roots:
+                raise ctx.fail(
+                    f"scenarios.{sname}.parameters.{pname}",
+                    f"'{pname}' places the substitution points of body '{roots[pname]}', which are fixed at the file's values",
+                )
 
 
 def _linear_combination(coefficients: np.ndarray, terms: list[ex.Expr]) -> ex.Expr:
