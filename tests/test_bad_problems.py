@@ -120,6 +120,15 @@ MANIFEST: dict[str, Expect] = {
     "nan_on_variable_box.toml": Expect(
         "counter_masses.M_a.mass", "'M_a * sqrt(x - 0.5)' is not a finite number everywhere within the bounds: nan at M_a = 0 g, x = 0"
     ),
+    # spatial mechanisms, working modes, substitution (issue 6)
+    "rotation_zero_axis.toml": Expect("frames.link_a.transforms.0.rotate", "the rotation axis must not be the zero vector"),
+    "gravity_zero_direction.toml": Expect("gravity.direction", "must be a non-zero vector"),
+    "scenario_unknown_parameter.toml": Expect("scenarios.long.parameters.r_aa", "unknown parameter 'r_aa' (did you mean 'r_a'?)"),
+    "substitution_impossible.toml": Expect(
+        "substitutions.tip", "no substitution exists for body 'tip': its centre of mass must lie on the line through the two points"
+    ),
+    "dh_row_missing_theta.toml": Expect("frames.link_c.transforms.0.dh.theta", "missing required key"),
+    "coupled_unknown_coordinate.toml": Expect("subsystems.leg.coupled.phi_c", "unknown name 'theta_d' in 'theta_c - theta_d'"),
 }
 
 #: Longest error line (after ``<file>: ``) a bad file may produce: echoed input is clipped.

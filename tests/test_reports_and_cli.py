@@ -25,7 +25,7 @@ def test_design_and_summary_columns(tmp_path):
     assert list(summary.columns) == [
         "problem", "status", "objective", "added_mass_kg", "added_inertia_kg_m2", "max_residual_N_m",
         "max_gravity_torque_N_m", "residual_ratio", "checked_configurations", "iterations", "solve_time_s", "solver",
-        "max_residual_N", "max_gravity_force_N",
+        "max_residual_N", "max_gravity_force_N", "worst_scenario",
     ] == SUMMARY_COLUMNS
     assert len(summary) == 1 and summary.loc[0, "status"] == "optimal" and summary.loc[0, "solver"] == "ipopt"
     assert set(design["kind"]) == {"variable", "quantity"}

@@ -28,6 +28,7 @@ __all__ = [
     "ProblemBuilder",
     "rotate",
     "translate",
+    "dh",
     "load_problem",
     "load_problem_text",
     "load_problem_data",
@@ -45,6 +46,7 @@ _LAZY = {
     "ProblemBuilder": ("io.builder", "ProblemBuilder"),
     "rotate": ("io.builder", "rotate"),
     "translate": ("io.builder", "translate"),
+    "dh": ("io.builder", "dh"),
     "load_problem": ("io.loader", "load_problem"),
     "load_problem_text": ("io.loader", "load_problem_text"),
     "load_problem_data": ("io.loader", "load_problem_data"),
@@ -59,7 +61,7 @@ _LAZY = {
 if TYPE_CHECKING:  # pragma: no cover
     from .designer.designer import Designer
     from .io.loader import load_problem, load_problem_data, load_problem_text
-    from .io.builder import ProblemBuilder, rotate, translate
+    from .io.builder import ProblemBuilder, dh, rotate, translate
     from .pipeline import DesignResult, design
     from .report.files import write_reports
     from .solvers.base import Status

@@ -108,13 +108,13 @@ def check_exact_conditions(problem: Problem) -> None:
     variables = frozenset(problem.variable)
     for frame in problem.frames:
         for i, t in enumerate(frame.transforms):
-            key = f"frames.{frame.name}.transforms.{i}"
+            key = frame.key(i)
             if isinstance(t, Rotation):
                 form = affine_form(t.angle, coordinates)
                 if form is None:
                     raise ProblemFileError(
                         problem.path,
-                        f"{key}.angle",
+                        key if key.endswith((".theta", ".alpha")) else f"{key}.angle",
                         "the angle is not affine in the coordinates, so the potential energy is not a trigonometric "
                         "polynomial and exact balance conditions cannot be derived from samples",
                     )
@@ -122,7 +122,7 @@ def check_exact_conditions(problem: Problem) -> None:
                 if used:
                     raise ProblemFileError(
                         problem.path,
-                        f"{key}.angle",
+                        key if key.endswith((".theta", ".alpha")) else f"{key}.angle",
                         f"the coefficient of a coordinate depends on the design variable(s) {', '.join(sorted(used))}: "
                         "exact balance conditions need coordinate coefficients fixed by parameters",
                     )
@@ -131,7 +131,7 @@ def check_exact_conditions(problem: Problem) -> None:
                     if polynomial_degree(component, coordinates) is None:
                         raise ProblemFileError(
                             problem.path,
-                            f"{key}.translate.{j}",
+                            key if key.endswith((".a", ".d")) else f"{key}.translate.{j}",
                             "the translation is not a polynomial in the coordinates, so exact balance conditions "
                             "cannot be derived from samples",
                         )

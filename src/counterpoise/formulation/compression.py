@@ -32,6 +32,12 @@ from ..errors import SolverError
 
 #: Singular values below RANK_TOLERANCE × the largest are treated as zero.
 RANK_TOLERANCE = 1e-10
+#: ... and so are those whose RMS entry is below NOISE_TOLERANCE × the largest energy term
+#: (Σ |energy of each element| over the samples): a residual that is zero in exact
+#: arithmetic (a spring whose length cannot change, an axis exactly perpendicular to
+#: gravity) still carries rounding noise of about 1e-16 of the terms that cancel, and
+#: that noise must not count as a condition.
+NOISE_TOLERANCE = 1e-12
 
 
 @dataclass(frozen=True)
@@ -47,12 +53,13 @@ class Compression:
         return len(self.rows)
 
 
-def numerical_rank(singular_values: np.ndarray, tolerance: float | None = None) -> int:
-    """Number of singular values above ``tolerance`` (default RANK_TOLERANCE) × the largest."""
+def numerical_rank(singular_values: np.ndarray, tolerance: float | None = None, floor: float = 0.0) -> int:
+    """Number of singular values above ``tolerance`` (default RANK_TOLERANCE) × the largest
+    and above the absolute ``floor``."""
     tol = RANK_TOLERANCE if tolerance is None else tolerance
     if singular_values.size == 0 or singular_values[0] == 0:
         return 0
-    return int(np.sum(singular_values > tol * singular_values[0]))
+    return int(np.sum((singular_values > tol * singular_values[0]) & (singular_values > floor)))
 
 
 def pivot_rows(basis: np.ndarray) -> np.ndarray:
@@ -70,14 +77,23 @@ def pivot_rows(basis: np.ndarray) -> np.ndarray:
     return np.array(chosen, dtype=int)
 
 
-def compress(samples: np.ndarray, tolerance: float | None = None) -> Compression:
-    """Compress conditions from ``samples`` (rows: residual entries, columns: random designs)."""
+def noise_floor(samples: np.ndarray, energy_scale: float) -> float:
+    """Singular value of a matrix shaped like ``samples`` whose entries are all
+    NOISE_TOLERANCE × ``energy_scale``: directions below it are rounding noise."""
+    return NOISE_TOLERANCE * energy_scale * float(np.sqrt(samples.size))
+
+
+def compress(samples: np.ndarray, tolerance: float | None = None, energy_scale: float = 0.0) -> Compression:
+    """Compress conditions from ``samples`` (rows: residual entries, columns: random designs).
+
+    ``energy_scale``: the largest energy term of the samples (see :data:`NOISE_TOLERANCE`).
+    """
     if samples.size == 0:
         return Compression(np.zeros(0, dtype=int), np.zeros((0, 0)), np.zeros(0))
     if not np.isfinite(samples).all():  # the loader checks the box, but only on samples
         raise SolverError("the balance residual is not a finite number at some designs within the bounds (check expressions such as sqrt or log of a variable)")
     u, s, _ = np.linalg.svd(samples, full_matrices=False)
-    r = numerical_rank(s, tolerance)
+    r = numerical_rank(s, tolerance, noise_floor(samples, energy_scale))
     basis = u[:, :r]
     rows = pivot_rows(basis) if r else np.zeros(0, dtype=int)
     matrix = np.linalg.inv(basis[rows, :]) if r else np.zeros((0, 0))
@@ -85,22 +101,23 @@ def compress(samples: np.ndarray, tolerance: float | None = None) -> Compression
 
 
 def adaptive_compression(
-    evaluate: Callable[[int, int], tuple[np.ndarray, Any]],
+    evaluate: Callable[[int, int], tuple[np.ndarray, Any, float]],
     start_configurations: int,
     start_designs: int,
     max_rounds: int = 6,
 ) -> tuple[Compression, Any]:
     """Sample until the rank is well below both the number of rows and of designs.
 
-    ``evaluate(n_configurations, n_designs)`` returns the sampled residual matrix and
-    whatever the caller needs to rebuild those rows (the configurations). The rank is
+    ``evaluate(n_configurations, n_designs)`` returns the sampled residual matrix, whatever
+    the caller needs to rebuild those rows (the configurations) and the largest energy
+    term of the samples (for the noise floor, see :data:`NOISE_TOLERANCE`). The rank is
     accepted once rows ≥ 2·rank + 8 and designs ≥ 2·rank + 8: more samples could not
     plausibly reveal new conditions (the dense verification checks this independently).
     """
     n_conf, n_design = start_configurations, start_designs
     for _ in range(max_rounds):
-        samples, context = evaluate(n_conf, n_design)
-        comp = compress(samples)
+        samples, context, energy_scale = evaluate(n_conf, n_design)
+        comp = compress(samples, energy_scale=energy_scale)
         need = 2 * comp.rank + 8
         if samples.shape[0] >= need and samples.shape[1] >= need:
             break

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from .assumptions import check_exact_conditions
-from .compression import adaptive_compression, numerical_rank
+from .compression import NOISE_TOLERANCE, adaptive_compression, numerical_rank
 from .formulation import Block, Formulation
 
 
@@ -36,11 +36,12 @@ class BalanceConditions:
             hi = np.array([c.upper for c in coords])
             n_q = len(coords)
 
-            def sample(n_conf: int, n_design: int, block: Block = block) -> tuple[np.ndarray, Any]:
+            def sample(n_conf: int, n_design: int, block: Block = block) -> tuple[np.ndarray, Any, float]:
                 q = lo + (hi - lo) * rng.random((n_conf, n_q))
-                values = _sample_residuals(block.residual, q, self._random_designs(n_design, rng), parameters)
-                weights = _coordinate_weights(values, n_q)
-                return values * np.tile(weights, n_conf)[:, None], (q, weights)
+                z = self._random_designs(n_design, rng)
+                values = _sample_residuals(block.residual, q, z, parameters)
+                weights = _coordinate_weights(values, n_q, NOISE_TOLERANCE * _largest(block.magnitude, q, z, parameters))
+                return values * np.tile(weights, n_conf)[:, None], (q, weights), 0.0
 
             # at least as many designs as a residual affine in the design variables needs (2·rank + 8), so that
             # a long chain is sampled once rather than twice
@@ -87,8 +88,11 @@ class BalanceConditions:
         return parts + (f"; {total} before removing repeats across blocks" if total != self.count else "")
 
 
-def _coordinate_weights(values: np.ndarray, n_q: int) -> np.ndarray:
-    """One weight per coordinate: 1 / its largest sampled |residual| (1 when it is never loaded).
+def _coordinate_weights(values: np.ndarray, n_q: int, noise: float = 0.0) -> np.ndarray:
+    """One weight per coordinate: 1 / its largest sampled |residual|, and 0 when that is not
+    above ``noise`` (rounding noise of the energy terms, see
+    :data:`~.compression.NOISE_TOLERANCE`: a residual that is zero in exact arithmetic, such
+    as a spring whose length cannot change or an axis parallel to gravity, carries no condition).
 
     Scaling each coordinate's rows changes no zero set (r = 0 exactly when w·r = 0) but
     puts every coordinate on the same footing before the SVD: in a long chain the inner
@@ -96,7 +100,8 @@ def _coordinate_weights(values: np.ndarray, n_q: int) -> np.ndarray:
     tolerance relative to the largest singular value would drop the outer conditions.
     """
     largest = np.abs(values).reshape(-1, n_q, values.shape[1]).max(axis=(0, 2)) if values.size else np.zeros(n_q)
-    return np.where(largest > 0, 1.0 / np.where(largest > 0, largest, 1.0), 1.0)
+    loaded = largest > noise
+    return np.where(loaded, 1.0 / np.where(loaded, largest, 1.0), 0.0)
 
 
 def _sample_residuals(residual: Any, q: np.ndarray, z: np.ndarray, parameters: np.ndarray) -> np.ndarray:
@@ -111,3 +116,11 @@ def _sample_residuals(residual: Any, q: np.ndarray, z: np.ndarray, parameters: n
     return out.reshape(n_q, n_design, n_conf).transpose(2, 0, 1).reshape(n_conf * n_q, n_design)
 
 
+
+
+def _largest(function: Any, q: np.ndarray, z: np.ndarray, parameters: np.ndarray) -> float:
+    """Largest |value| of a scalar function of (q, z, p) over every (configuration, design) pair."""
+    n_conf, n_design = q.shape[0], z.shape[0]
+    mapped = function.map(n_conf * n_design)
+    out = np.array(mapped(np.tile(q.T, (1, n_design)), np.repeat(z.T, n_conf, axis=1), np.tile(parameters[:, None], (1, n_conf * n_design))))
+    return float(np.abs(out).max(initial=0.0))

@@ -26,6 +26,7 @@ class Block:
     coordinates: tuple[str, ...]
     residual: Any  # casadi.Function (q, z, p) -> ∂V/∂q
     gravity_torque: Any  # casadi.Function (q, z, p) -> ∂V/∂q of the given bodies alone
+    magnitude: Any  # casadi.Function (q, z, p) -> Σ |energy of each element| (scale of rounding noise)
 
 
 class Formulation:
@@ -43,7 +44,7 @@ class Formulation:
         functions = casadi_functions()
 
         self.blocks: list[Block] = []
-        added_mass, added_inertia = [], []
+        added_mass, added_inertia, added_stiffness = [], [], []
         nonnegative: dict[str, Any] = {}  # keyed by the expression's text: one row per distinct constraint
         home = {k.name: k.home for k in problem.coordinates}
         for c, scenario in enumerate(problem.scenarios):
@@ -52,12 +53,14 @@ class Formulation:
             mech = Mechanics(problem, base, variables, home, gravity, functions)
             added_mass.append(mech.added_mass())
             added_inertia.append(mech.added_inertia())
+            added_stiffness.append(mech.added_stiffness())
             for expression in self._sign_constraints(mech):
                 nonnegative.setdefault(str(expression), expression)
             for sub in problem.subsystems:
                 q = ca.SX.sym("q", len(sub.coordinates))
                 coords = {name: q[i] for i, name in enumerate(sub.coordinates)}
-                bodies, balancers = Mechanics(problem, base, variables, coords, gravity, functions).energy_terms(sub.name)
+                block_mech = Mechanics(problem, base, variables, coords, gravity, functions)
+                bodies, balancers = block_mech.energy_terms(sub.name)
                 self.blocks.append(
                     Block(
                         sub.name,
@@ -65,20 +68,27 @@ class Formulation:
                         sub.coordinates,
                         ca.Function(f"r_{sub.name}_{scenario.name}", [q, self.z, self.p], [ca.gradient(bodies + balancers, q)]),
                         ca.Function(f"t_{sub.name}_{scenario.name}", [q, self.z, self.p], [ca.gradient(bodies, q)]),
+                        ca.Function(f"e_{sub.name}_{scenario.name}", [q, self.z, self.p], [block_mech.energy_magnitude(sub.name)]),
                     )
                 )
         n = len(problem.scenarios)
         self.added_mass = sum(added_mass) / n
         self.added_inertia = sum(added_inertia) / n
         w = problem.objective
+        self.added_stiffness = sum(added_stiffness) / n
         self.objective = w.mass_weight * self.added_mass + w.inertia_weight * self.added_inertia
+        if w.stiffness_weight:
+            self.objective = self.objective + w.stiffness_weight * self.added_stiffness
         self.nonnegative = ca.vertcat(*nonnegative.values()) if nonnegative else ca.SX(0, 1)
         self.report_function = ca.Function("mass_report", [self.z, self.p], [self.objective, self.added_mass, self.added_inertia])
 
     def _sign_constraints(self, mech: Mechanics) -> list[Any]:
         """Masses and stiffnesses that depend on variables must stay ≥ 0 (≥ 0 rows of g)."""
         p = self.problem
-        trees = [b.mass for b in p.bodies] + [c.mass for c in p.counter_masses] + [s.stiffness for s in p.springs]
+        # substituted point masses may be negative (a least-norm split): only gravity's moments count
+        substituted = {m.name for sub in p.substitutions for m in sub.masses}
+        trees = [b.mass for b in p.bodies if b.name not in substituted]
+        trees += [c.mass for c in p.counter_masses] + [s.stiffness for s in p.springs]
         out = []
         for tree in trees:
             if not ex.names(tree) & set(p.variable):

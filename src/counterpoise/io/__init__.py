@@ -7,7 +7,7 @@ Other formats (URDF) belong here, beside TOML.
 
 from __future__ import annotations
 
-from .builder import ProblemBuilder, rotate, translate
+from .builder import ProblemBuilder, dh, rotate, translate
 from .loader import load_problem, load_problem_data, load_problem_text
 
-__all__ = ["ProblemBuilder", "load_problem", "load_problem_data", "load_problem_text", "rotate", "translate"]
+__all__ = ["ProblemBuilder", "dh", "load_problem", "load_problem_data", "load_problem_text", "rotate", "translate"]

@@ -41,6 +41,11 @@ def translate(x: Value, y: Value = 0, z: Value = 0) -> dict[str, Any]:
     return {"translate": [x, y, z]}
 
 
+def dh(a: Value, alpha: Value, d: Value, theta: Value) -> dict[str, Any]:
+    """A modified (Craig) Denavit-Hartenberg row: Rot_x(alpha) Trans_x(a) Rot_z(theta) Trans_z(d)."""
+    return {"dh": {"a": a, "alpha": alpha, "d": d, "theta": theta}}
+
+
 class ProblemBuilder:
     """Collects the sections of a problem; :meth:`build` validates and resolves them."""
 
@@ -77,15 +82,24 @@ class ProblemBuilder:
         return self._put("parameters", name, {"value": value, "description": description} if description else value)
 
     def subsystem(
-        self, name: str, description: str = "", homes: Mapping[str, Value] | None = None, **coordinates: tuple[Value, Value]
+        self,
+        name: str,
+        description: str = "",
+        homes: Mapping[str, Value] | None = None,
+        coupled: Mapping[str, Value] | None = None,
+        **coordinates: tuple[Value, Value],
     ) -> "ProblemBuilder":
-        """A subsystem and its coordinates as ``name=(lower, upper)`` ranges (``homes`` optional)."""
+        """A subsystem and its coordinates as ``name=(lower, upper)`` ranges (``homes`` optional;
+        ``coupled`` names expressions of the coordinates, e.g. ``{"psi": "-theta"}``)."""
         coords: dict[str, Any] = {}
         for cname, (lo, hi) in coordinates.items():
             coords[cname] = {"range": [lo, hi]}
             if homes and cname in homes:
                 coords[cname]["home"] = homes[cname]
-        return self._put("subsystems", name, self._described({"coordinates": coords}, description))
+        entry: dict[str, Any] = {"coordinates": coords}
+        if coupled:
+            entry["coupled"] = dict(coupled)
+        return self._put("subsystems", name, self._described(entry, description))
 
     def frame(self, name: str, *transforms: Mapping[str, Any], parent: str = "ground", description: str = "") -> "ProblemBuilder":
         """A frame: ``parent`` and transforms made with :func:`rotate` and :func:`translate`."""
@@ -133,6 +147,14 @@ class ProblemBuilder:
         }
         return self._put("springs", name, self._described(entry, description))
 
+    def substitution(
+        self, body: str, points: Mapping[str, tuple[Vec3, str, Vec3]], description: str = ""
+    ) -> "ProblemBuilder":
+        """Replace ``body`` by point masses: ``points[name] = (at, frame, point)``, ``at`` in the
+        body's frame, ``point`` the same point in the receiving ``frame``."""
+        entry = {name: {"at": list(at), "frame": frame, "point": list(point)} for name, (at, frame, point) in points.items()}
+        return self._put("substitutions", body, self._described({"points": entry}, description))
+
     def scenario(
         self,
         name: str,
@@ -151,8 +173,8 @@ class ProblemBuilder:
             }
         return self._put("scenarios", name, self._described(entry, description))
 
-    def objective(self, mass_weight: float = 1.0, inertia_weight: Value = 0) -> "ProblemBuilder":
-        self._data["objective"] = {"mass_weight": mass_weight, "inertia_weight": inertia_weight}
+    def objective(self, mass_weight: float = 1.0, inertia_weight: Value = 0, stiffness_weight: Value = 0) -> "ProblemBuilder":
+        self._data["objective"] = {"mass_weight": mass_weight, "inertia_weight": inertia_weight, "stiffness_weight": stiffness_weight}
         return self
 
     def report(self, name: str, expression: str, unit: str = "", description: str = "") -> "ProblemBuilder":

@@ -19,6 +19,7 @@ from typing import Any
 from ..errors import ProblemFileError
 from ..model import expr as ex
 from ..model.problem import Problem
+from .repeat import expand_repeats
 from .resolve import resolve
 from .schema import ProblemFile
 
@@ -69,6 +70,7 @@ def load_problem_data(data: Mapping[str, Any], label: str = "<data>", overrides:
         raise ProblemFileError(label, "file", "arrays or tables nested too deeply") from None
     for key, value in (overrides or {}).items():
         _apply_override(raw, key, value, label)
+    raw = expand_repeats(raw, label)
     from pydantic import ValidationError
 
     try:

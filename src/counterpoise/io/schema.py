@@ -94,6 +94,9 @@ class CoordinateSpec(_Table):
 class SubsystemSpec(_Table):
     description: str = ""
     coordinates: Annotated[dict[Name, CoordinateSpec], Field(min_length=1)]
+    #: coupled coordinates: names for expressions of this subsystem's coordinates (a
+    #: parallelogram's opposite link, a five-bar's passive joints), usable in frames
+    coupled: dict[Name, Value] = Field(default_factory=dict)
 
 
 class RotateSpec(_Table):
@@ -105,9 +108,29 @@ class TranslateSpec(_Table):
     translate: Vec3
 
 
+class DHRow(_Table):
+    """Modified (Craig) Denavit-Hartenberg: Rot_x(alpha) Trans_x(a) Rot_z(theta) Trans_z(d)."""
+
+    a: Value
+    alpha: Value
+    d: Value
+    theta: Value
+
+
+class DHSpec(_Table):
+    dh: DHRow
+
+
+def _transform_tag(v: Any) -> str:
+    for tag, spec in (("rotate", RotateSpec), ("dh", DHSpec)):
+        if (isinstance(v, dict) and tag in v) or isinstance(v, spec):
+            return tag
+    return "translate"
+
+
 TransformEntry = Annotated[
-    Union[Annotated[RotateSpec, Tag("rotate")], Annotated[TranslateSpec, Tag("translate")]],
-    Discriminator(lambda v: "rotate" if (isinstance(v, dict) and "rotate" in v) or isinstance(v, RotateSpec) else "translate"),
+    Union[Annotated[RotateSpec, Tag("rotate")], Annotated[TranslateSpec, Tag("translate")], Annotated[DHSpec, Tag("dh")]],
+    Discriminator(_transform_tag),
 ]
 
 
@@ -144,6 +167,18 @@ class SpringSpec(_Table):
     description: str = ""
 
 
+class SubstitutionPointSpec(_Table):
+    at: Vec3  # the point in the substituted body's frame
+    frame: str  # the frame that receives the point mass
+    point: Vec3  # the same point in that frame
+    description: str = ""
+
+
+class SubstitutionSpec(_Table):
+    description: str = ""
+    points: Annotated[dict[Name, SubstitutionPointSpec], Field(min_length=1)]
+
+
 class VariableSpec(_Table):
     lower: Value
     upper: Value
@@ -156,6 +191,7 @@ class VariableSpec(_Table):
 class ObjectiveSpec(_Table):
     mass_weight: Annotated[FiniteFloat, Field(ge=0)] = 1.0
     inertia_weight: Value = 0
+    stiffness_weight: Value = 0
 
 
 class ReportSpec(_Table):
@@ -186,6 +222,7 @@ class ProblemFile(_Table):
     bodies: dict[Name, BodySpec] = Field(default_factory=dict)
     counter_masses: dict[Name, CounterMassSpec] = Field(default_factory=dict)
     springs: dict[Name, SpringSpec] = Field(default_factory=dict)
+    substitutions: dict[Name, SubstitutionSpec] = Field(default_factory=dict)
     variables: dict[Name, VariableSpec] = Field(default_factory=dict)
     objective: ObjectiveSpec = Field(default_factory=ObjectiveSpec)
     report: dict[Name, ReportSpec] = Field(default_factory=dict)

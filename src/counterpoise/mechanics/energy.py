@@ -125,6 +125,20 @@ class Mechanics:
                 balancers.append(mul(0.5, mul(self.value(s.stiffness), dot(d, d))))
         return bodies, add_all(balancers)
 
+    def energy_magnitude(self, subsystem: str | None = None) -> Scalar:
+        """Σ |energy| of every element of ``subsystem``: the size of the terms that cancel in
+        a balanced design, hence the scale of the rounding noise its residual carries."""
+        p = self.problem
+        abs_ = self.functions["abs"]
+        terms = [abs_(self.gravity_energy(self.value(b.mass), b.com)) for b in p.bodies if subsystem in (None, b.subsystem)]
+        terms += [abs_(self.gravity_energy(self.value(c.mass), c.position)) for c in p.counter_masses if subsystem in (None, c.subsystem)]
+        for s in p.springs:
+            if subsystem in (None, s.subsystem):
+                a, b = self.position(s.ends[0]), self.position(s.ends[1])
+                # ½k(|a|² + |b|²) bounds every term of ½k|a − b|²
+                terms.append(abs_(mul(0.5, mul(self.value(s.stiffness), add(dot(a, a), dot(b, b))))))
+        return add_all(terms)
+
     def energy(self, subsystem: str | None = None) -> Scalar:
         """Potential energy of ``subsystem`` (all elements if None)."""
         return add(*self.energy_terms(subsystem))
@@ -165,6 +179,10 @@ class Mechanics:
 
     def added_mass(self) -> Scalar:
         return add_all([self.value(c.mass) for c in self.problem.counter_masses])
+
+    def added_stiffness(self) -> Scalar:
+        """Σ k_s over springs (a spring shared by several attachments counts each time)."""
+        return add_all([self.value(s.stiffness) for s in self.problem.springs])
 
     def added_inertia(self) -> Scalar:
         """Σ M_j d_j² (with d_j² rather than d_j, smooth where d_j = 0)."""

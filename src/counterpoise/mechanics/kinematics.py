@@ -7,6 +7,7 @@ which keeps the CasADi graphs of planar mechanisms small.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -70,14 +71,55 @@ def unit_vector(v: Vec, functions: Functions) -> Vec:
     return [c / norm for c in v]
 
 
+def exact_cos_sin(angle: Scalar, functions: Functions) -> tuple[Scalar, Scalar]:
+    """cos and sin of ``angle``; exact 0 and ±1 for a constant multiple of 90°.
+
+    A literal "90 deg" is π/2 in SI, whose floating-point cosine is 6e-17, not 0: that
+    rounding would couple axes that are exactly perpendicular and add spurious terms.
+    """
+    if isinstance(angle, (int, float)):
+        quarter = float(angle) / (math.pi / 2)
+        n = round(quarter)
+        if abs(quarter - n) < 1e-12:
+            return _QUARTER_TURNS[n % 4]
+    return functions["cos"](angle), functions["sin"](angle)
+
+
+_QUARTER_TURNS = ((1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0))
+
+
+def _basis_index(axis: Vec) -> int | None:
+    """0, 1 or 2 when ``axis`` is the constant unit vector x, y or z, else None."""
+    if not all(isinstance(c, (int, float)) for c in axis):
+        return None
+    values = [float(c) for c in axis]
+    for i in range(3):
+        if values[i] == 1.0 and all(values[j] == 0.0 for j in range(3) if j != i):
+            return i
+    return None
+
+
 def rotation_matrix(axis: Vec, angle: Scalar, functions: Functions) -> Mat:
-    """Rodrigues: R = c I + s [u]x + (1 − c) u uᵀ about a unit ``axis``."""
-    c = functions["cos"](angle)
-    s = functions["sin"](angle)
+    """Rotation by ``angle`` about a unit ``axis``.
+
+    About x, y or z the elementary matrix is built entry by entry (exact zeros and ones);
+    any other axis uses Rodrigues, R = c I + s [u]x + (1 − c) u uᵀ.
+    """
+    c, s = exact_cos_sin(angle, functions)
+    index = _basis_index(axis)
+    if index is not None:
+        i, j = (index + 1) % 3, (index + 2) % 3
+        out: Mat = [[0.0] * 3 for _ in range(3)]
+        out[index][index] = 1.0
+        out[i][i] = c
+        out[j][j] = c
+        out[i][j] = mul(-1.0, s)
+        out[j][i] = s
+        return out
     one_c = 1.0 - c
     ux, uy, uz = axis
     cross = [[0.0, mul(-1.0, uz), uy], [uz, 0.0, mul(-1.0, ux)], [mul(-1.0, uy), ux, 0.0]]
-    out: Mat = []
+    out = []
     for i in range(3):
         row = []
         for j in range(3):
@@ -86,4 +128,3 @@ def rotation_matrix(axis: Vec, angle: Scalar, functions: Functions) -> Mat:
             row.append(add(term, mul(one_c, outer)))
         out.append(row)
     return out
-

@@ -175,6 +175,19 @@ def names(expr: Expr, name_arg_functions: frozenset[str] = frozenset()) -> froze
     return frozenset()
 
 
+def substitute(expr: Expr, trees: Mapping[str, Expr]) -> Expr:
+    """``expr`` with every name in ``trees`` replaced by its tree (coupled coordinates)."""
+    if isinstance(expr, Name):
+        return trees.get(expr.id, expr)
+    if isinstance(expr, BinOp):
+        return BinOp(expr.op, substitute(expr.left, trees), substitute(expr.right, trees))
+    if isinstance(expr, Neg):
+        return Neg(substitute(expr.operand, trees))
+    if isinstance(expr, Call):
+        return Call(expr.func, tuple(substitute(a, trees) for a in expr.args))
+    return expr
+
+
 def calls(expr: Expr) -> tuple[Call, ...]:
     """Every call in an expression, outermost first."""
     if isinstance(expr, Call):

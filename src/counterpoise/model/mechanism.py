@@ -72,6 +72,11 @@ class Frame:
     transforms: tuple[Transform, ...]
     subsystem: str | None
     description: str = ""
+    keys: tuple[str, ...] = ()  # file key of each transform (a DH row gives four), for messages
+
+    def key(self, index: int) -> str:
+        """The file key of transform ``index``."""
+        return self.keys[index] if index < len(self.keys) else f"frames.{self.name}.transforms.{index}"
 
 
 @dataclass(frozen=True)

@@ -15,6 +15,7 @@ from functools import cached_property
 from .elements import CounterMass, ZeroFreeLengthSpring
 from .expr import Expr
 from .mechanism import Body, Coordinate, Frame, Subsystem
+from .substitution import Substitution
 from .units import DisplayUnit
 
 
@@ -91,14 +92,16 @@ class Scenario:
 
 @dataclass(frozen=True)
 class Objective:
-    """minimise mass_weight * added_mass + inertia_weight * added_inertia (in kg).
+    """minimise mass_weight * added_mass + inertia_weight * added_inertia
+    + stiffness_weight * added_stiffness (in kg).
 
-    added_mass = Σ M_j, added_inertia = Σ M_j d_j² over counter-masses; with several
-    scenarios both are averaged over scenarios.
+    added_mass = Σ M_j, added_inertia = Σ M_j d_j² over counter-masses, added_stiffness
+    = Σ k_s over springs; with several scenarios each is averaged over scenarios.
     """
 
     mass_weight: float = 1.0
     inertia_weight: float = 0.0  # 1/m^2
+    stiffness_weight: float = 0.0  # kg per N/m (s^2 in SI)
 
 
 @dataclass(frozen=True)
@@ -138,6 +141,7 @@ class Problem:
     objective: Objective
     report: tuple[ReportQuantity, ...]
     settings: Settings = field(default_factory=Settings)
+    substitutions: tuple[Substitution, ...] = ()  # bodies replaced by point masses (already in ``bodies``)
 
     @cached_property
     def frame(self) -> Mapping[str, Frame]:

@@ -27,6 +27,7 @@ DIMENSIONLESS = ""
 STIFFNESS = "[mass] / [time] ** 2"
 ACCELERATION = "[length] / [time] ** 2"
 INVERSE_AREA = "1 / [length] ** 2"
+COMPLIANCE_MASS = "[time] ** 2"  # kg per (N/m): a mass per unit of stiffness
 
 _DIMENSION_NAMES = {
     LENGTH: "a length",
@@ -35,6 +36,7 @@ _DIMENSION_NAMES = {
     STIFFNESS: "a stiffness (force per length)",
     ACCELERATION: "an acceleration",
     INVERSE_AREA: "an inverse area (1/length^2)",
+    COMPLIANCE_MASS: "a mass per stiffness (e.g. kg/(N/m))",
 }
 
 

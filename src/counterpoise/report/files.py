@@ -1,7 +1,7 @@
 """Report files: CSV text from rows, written through a temporary file and a rename.
 
-``results/<problem>/`` receives ``design.csv``, ``summary.csv``, ``verification.csv`` and
-``status.txt`` (see :mod:`.rows`). Floats are written with 10 significant digits; a missing
+``results/<problem>/`` receives ``design.csv``, ``summary.csv``, ``verification.csv``,
+``status.txt`` and, when the problem substitutes a body, ``substitution.csv`` (see :mod:`.rows`). Floats are written with 10 significant digits; a missing
 value (None, NaN) is an empty cell.
 """
 
@@ -16,7 +16,18 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 from ..pipeline import DesignResult
-from .rows import DESIGN_COLUMNS, SUMMARY_COLUMNS, VERIFICATION_COLUMNS, Row, design_rows, status_text, summary_row, verification_rows
+from .rows import (
+    DESIGN_COLUMNS,
+    SUBSTITUTION_COLUMNS,
+    SUMMARY_COLUMNS,
+    VERIFICATION_COLUMNS,
+    Row,
+    design_rows,
+    status_text,
+    substitution_rows,
+    summary_row,
+    verification_rows,
+)
 
 FLOAT_FORMAT = "%.10g"
 
@@ -53,13 +64,17 @@ def atomic_write_text(path: Path, text: str) -> None:
 
 
 def report_texts(result: DesignResult) -> dict[str, str]:
-    """File name -> text of every report of ``result``."""
-    return {
+    """File name -> text of every report of ``result`` (substitution.csv only when the
+    problem substitutes a body)."""
+    texts = {
         "design.csv": csv_text(design_rows(result), DESIGN_COLUMNS),
         "summary.csv": csv_text([summary_row(result)], SUMMARY_COLUMNS),
         "verification.csv": csv_text(verification_rows(result), VERIFICATION_COLUMNS),
         "status.txt": status_text(result),
     }
+    if result.problem.substitutions:
+        texts["substitution.csv"] = csv_text(substitution_rows(result), SUBSTITUTION_COLUMNS)
+    return texts
 
 
 def write_reports(result: DesignResult, out_dir: str | Path) -> Path:

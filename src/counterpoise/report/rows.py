@@ -29,6 +29,7 @@ SUMMARY_COLUMNS = [
     "solver",
     "max_residual_N",
     "max_gravity_force_N",
+    "worst_scenario",
 ]
 VERIFICATION_COLUMNS = [
     "subsystem",
@@ -41,6 +42,31 @@ VERIFICATION_COLUMNS = [
     "configurations",
     "worst_configuration",
 ]
+
+
+SUBSTITUTION_COLUMNS = ["body", "point", "frame", "scenario", "mass", "unit"]
+
+
+def substitution_rows(result: DesignResult) -> list[Row]:
+    """One row per substituted point mass (and scenario, when it differs between scenarios)."""
+    problem = result.problem
+    units = {q.name: q.unit for q in problem.report}
+    rows: list[Row] = []
+    for sub in problem.substitutions:
+        for m in sub.masses:
+            for qv in result.quantities:
+                if qv.name == m.name:
+                    rows.append(
+                        {
+                            "body": sub.body,
+                            "point": m.name,
+                            "frame": m.point.frame,
+                            "scenario": qv.scenario or "",
+                            "mass": units[m.name].from_si(qv.value),
+                            "unit": units[m.name].label,
+                        }
+                    )
+    return rows
 
 
 def design_rows(result: DesignResult) -> list[Row]:
@@ -101,6 +127,7 @@ def summary_row(result: DesignResult) -> Row:
         "solver": s.solver,
         "max_residual_N": v.max_residual(PRISMATIC),
         "max_gravity_force_N": v.max_gravity_torque(PRISMATIC),
+        "worst_scenario": worst.scenario if (worst := v.worst()) is not None else "",
     }
 
 

@@ -11,7 +11,11 @@ Definitions (the reports and messages use these and nothing else):
 - The *reference* of a kind: the largest ``max_gravity_torque`` over every coordinate of
   that kind in the problem (every subsystem and scenario). When gravity loads no
   coordinate of that kind (a yaw axis parallel to gravity, a horizontal mechanism), the
-  reference is the largest generalized force the balancers alone produce there instead.
+  reference is the largest generalized force the balancers alone produce there instead,
+  or the ``energy_scale`` (the largest Σ |energy of each element|, per radian or per
+  metre) when that is larger: a spring whose length cannot change produces only rounding
+  noise, and noise measured against noise would give a ratio near 1. Gravity "loads
+  nothing" when its largest torque is below NOISE_TOLERANCE × that energy scale.
 - ``residual_ratio`` of a coordinate: its ``max_residual`` divided by the reference of its
   kind, and 0 when both are 0. It is finite whenever the residual can be evaluated.
 - The design's ``residual_ratio``: the largest coordinate ratio. It is balanced when that
@@ -27,6 +31,8 @@ import numpy as np
 REVOLUTE = "revolute"
 PRISMATIC = "prismatic"
 UNIT = {REVOLUTE: "N·m", PRISMATIC: "N"}
+#: Relative size of rounding noise: a gravity torque below NOISE_TOLERANCE × energy_scale is zero.
+NOISE_TOLERANCE = 1e-12
 FORCE_NAME = {REVOLUTE: "gravity torque", PRISMATIC: "gravity force"}
 
 
@@ -43,6 +49,7 @@ class CoordinateCheck:
     max_balancer_force: float  # of the balancers alone (used when gravity loads nothing)
     configurations: int
     worst_configuration: tuple[float, ...]  # coordinates of the subsystem, SI
+    energy_scale: float = 0.0  # largest Σ |energy of each element| of the (subsystem, scenario), J
 
     @property
     def unit(self) -> str:
@@ -57,10 +64,12 @@ class Verification:
     def reference(self, kind: str) -> float:
         """The force of ``kind`` that residuals of that kind are measured against."""
         mine = [c for c in self.checks if c.kind == kind]
-        gravity = max((c.max_gravity_torque for c in mine), default=0.0)
-        if gravity > 0:
+        gravity = max((c.max_gravity_torque for c in mine if np.isfinite(c.max_gravity_torque)), default=0.0)
+        scale = max((c.energy_scale for c in mine if np.isfinite(c.energy_scale)), default=0.0)
+        if gravity > 0 and gravity > NOISE_TOLERANCE * scale:
             return gravity
-        return max((c.max_balancer_force for c in mine if np.isfinite(c.max_balancer_force)), default=0.0)
+        balancers = max((c.max_balancer_force for c in mine if np.isfinite(c.max_balancer_force)), default=0.0)
+        return max(balancers, scale)
 
     def ratio(self, check: CoordinateCheck) -> float:
         """``residual_ratio`` of one coordinate (see the module's definitions)."""

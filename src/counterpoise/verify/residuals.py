@@ -292,3 +292,17 @@ def _base_parameters(problem: Problem, names: set[str]) -> tuple[str, ...]:
         elif p.expr is not None:
             todo += [n for n in ex.names(p.expr) if n in parameter and n not in out]
     return tuple(sorted(out))
+
+
+
+def energy_scale(
+    problem: Problem, subsystem: str, q: np.ndarray, variables: dict[str, float], base: dict[str, float], gravity: tuple[float, float, float]
+) -> float:
+    """Largest Σ |energy of each element| of the subsystem over the rows of ``q`` (J): the
+    size of the terms whose rounding noise a residual that is zero in exact arithmetic keeps."""
+    names = [c.name for c in problem.subsystem_coordinates(subsystem)]
+    coords = {name: q[:, i].astype(float) for i, name in enumerate(names)}
+    with np.errstate(all="ignore"):
+        values = np.abs(np.asarray(Mechanics(problem, base, variables, coords, gravity, NUMPY_FUNCTIONS).energy_magnitude(subsystem), dtype=float))
+    finite = values[np.isfinite(values)]
+    return float(finite.max(initial=0.0))

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from ...model.problem import Problem, Settings
 from ..schema import ProblemFile
-from . import mechanism, quantities, report
+from . import mechanism, quantities, report, substitution
 from .context import REPORT_FUNCTIONS, RESERVED, Context
 
 __all__ = ["REPORT_FUNCTIONS", "RESERVED", "resolve"]
@@ -29,7 +29,7 @@ def resolve(spec: ProblemFile, label: str) -> Problem:
     subsystems, coordinates = mechanism.subsystems(ctx)
     frames = mechanism.frames(ctx)
     by_name = {f.name: f for f in frames}
-    bodies = mechanism.bodies(ctx, by_name)
+    bodies, substitutions, substituted = substitution.substitutions(ctx, mechanism.bodies(ctx, by_name), by_name)
     counter_masses = mechanism.counter_masses(ctx, by_name)
     springs = mechanism.springs(ctx, by_name)
     gravity = quantities.gravity(ctx, spec.gravity, "gravity")
@@ -53,6 +53,7 @@ def resolve(spec: ProblemFile, label: str) -> Problem:
         springs=springs,
         scenarios=scenarios,
         objective=objective,
-        report=reports,
+        report=reports + substituted,
         settings=Settings(**spec.settings.model_dump()),
+        substitutions=substitutions,
     )

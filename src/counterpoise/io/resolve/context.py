@@ -61,6 +61,7 @@ class Context:
         self.box: dict[str, tuple[float, float]] = {}  # variable or coordinate -> its range (SI)
         self.signed: list[tuple[str, ex.Expr, Any, str]] = []  # (key, tree, raw, what) of masses and stiffnesses
         self.derived_parameters: list[Parameter] = []
+        self.coupled: dict[str, ex.Expr] = {}  # coupled coordinate -> its tree in the coordinates
 
     @contextmanager
     def at(self, key: str) -> Iterator[None]:
@@ -116,6 +117,8 @@ class Context:
                 return ex.Num(q.si)
             tree = ex.parse(value, functions)
             ex.check_names(tree, allowed, value, REPORT_FUNCTIONS & functions)
+            if self.coupled and ex.names(tree) & self.coupled.keys():
+                tree = ex.substitute(tree, self.coupled)
             return tree
 
     def dimension(self, tree: ex.Expr, raw: Any, key: str, extra: Mapping[str, Callable[..., Any]] | None = None) -> str:
@@ -193,7 +196,7 @@ class Context:
     # -- sections ------------------------------------------------------------------
 
     def geometry_names(self) -> set[str]:
-        return {n for n, k in self.symbol_kind.items() if k in ("parameters", "variables", "coordinates")}
+        return {n for n, k in self.symbol_kind.items() if k in ("parameters", "variables", "coordinates", "coupled")}
 
     def design_names(self) -> set[str]:
         return {n for n, k in self.symbol_kind.items() if k in ("parameters", "variables")}

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import Any
 
 
 from ...model import expr as ex
@@ -16,8 +17,8 @@ from ...model.units import (
     canonical_dimension,
     dimension_name,
 )
-from ..schema import RotateSpec
-from .context import Context, suggest, topological
+from ..schema import DHSpec, RotateSpec
+from .context import RESERVED, Context, suggest, topological
 
 
 def subsystems(ctx: Context) -> tuple[tuple[Subsystem, ...], tuple[Coordinate, ...]]:
@@ -41,7 +42,27 @@ def subsystems(ctx: Context) -> tuple[tuple[Subsystem, ...], tuple[Coordinate, .
             ctx.box[cname] = (lo.si, hi.si)
             coords.append(Coordinate(cname, sname, lo.si, hi.si, home, lo.unit, c.description))
         subs.append(Subsystem(sname, tuple(sub.coordinates), sub.description))
+        coupled(ctx, sname, sub)
     return tuple(subs), tuple(coords)
+
+
+def coupled(ctx: Context, sname: str, sub: Any) -> None:
+    """``coupled.<name> = <expression of this subsystem's coordinates and parameters>``.
+
+    The name may then appear wherever a coordinate may (frame angles and translations);
+    it is replaced by its expression, so the frame is driven by the coordinates it uses.
+    """
+    own = set(sub.coordinates)
+    for name, raw in sub.coupled.items():
+        key = f"subsystems.{sname}.coupled.{name}"
+        if name in RESERVED or name in ctx.symbol_kind:
+            where = f" by {ctx.symbol_kind[name]}.{name}" if name in ctx.symbol_kind else " (reserved)"
+            raise ctx.fail(key, f"name '{name}' is already used{where}")
+        tree = ctx.expression(raw, key, own | ctx.parameter_names() | set(ctx.coupled))
+        if not ex.names(tree) & own:
+            raise ctx.fail(key, f"'{raw}' uses none of the coordinates of subsystem '{sname}' ({', '.join(sorted(own))})")
+        ctx.symbol_kind[name] = "coupled"
+        ctx.coupled[name] = tree
 
 
 def frames(ctx: Context) -> tuple[Frame, ...]:
@@ -62,8 +83,13 @@ def frames(ctx: Context) -> tuple[Frame, ...]:
         key = f"frames.{name}"
         transforms: list[Transform] = []
         used: set[str] = set()
+        keys: list[str] = []
         for i, t in enumerate(f.transforms):
             tkey = f"{key}.transforms.{i}"
+            if isinstance(t, DHSpec):
+                used |= dh_row(ctx, t, f"{tkey}.dh", transforms, keys)
+                continue
+            keys.append(tkey)
             if isinstance(t, RotateSpec):
                 axis = ctx.axis(t.rotate, f"{tkey}.rotate")
                 angle = ctx.expression(t.angle, f"{tkey}.angle", ctx.geometry_names())
@@ -83,8 +109,35 @@ def frames(ctx: Context) -> tuple[Frame, ...]:
             raise ctx.fail(
                 key, f"moves with coordinates of several subsystems ({', '.join(sorted(subsystems))}); subsystems must move independently"
             )
-        frames[name] = Frame(name, f.parent, tuple(transforms), next(iter(subsystems), None), f.description)
+        frames[name] = Frame(name, f.parent, tuple(transforms), next(iter(subsystems), None), f.description, tuple(keys))
     return tuple(frames[n] for n in order)
+
+
+X_AXIS = (ex.Num(1.0), ex.Num(0.0), ex.Num(0.0))
+Z_AXIS = (ex.Num(0.0), ex.Num(0.0), ex.Num(1.0))
+ZERO = ex.Num(0.0)
+
+
+def dh_row(ctx: Context, spec: DHSpec, key: str, transforms: list[Transform], keys: list[str]) -> set[str]:
+    """A modified (Craig) DH row: Rot_x(alpha) Trans_x(a) Rot_z(theta) Trans_z(d), appended
+    to ``transforms``; returns the names it uses."""
+    row = spec.dh
+    used: set[str] = set()
+    trees = {}
+    for field, dimension, what in (("alpha", DIMENSIONLESS, "an angle"), ("a", LENGTH, "a length"), ("theta", DIMENSIONLESS, "an angle"), ("d", LENGTH, "a length")):
+        raw = getattr(row, field)
+        tree = ctx.expression(raw, f"{key}.{field}", ctx.geometry_names())
+        ctx.expect(tree, raw, f"{key}.{field}", dimension, what)
+        used |= ex.names(tree)
+        trees[field] = tree
+    transforms += [
+        Rotation(X_AXIS, trees["alpha"]),
+        Translation((trees["a"], ZERO, ZERO)),
+        Rotation(Z_AXIS, trees["theta"]),
+        Translation((ZERO, ZERO, trees["d"])),
+    ]
+    keys += [f"{key}.alpha", f"{key}.a", f"{key}.theta", f"{key}.d"]
+    return used
 
 
 def bodies(ctx: Context, frames: Mapping[str, Frame]) -> tuple[Body, ...]:

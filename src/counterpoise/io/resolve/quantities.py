@@ -13,6 +13,7 @@ from ...model import expr as ex
 from ...model.problem import Gravity, Objective, Parameter, Scenario, Variable
 from ...model.units import (
     ACCELERATION,
+    COMPLIANCE_MASS,
     INVERSE_AREA,
     DisplayUnit,
     Quantity,
@@ -161,4 +162,11 @@ def objective(ctx: Context) -> Objective:
             check_dimension(w.dimension, INVERSE_AREA, f"'{o.inertia_weight}'")
     if w.si < 0:
         raise ctx.fail(key, "must not be negative")
-    return Objective(o.mass_weight, w.si)
+    skey = "objective.stiffness_weight"
+    ws = ctx.literal(o.stiffness_weight, skey)
+    if ws.si != 0:
+        with ctx.at(skey):
+            check_dimension(ws.dimension, COMPLIANCE_MASS, f"'{o.stiffness_weight}'")
+    if ws.si < 0:
+        raise ctx.fail(skey, "must not be negative")
+    return Objective(o.mass_weight, w.si, ws.si)

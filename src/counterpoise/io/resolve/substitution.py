@@ -1,0 +1,123 @@
+"""``[substitutions.<body>]``: a body replaced by point masses on its neighbours (I3).
+
+The points' positions in the body's frame (``at``) must be fixed by parameters; they are
+evaluated at the file's values, and the substitution is solved once as a linear system
+(:mod:`counterpoise.model.substitution`). Each point mass becomes a body of the frame
+that receives it, and a report quantity of the same name (design.csv, substitution.csv).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from ...model import expr as ex
+from ...model.mechanism import Body, Frame, Point
+from ...model.problem import ReportQuantity
+from ...model.substitution import SubstitutedMass, Substitution, substitution_gap, substitution_matrix
+from ...model.units import LENGTH, display_unit
+from .context import RESERVED, Context, suggest
+
+#: A substitution exists when the least-squares residual of A μ = [1, c] is below this (relative).
+GAP_TOLERANCE = 1e-9
+
+
+def substitutions(
+    ctx: Context, bodies: tuple[Body, ...], frames: Mapping[str, Frame]
+) -> tuple[tuple[Body, ...], tuple[Substitution, ...], tuple[ReportQuantity, ...]]:
+    """The bodies with every substituted body replaced by its point masses."""
+    specs = ctx.spec.substitutions
+    if not specs:
+        return bodies, (), ()
+    by_name = {b.name: b for b in bodies}
+    replaced: dict[str, list[Body]] = {}
+    out_subs, reports = [], []
+    names = set(by_name)
+    fixed_by: dict[str, str] = {}  # parameter -> body whose substitution points it places
+    for body_name, spec in specs.items():
+        key = f"substitutions.{body_name}"
+        body = by_name.get(body_name)
+        if body is None:
+            raise ctx.fail(key, f"unknown body '{body_name}'{suggest(body_name, by_name)}")
+        at_points, masses_points = [], []
+        for pname, p in spec.points.items():
+            pkey = f"{key}.points.{pname}"
+            if pname in RESERVED or pname in ctx.symbol_kind or pname in names:
+                raise ctx.fail(pkey, f"name '{pname}' is already used (a substituted mass is reported under its point's name)")
+            ctx.symbol_kind[pname] = "substitutions"
+            names.add(pname)
+            at = ctx.vector(p.at, f"{pkey}.at", LENGTH, "a position", ctx.parameter_names())
+            for c in at:
+                fixed_by.update({n: body_name for n in ex.names(c)})
+            at_points.append([ctx.finite(c, raw, f"{pkey}.at.{i}") for i, (c, raw) in enumerate(zip(at, p.at))])
+            masses_points.append((pname, ctx.point(p.frame, p.point, f"{pkey}.point", frames, f"{pkey}.frame")))
+        points = np.array(at_points)
+        com_values = [ctx.finite(c, c, f"bodies.{body_name}.com") for c in body.com.position]
+        gap = substitution_gap(points, np.array(com_values))
+        if not gap <= GAP_TOLERANCE:
+            where = {1: "at the point", 2: "on the line through the two points", 3: "in the plane of the three points"}.get(len(points), "in the span of the points")
+            raise ctx.fail(
+                key,
+                f"no substitution exists for body '{body_name}': its centre of mass must lie {where} "
+                f"(relative gap {gap:.2g}); choose other points",
+            )
+        matrix = substitution_matrix(points)
+        moments = [body.mass] + [ex.BinOp("*", body.mass, c) for c in body.com.position]
+        unit = _mass_unit(ctx, body_name)
+        new_bodies = []
+        masses = []
+        for j, (pname, point) in enumerate(masses_points):
+            mass = _linear_combination(matrix[j], moments)
+            masses.append(SubstitutedMass(pname, mass, point, tuple(float(v) for v in points[j])))  # type: ignore[arg-type]
+            new_bodies.append(Body(pname, mass, point, ctx.subsystem_of(point.frame, frames), f"substituted from body '{body_name}'"))
+            reports.append(ReportQuantity(pname, mass, unit, f"mass substituted from body '{body_name}' at {point.frame}"))
+        replaced[body_name] = new_bodies
+        out_subs.append(Substitution(body_name, body.com.frame, tuple(masses), spec.description))
+    new: list[Body] = []
+    for b in bodies:
+        new.extend(replaced.get(b.name, [b]))
+    _check_scenarios(ctx, fixed_by)
+    return tuple(new), tuple(out_subs), tuple(reports)
+
+
+def _check_scenarios(ctx: Context, fixed_by: Mapping[str, str]) -> None:
+    """The substitution is solved once, at the file's values: a scenario may not move its points."""
+    derived = {p.name: p for p in ctx.derived_parameters}
+    roots: dict[str, str] = {}
+    stack = list(fixed_by.items())
+    while stack:  # a derived parameter fixes the literal parameters it is built on
+        name, body = stack.pop()
+        if name in derived and derived[name].expr is not None:
+            stack.extend((n, body) for n in ex.names(derived[name].expr) if n not in roots)
+        roots[name] = body
+    for sname, sc in ctx.spec.scenarios.items():
+        for pname in sc.parameters:
+            if pname in roots:
+                raise ctx.fail(
+                    f"scenarios.{sname}.parameters.{pname}",
+                    f"'{pname}' places the substitution points of body '{roots[pname]}', which are fixed at the file's values",
+                )
+
+
+def _linear_combination(coefficients: np.ndarray, terms: list[ex.Expr]) -> ex.Expr:
+    """Σ c_i t_i as a tree, skipping coefficients that are zero to rounding."""
+    largest = float(np.abs(coefficients).max(initial=0.0))
+    out: ex.Expr | None = None
+    for c, t in zip(coefficients, terms):
+        if abs(c) <= 1e-13 * largest:
+            continue
+        term = t if c == 1.0 else ex.BinOp("*", ex.Num(float(c)), t)
+        out = term if out is None else ex.BinOp("+", out, term)
+    return out if out is not None else ex.Num(0.0)
+
+
+def _mass_unit(ctx: Context, body: str):
+    """The display unit of a body's mass: the unit written in the file, else kg."""
+    key = f"bodies.{body}.mass"
+    if key in ctx.literal_unit:
+        return ctx.literal_unit[key]
+    raw = ctx.spec.bodies[body].mass
+    if isinstance(raw, str) and raw in ctx.symbol_unit:
+        return ctx.symbol_unit[raw]
+    return display_unit("kg")

@@ -1,0 +1,361 @@
+"""Seed 002 (geometric static balancing of spherical mechanisms, 2019): spherical chain units.
+
+The facts and their hand derivations are in docs/derivations.md, section "Spherical chains
+2019"; here every one is reproduced through the general engine (problem files or TOML
+texts built below), never from the paper's formulas. Tolerance 0.1 % unless stated.
+"""
+
+from __future__ import annotations
+
+import math
+from functools import lru_cache
+
+import pytest
+
+from conftest import solved, value
+from counterpoise.io.loader import load_problem_text
+from counterpoise.pipeline import design
+
+G = 9.81
+
+
+# --------------------------------------------------------------------------------------
+# The serial chain (eqs. 11-18): problems/spherical_chain_3r.toml
+# --------------------------------------------------------------------------------------
+
+
+class TestSphericalChain3R:
+    """Three links on axes through O; h_i = m_i g / k_i balances each link on its own."""
+
+    @pytest.fixture
+    def result(self):
+        return solved("spherical_chain_3r")
+
+    def test_optimal_and_verified(self, result):
+        assert result.status.value == "optimal"
+        assert result.verification.residual_ratio <= 1e-9
+        assert result.verification.configurations >= 10_000
+
+    @pytest.mark.parametrize(
+        ("name", "mass", "stiffness"),
+        [("h_1", 0.30, 400.0), ("h_2", 0.20, 250.0), ("h_3", 0.10, 50.0)],
+    )
+    def test_heights(self, result, approx, name, mass, stiffness):
+        # h = m g / k: 0.30·9.81/400 = 7.3575 mm, 0.20·9.81/250 = 7.848 mm, 0.10·9.81/50 = 19.62 mm
+        assert value(result, name, "mm") == approx(1000 * mass * G / stiffness)
+
+    def test_each_link_balanced_alone(self, result):
+        """Eq. (18): the conditions are per link, three of them, one per unknown height."""
+        assert result.solution.conditions == 3
+
+
+# --------------------------------------------------------------------------------------
+# One link on a tilted revolute joint (eqs. 7-10)
+# --------------------------------------------------------------------------------------
+
+TILTED = """
+[problem]
+name = "tilted_link"
+[gravity]
+acceleration = "9.81 m/s^2"
+direction = [0, 0, -1]
+[parameters]
+alpha = "{alpha} deg"
+t = "30 mm"
+m = "0.25 kg"
+k = "200 N/m"
+[subsystems.link]
+coordinates.theta = {{ range = ["-180 deg", "180 deg"] }}
+[frames.axis]
+transforms = [{{ rotate = "x", angle = "alpha" }}]
+[frames.link]
+parent = "axis"
+transforms = [{{ rotate = "z", angle = "theta" }}]
+[bodies.link]
+frame = "link"
+mass = "m"
+com = ["{a} mm", "{b} mm", "70 mm"]
+[variables.h]
+lower = "0 mm"
+upper = "100 mm"
+initial = "{h0} mm"
+# H: height h straight above T, the point of the (tilted) axis at distance t from O
+[springs.s]
+stiffness = "k"
+from = {{ frame = "ground", point = ["0 mm", "-t*sin(alpha)", "t*cos(alpha) + h"] }}
+to = {{ frame = "link", point = ["{a} mm", "{b} mm", "70 mm"] }}
+[settings]
+verify_tolerance = 1e-9
+"""
+
+
+def tilted(alpha: float, a: float, b: float, h0: float = 50.0, pinned: bool = False):
+    """The tilted link; ``pinned`` fixes h at ``h0`` (lower = upper bound)."""
+    text = TILTED.format(alpha=alpha, a=a, b=b, h0=h0)
+    if pinned:
+        text = text.replace('lower = "0 mm"', f'lower = "{h0} mm"').replace('upper = "100 mm"', f'upper = "{h0} mm"')
+    return design(load_problem_text(text, "tilted_link"))
+
+
+def test_tilted_link_needs_h_equal_mg_over_k(approx):
+    """V = const + (m g − k h) sin α (b cos θ + a sin θ): one condition, h = m g/k."""
+    result = tilted(alpha=35, a=40, b=-25)
+    assert result.status.value == "optimal"
+    assert result.solution.conditions == 1
+    assert value(result, "h", "mm") == approx(1000 * 0.25 * G / 200)  # 12.2625 mm
+    assert result.verification.residual_ratio <= 1e-9
+
+
+@pytest.mark.parametrize(("alpha", "a", "b"), [(35, 0, 0), (0, 40, -25)], ids=["com_on_axis", "vertical_axis"])
+def test_tilted_link_degenerate_cases_balance_with_any_h(alpha, a, b):
+    """a = b = 0 or α = 0: nothing moves vertically, so no condition constrains h."""
+    result = tilted(alpha=alpha, a=a, b=b, h0=3.0, pinned=True)  # 3 mm is far from m g/k = 12.26 mm
+    assert result.solution.conditions == 0
+    assert value(result, "h", "mm") == pytest.approx(3.0)
+    assert result.status.value == "optimal"
+    assert result.verification.residual_ratio <= 1e-9
+
+
+def test_tilted_link_with_another_height_is_not_balanced():
+    """Control for the test above: the same h = 3 mm on the non-degenerate link fails."""
+    result = tilted(alpha=35, a=40, b=-25, h0=3.0, pinned=True)
+    assert result.status.value != "optimal"
+    assert result.verification.residual_ratio > 0.5
+
+
+# --------------------------------------------------------------------------------------
+# Appendix B: the attachment may slide along the line from an axis point through the CoM
+# --------------------------------------------------------------------------------------
+
+APPENDIX_B = """
+[problem]
+name = "appendix_b"
+[gravity]
+acceleration = "9.81 m/s^2"
+direction = [0, 0, -1]
+[parameters]
+m = "0.4 kg"
+k = "300 N/m"
+px = "15 mm"
+py = "48 mm"
+pz = "36 mm"
+tT = "-20 mm"
+qx = "55 mm"
+b = "{b} mm"
+r = "sqrt(px**2 + py**2)"
+[subsystems.link]
+coordinates.theta = {{ range = ["-180 deg", "180 deg"] }}
+# the joint axis is world x; in the link frame it is z, T = (0, 0, tT) lies on it
+[frames.link]
+transforms = [{{ rotate = "y", angle = "90 deg" }}, {{ rotate = "z", angle = "theta" }}]
+[bodies.link]
+frame = "link"
+mass = "m"
+com = ["px", "py", "pz"]
+[variables.h]
+lower = "0 mm"
+upper = "500 mm"
+# H above Q = (qx, 0, 0), another point of the axis; B on the line T -> P with TB = (b/r) TP
+[springs.s]
+stiffness = "k"
+from = {{ frame = "ground", point = ["qx", "0 mm", "h"] }}
+to = {{ frame = "link", point = ["b/r*px", "b/r*py", "tT + b/r*(pz - tT)"] }}
+[settings]
+verify_tolerance = 1e-9
+"""
+
+
+@pytest.mark.parametrize("b", [20.0, 50.4, 90.0])
+def test_appendix_b_attachment_on_the_line_through_the_com(approx, b):
+    """V = const − (k b h − m g r) sin θ  ⇒  h = m g r/(k b), wherever B sits on the line."""
+    result = design(load_problem_text(APPENDIX_B.format(b=b), "appendix_b"))
+    assert result.status.value == "optimal"
+    r = math.hypot(15.0, 48.0)  # mm
+    assert value(result, "h", "mm") == approx(0.4 * G * r / (300 * b) * 1000)
+    assert result.verification.residual_ratio <= 1e-9
+
+
+# --------------------------------------------------------------------------------------
+# Mass moment substitution (section 4.1): the Bennett plano-spherical example
+# --------------------------------------------------------------------------------------
+
+BENNETT = """
+[problem]
+name = "bennett_plano_spherical"
+[gravity]
+acceleration = "9.81 m/s^2"
+direction = [0, 0, -1]
+[parameters]
+m = "0.2 kg"
+m_half = "0.1 kg"
+L = "300 mm"
+k = "100 N/m"
+# link 1: on the fixed horizontal axis R1 (world x), R2 at its far end
+[subsystems.planar]
+coordinates.q1 = { range = ["-180 deg", "180 deg"] }
+[frames.link1]
+transforms = [{ rotate = "x", angle = "q1" }]
+[bodies.link1]
+frame = "link1"
+mass = "m"
+com = [0, "L/2", 0]
+# link 3: the last link of the spherical part, turning about O (R4's end at O), R3 at its far end
+[subsystems.spherical]
+coordinates.q4 = { range = ["-180 deg", "180 deg"] }
+coordinates.q3 = { range = ["-180 deg", "180 deg"] }
+[frames.link3]
+transforms = [{ rotate = "y", angle = "q4" }, { rotate = "x", angle = "35 deg" }, { rotate = "z", angle = "q3" }]
+[bodies.link3]
+frame = "link3"
+mass = "m_half"
+com = [0, "L/2", 0]
+# link 2 (between R2 and R3), mass m at mid-length, is not simulated: substituted
+[bodies.link2]
+frame = "ground"
+mass = "m"
+com = [0, "L/2", 0]
+[substitutions.link2]
+points.mu_R2 = { at = [0, 0, 0], frame = "link1", point = [0, "L", 0] }
+points.mu_R3 = { at = [0, "L", 0], frame = "link3", point = [0, "L", 0] }
+[variables.h1]
+lower = "0 mm"
+upper = "200 mm"
+[variables.h3]
+lower = "0 mm"
+upper = "200 mm"
+# springs at the top third of link 1 and the top quarter of link 3
+[springs.s1]
+stiffness = "k"
+from = { frame = "ground", point = [0, 0, "h1"] }
+to = { frame = "link1", point = [0, "2*L/3", 0] }
+[springs.s3]
+stiffness = "k"
+from = { frame = "ground", point = [0, 0, "h3"] }
+to = { frame = "link3", point = [0, "3*L/4", 0] }
+[report.M1]
+expression = "total_mass(planar)"
+unit = "g"
+[report.r1]
+expression = "com_distance(planar)"
+unit = "mm"
+[report.M3]
+expression = "total_mass(spherical)"
+unit = "g"
+[report.r3]
+expression = "com_distance(spherical)"
+unit = "mm"
+[settings]
+verify_tolerance = 1e-9
+"""
+
+
+@lru_cache(maxsize=1)
+def _bennett():
+    return design(load_problem_text(BENNETT, "bennett"))
+
+
+class TestBennettSubstitution:
+    """Link 2 (m, centre midway) becomes m/2 on R2 and m/2 on R3 (I3)."""
+
+    @pytest.fixture
+    def result(self):
+        return _bennett()
+
+    def test_substituted_masses(self, result, approx):
+        assert value(result, "mu_R2", "kg") == approx(0.1)
+        assert value(result, "mu_R3", "kg") == approx(0.1)
+
+    def test_augmented_links(self, result, approx):
+        # link 1: m + m/2 = 3m/2 with its centre of mass at 2L/3; link 3: m/2 + m/2 = m at 3L/4
+        assert value(result, "M1", "g") == approx(300.0)
+        assert value(result, "r1", "mm") == approx(200.0)
+        assert value(result, "M3", "g") == approx(200.0)
+        assert value(result, "r3", "mm") == approx(225.0)
+
+    def test_spring_heights(self, result, approx):
+        assert result.status.value == "optimal"
+        assert result.verification.residual_ratio <= 1e-9
+        assert value(result, "h1", "mm") == approx(1000 * 3 * 0.2 * G / (2 * 100))  # 3mg/(2k) = 29.43 mm
+        assert value(result, "h3", "mm") == approx(1000 * 0.2 * G / 100)  # mg/k = 19.62 mm
+
+
+# --------------------------------------------------------------------------------------
+# The 3-RRS parallel mechanism (example 4): problems/rrs3_parallel.toml
+# --------------------------------------------------------------------------------------
+
+
+class TestRRS3:
+    def test_symmetric_platform_splits_in_thirds(self, approx):
+        result = solved("rrs3_parallel")
+        assert result.status.value == "optimal"
+        assert result.verification.residual_ratio <= 1e-9
+        for name in ("m_u1", "m_u2", "m_u3"):
+            assert value(result, name, "g") == approx(900.0 / 3)
+
+    def test_off_centre_platform_splits_unequally_and_still_balances(self, approx):
+        result = solved("rrs3_parallel", (("parameters.u_x", "20 mm"), ("parameters.u_y", "-10 mm")))
+        assert result.status.value == "optimal"
+        assert result.verification.residual_ratio <= 1e-9
+        mu = [value(result, f"m_u{i}", "g") for i in (1, 2, 3)]
+        assert max(mu) - min(mu) > 100  # clearly unequal
+        # mass and first moment are kept: Σμ = m_u, Σμ s = m_u c (S joints at r = 100 mm, 30/150/270 deg)
+        assert sum(mu) == approx(900.0)
+        phis = [math.radians(a) for a in (30, 150, 270)]
+        assert sum(m * 100 * math.cos(p) for m, p in zip(mu, phis)) == pytest.approx(900 * 20, rel=1e-6)
+        assert sum(m * 100 * math.sin(p) for m, p in zip(mu, phis)) == pytest.approx(900 * -10, rel=1e-6)
+
+    def test_substitution_report_file(self, tmp_path):
+        from counterpoise.report import write_reports
+
+        folder = write_reports(solved("rrs3_parallel"), tmp_path)
+        lines = (folder / "substitution.csv").read_text().splitlines()
+        assert lines[0] == "body,point,frame,scenario,mass,unit"
+        assert [line.split(",")[1] for line in lines[1:]] == ["m_u1", "m_u2", "m_u3"]
+        assert all(line.endswith(",300,g") for line in lines[1:])
+
+    def test_a_scenario_cannot_move_the_substitution_points(self):
+        """The split is solved once, at the file's values: a scenario changing r is an error."""
+        from counterpoise.errors import ProblemFileError
+        from counterpoise.io.loader import load_problem
+
+        from conftest import PROBLEMS
+
+        with pytest.raises(ProblemFileError) as info:
+            load_problem(PROBLEMS / "rrs3_parallel.toml", {"scenarios.wide.parameters.r": "120 mm"})
+        assert info.value.key == "scenarios.wide.parameters.r"
+        assert "substitution points of body 'platform'" in info.value.message
+
+    def test_centre_of_mass_off_the_plane_has_no_substitution(self):
+        from counterpoise.errors import ProblemFileError
+        from counterpoise.io.loader import load_problem
+
+        from conftest import PROBLEMS
+
+        with pytest.raises(ProblemFileError) as info:
+            load_problem(PROBLEMS / "rrs3_parallel.toml", {"parameters.u_z": "100 mm"})
+        assert info.value.key == "substitutions.platform"
+        assert "no substitution exists for body 'platform'" in info.value.message
+
+
+# --------------------------------------------------------------------------------------
+# The linear system itself: exact, least-norm, impossible
+# --------------------------------------------------------------------------------------
+
+
+def test_substitution_matrix_exact_and_least_norm():
+    import numpy as np
+
+    from counterpoise.model.substitution import substitution_gap, substitution_matrix
+
+    # two points, centre of mass on their line at 1/4: exact, 3/4 and 1/4 of the mass
+    two = np.array([[0.0, 0.0, 0.0], [0.4, 0.0, 0.0]])
+    mu = substitution_matrix(two) @ np.array([2.0, 2.0 * 0.1, 0.0, 0.0])
+    assert mu == pytest.approx([1.5, 0.5])
+    assert substitution_gap(two, np.array([0.1, 0.0, 0.0])) == pytest.approx(0.0, abs=1e-12)
+    # off the line: no substitution
+    assert substitution_gap(two, np.array([0.1, 0.05, 0.0])) > 1e-3
+    # four coplanar points (a square), centre of mass at its centre: under-determined, and
+    # the least-norm solution is the equal split
+    square = np.array([[1.0, 1.0, 0.0], [-1.0, 1.0, 0.0], [-1.0, -1.0, 0.0], [1.0, -1.0, 0.0]])
+    mu = substitution_matrix(square) @ np.array([4.0, 0.0, 0.0, 0.0])
+    assert mu == pytest.approx([1.0, 1.0, 1.0, 1.0])
