@@ -15,6 +15,7 @@ from functools import cached_property
 from .elements import CounterMass, ZeroFreeLengthSpring
 from .expr import Expr
 from .mechanism import Body, Coordinate, Frame, Subsystem
+from .payload import MIN_ADDED, Payload
 from .units import DisplayUnit
 
 
@@ -63,6 +64,17 @@ class Variable:
     unit: DisplayUnit
     adjustable: bool = False
     description: str = ""
+    #: payload problems: the setting at the nominal payload (None: chosen by the designer)
+    nominal: float | None = None
+    #: payload problems: the largest distance from ``nominal`` the adjustment may travel
+    travel: float | None = None
+
+    def adjusted_bounds(self) -> tuple[float, float]:
+        """Bounds of the adjustment at any payload: the bounds, narrowed by the travel."""
+        lo, hi = self.lower, self.upper
+        if self.nominal is not None and self.travel is not None:
+            lo, hi = max(lo, self.nominal - self.travel), min(hi, self.nominal + self.travel)
+        return lo, hi
 
     def bound_side(self, value: float) -> str:
         """'lower', 'upper' or '': which bound ``value`` (SI) sits on."""
@@ -87,6 +99,9 @@ class Scenario:
     gravity: Gravity
     parameters: Mapping[str, float]
     description: str = ""
+    #: adjustable variables take one value per *setting*; scenarios that name the same
+    #: setting share it (the working modes at one payload). None: the scenario's own.
+    setting: str | None = None
 
 
 @dataclass(frozen=True)
@@ -99,6 +114,7 @@ class Objective:
 
     mass_weight: float = 1.0
     inertia_weight: float = 0.0  # 1/m^2
+    goal: str = MIN_ADDED  # or MAX_PAYLOAD_RANGE (counterpoise.model.payload)
 
 
 @dataclass(frozen=True)
@@ -117,6 +133,7 @@ class Settings:
     verify_tolerance: float = 1e-8  # largest residual_ratio accepted as balanced
     seed: int = 20190101  # random sampling is reproducible
     max_iterations: int = 500
+    schedule_points: int = 51  # payload problems: at least this many schedule rows
 
 
 @dataclass(frozen=True)
@@ -138,6 +155,7 @@ class Problem:
     objective: Objective
     report: tuple[ReportQuantity, ...]
     settings: Settings = field(default_factory=Settings)
+    payloads: tuple[Payload, ...] = ()
 
     @cached_property
     def frame(self) -> Mapping[str, Frame]:
@@ -154,6 +172,13 @@ class Problem:
     @cached_property
     def base_parameters(self) -> tuple[Parameter, ...]:
         return tuple(p for p in self.parameters if p.is_base)
+
+    def setting(self, scenario: str) -> str:
+        """The setting (adjustable-variable slot) that ``scenario`` uses."""
+        for s in self.scenarios:
+            if s.name == scenario:
+                return s.setting or s.name
+        raise KeyError(scenario)
 
     def subsystem_coordinates(self, subsystem: str) -> tuple[Coordinate, ...]:
         return tuple(c for c in self.coordinates if c.subsystem == subsystem)

@@ -56,6 +56,7 @@ class Context:
         self.variable_lower: dict[str, float] = {}
         self.signed: list[tuple[str, ex.Expr, Any, str]] = []  # (key, tree, raw, what) of masses and stiffnesses
         self.derived_parameters: list[Parameter] = []
+        self.payload_masses: dict[str, Any] = {}  # payload -> (lower, upper, nominal, unit), SI
 
     @contextmanager
     def at(self, key: str) -> Iterator[None]:
