@@ -8,12 +8,13 @@ together. See ``docs/payload.md``.
 
 from __future__ import annotations
 
-from .design import PayloadDesign, WidestRange, design_payloads, widest_range
+from .design import OperatorSettings, PayloadDesign, WidestRange, design_payloads, settings_for, widest_range
 from .schedule import AdjustmentSolver, Line, Schedule, Setting, grid, schedule
 
 __all__ = [
     "AdjustmentSolver",
     "Line",
+    "OperatorSettings",
     "PayloadDesign",
     "Schedule",
     "Setting",
@@ -21,5 +22,6 @@ __all__ = [
     "design_payloads",
     "grid",
     "schedule",
+    "settings_for",
     "widest_range",
 ]

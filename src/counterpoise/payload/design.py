@@ -31,7 +31,8 @@ from ..solvers.base import Status
 from ..verify.check import verify
 from ..verify.checks import Verification
 from ..verify.judge import judge
-from .scenarios import Sampled, design_bounds, is_pinned, payload_of, sampled_problem
+from ..formulation.layout import Slot
+from .scenarios import Sampled, design_bounds, is_pinned, payload_of, sampled_problem, setting_name
 from .schedule import AdjustmentSolver, Schedule, Setting, schedule
 
 #: re-designs with an added failing payload before the schedule's failure is final
@@ -64,6 +65,54 @@ class PayloadDesign:
     checked: tuple[float, float]  # the payload range the schedule covers (kg)
     widest: WidestRange | None
 
+    def pinned(self, slot: Slot) -> bool:
+        """Whether a design slot is an adjustment fixed to its nominal (not an active bound)."""
+        setting_mass = {setting_name(self.payload, m): m for m in self.samples}
+        return is_pinned(self.problem, slot, setting_mass)
+
+    def shared(self) -> dict[str, float]:
+        """The design's shared (non-adjustable) variables, SI."""
+        return {slot.variable: v for slot, v in self.solution.values.items() if slot.scenario is None}
+
+
+@dataclass(frozen=True)
+class OperatorSettings:
+    """What ``counterpoise schedule --payload`` prints: the adjustments for one payload."""
+
+    design: PayloadDesign
+    setting: Setting | None  # None when the design itself is not optimal
+    balanceable: tuple[float, float] | None  # computed when the payload cannot be balanced
+
+
+def settings_for(problem: Problem, mass: float) -> OperatorSettings:
+    """Design ``problem`` for its range, then solve the adjustments for payload ``mass``;
+    when they do not balance, also find the range of payloads the design can balance."""
+    outcome = design_payloads(problem)
+    if outcome.status is not Status.OPTIMAL or outcome.schedule is None:
+        return OperatorSettings(outcome, None, None)
+    solver = AdjustmentSolver(problem, outcome.shared())
+    setting = solver.at(mass)
+    if setting.feasible:
+        return OperatorSettings(outcome, setting, None)
+    upper = outcome.widest.upper if outcome.widest is not None else widest_range(solver, outcome.schedule)[0].upper
+    lower = _lowest(solver, outcome.schedule.rows[0])
+    return OperatorSettings(outcome, setting, (lower, upper))
+
+
+def _lowest(solver: AdjustmentSolver, first: Setting) -> float:
+    """The smallest payload (≥ 0) down to which the design balances, from a feasible one."""
+    good = first.payload
+    if good <= 0 or solver.at(0.0).feasible:
+        return 0.0
+    bad = 0.0
+    while good - bad > 1e-9 * max(good, solver.payload.unit.to_si):
+        mid = 0.5 * (good + bad)
+        if solver.at(mid).feasible:
+            good = mid
+        else:
+            bad = mid
+    return good
+
 
 def design_payloads(problem: Problem) -> PayloadDesign:
     """Design ``problem`` for its payload range (see the module docstring)."""
@@ -84,7 +133,7 @@ def design_payloads(problem: Problem) -> PayloadDesign:
     range_text = f"{payload.label(payload.lower)} to {payload.label(payload.upper)}"
     widest = None
     if status is Status.INFEASIBLE:
-        message = _infeasible_message(sampled, solution, range_text, plan, message)
+        message = _infeasible_message(sampled, solution, range_text, message)
     elif status is Status.OPTIMAL and failure is not None:
         status = Status.FAILED
         message = (
@@ -106,28 +155,35 @@ def design_payloads(problem: Problem) -> PayloadDesign:
     return PayloadDesign(solution.problem, payload, status, message, solution, verification, sampled.masses, plan, checked, widest)
 
 
-def _infeasible_message(sampled: Sampled, solution: Solution, range_text: str, plan: Schedule, fallback: str) -> str:
-    """Name the adjustments at a limit in the closest design (pinned nominal slots are not limits)."""
+def _infeasible_message(sampled: Sampled, solution: Solution, range_text: str, fallback: str) -> str:
+    """Name the adjustments at a limit in the closest design, and shared variables on a
+    bound; an adjustment pinned to its nominal is not a limit (it is fixed by the file)."""
     problem = sampled.problem
     payload = payload_of(problem)
-    limits = []
+    limits, shared = [], []
     for slot, value in solution.values.items():
         v = problem.variable[slot.variable]
-        if not v.adjustable or is_pinned(problem, slot, sampled.setting_mass):
+        if not v.adjustable:
+            side = v.bound_side(value)
+            if side:
+                shared.append(f"{v.name} at its {side} bound")
+            continue
+        if is_pinned(problem, slot, sampled.setting_mass):
             continue
         lo, hi = v.adjusted_bounds()
-        side = "lower" if abs(value - lo) <= 1e-6 * (v.upper - v.lower) else "upper" if abs(hi - value) <= 1e-6 * (v.upper - v.lower) else ""
+        band = 1e-6 * (v.upper - v.lower)
+        side = "lower" if value - lo <= band else "upper" if hi - value <= band else ""
         if side:
             bound = lo if side == "lower" else hi
-            what = "travel limit" if v.travel is not None and (bound != (v.lower if side == "lower" else v.upper)) else "bound"
-            limits.append(f"{v.name} at its {side} {what} {v.unit.from_si(bound):.6g} {v.unit.label} for payload {slot.scenario}")
-    text = f"the required payload range {payload.name} {range_text} cannot be balanced"
-    if limits:
-        text += ": limiting adjustment " + "; ".join(limits)
-    failure = plan.first_failure
-    if failure is not None:
-        text += f"; with the closest design the schedule first fails at {payload.label(failure.payload)}"
-    return f"{text} ({fallback})"
+            what = "bound" if bound == (v.lower if side == "lower" else v.upper) else "travel limit"
+            mass = payload.label(sampled.setting_mass[slot.scenario or ""])
+            limits.append(f"{v.name} at its {side} {what} {v.unit.from_si(bound):.6g} {v.unit.label} at {mass}")
+    text = f"the required payload range {range_text} ({payload.name}) cannot be balanced"
+    text += ": limiting adjustment " + "; ".join(limits) if limits else ": no adjustment reaches a limit"
+    if shared:
+        text += "; " + ", ".join(shared)
+    unmet = fallback.split("; at the closest design")[0].removeprefix("balance cannot be met within the bounds: ")
+    return f"{text} (closest design: {unmet})"
 
 
 def widest_range(solver: AdjustmentSolver, plan: Schedule) -> tuple[WidestRange, Schedule]:

@@ -1,7 +1,7 @@
 """Report files: CSV text from rows, written through a temporary file and a rename.
 
 ``results/<problem>/`` receives ``design.csv``, ``summary.csv``, ``verification.csv`` and
-``status.txt`` (see :mod:`.rows`). Floats are written with 10 significant digits; a missing
+``status.txt`` (see :mod:`.rows`), and ``schedule.csv`` for a payload range (:mod:`.schedule`). Floats are written with 10 significant digits; a missing
 value (None, NaN) is an empty cell.
 """
 
@@ -53,13 +53,20 @@ def atomic_write_text(path: Path, text: str) -> None:
 
 
 def report_texts(result: DesignResult) -> dict[str, str]:
-    """File name -> text of every report of ``result``."""
-    return {
+    """File name -> text of every report of ``result`` (payload problems add ``schedule.csv``)."""
+    texts = {
         "design.csv": csv_text(design_rows(result), DESIGN_COLUMNS),
         "summary.csv": csv_text([summary_row(result)], SUMMARY_COLUMNS),
         "verification.csv": csv_text(verification_rows(result), VERIFICATION_COLUMNS),
         "status.txt": status_text(result),
     }
+    if result.payload is not None:
+        from .schedule import payload_status_lines, schedule_columns, schedule_rows
+
+        texts["status.txt"] += payload_status_lines(result)
+        if result.payload.schedule is not None:
+            texts["schedule.csv"] = csv_text(schedule_rows(result), schedule_columns(result))
+    return texts
 
 
 def write_reports(result: DesignResult, out_dir: str | Path) -> Path:
