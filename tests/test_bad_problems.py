@@ -97,6 +97,14 @@ MANIFEST: dict[str, Expect] = {
     # names and literals the schema rejects
     "invalid_parameter_name.toml": Expect("parameters.r-a", "invalid name 'r-a'"),
     "unknown_rotation_axis.toml": Expect("frames.link_a.transforms.0.rotate", "expected one of 'x', 'y' or 'z', got 'w'"),
+    # payload ranges and adjustments (docs/payload.md)
+    "payload_range_reversed.toml": Expect("payloads.tool.range", "lower end 122 g is greater than upper end 0 g"),
+    "payload_without_frame.toml": Expect("payloads.tool.frame", "missing required key"),
+    "payload_range_in_mm.toml": Expect("payloads.tool.range", "expected a mass, got a length ('0 mm')"),
+    "two_payloads.toml": Expect("payloads.camera", "only one payload range per problem is supported"),
+    "max_payload_range_without_payload.toml": Expect("objective", "max_payload_range needs a payload range"),
+    "travel_exceeds_bounds.toml": Expect("variables.M_c.travel", "travel 30 kg exceeds the span of the bounds [0 g, 20 kg]"),
+    "travel_not_adjustable.toml": Expect("variables.M_c.travel", "only an adjustable variable has a travel (add adjustable = true)"),
 }
 
 VALID = sorted(name for name, e in MANIFEST.items() if not e.bug)

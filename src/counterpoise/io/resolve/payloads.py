@@ -87,5 +87,7 @@ def check_adjustments(ctx: Context, variables: tuple[Variable, ...]) -> None:
                 raise ctx.fail(f"{key}.{part}", f"only an adjustable variable has a {part} (add adjustable = true)")
             if not ctx.spec.payloads:
                 raise ctx.fail(f"{key}.{part}", f"a {part} is measured over a payload range: declare one in [payloads.<name>]")
+        if v.travel is not None and v.nominal is None:
+            raise ctx.fail(f"{key}.travel", "a travel is measured from the nominal setting: give nominal too")
     if ctx.spec.objective == MAX_PAYLOAD_RANGE and not ctx.spec.payloads:
         raise ctx.fail("objective", "max_payload_range needs a payload range: declare one in [payloads.<name>]")
