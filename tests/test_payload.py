@@ -284,3 +284,22 @@ def test_cli_schedule_without_payload_exits_2():
     path = PROBLEMS / "yasir2019_counter_mass.toml"
     proc = _cli("schedule", str(path), "--payload", "31 g")
     assert proc.returncode == 2 and proc.stderr.startswith(f"{path}: payloads: no payload range declared")
+
+
+def test_builder_payload_equals_the_file():
+    """The Python API builds the same problem as the TOML text of the non-linear pendulum."""
+    from counterpoise import ProblemBuilder, rotate
+    from counterpoise.io.loader import load_problem_text
+
+    b = ProblemBuilder("pendulum_payload", gravity="9.81 m/s^2", direction=(0, -1, 0))
+    b.parameter("m", "1 kg").parameter("r", "0.3 m")
+    b.subsystem("arm", q=("-180 deg", "180 deg"))
+    b.frame("link", rotate("z", "q"))
+    b.body("tip", frame="link", mass="m", com=("r", 0, 0))
+    b.payload("tool", frame="link", position=("r", 0, 0), range=("0 kg", "1 kg"))
+    b.variable("M", "0 kg", "20 kg")
+    b.variable("u", "0.0025 m^2", "0.09 m^2", adjustable=True, description="the square of the counter-mass lever: u(p) = ((m + p) r / M)^2, not linear in p")
+    b.counter_mass("cm", frame="link", mass="M", position=("-sqrt(u)", 0, 0))
+    built = b.build("pendulum.toml")
+    read = load_problem_text(PENDULUM, "pendulum.toml")
+    assert built.payloads == read.payloads and built.variables == read.variables and built.bodies == read.bodies
