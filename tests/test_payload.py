@@ -303,3 +303,26 @@ def test_builder_payload_equals_the_file():
     built = b.build("pendulum.toml")
     read = load_problem_text(PENDULUM, "pendulum.toml")
     assert built.payloads == read.payloads and built.variables == read.variables and built.bodies == read.bodies
+
+
+def test_schedule_failing_inside_the_range_fails_the_design_naming_the_payload(monkeypatch):
+    """A schedule that fails at 62 g (forced here) makes 62 g a design sample; when it still
+    fails there the design is reported failed, naming that payload."""
+    import dataclasses
+
+    from counterpoise.io.loader import load_problem
+    from counterpoise.payload import design as payload_design
+    from counterpoise.pipeline import design
+
+    real = payload_design.schedule
+
+    def failing_at_62_g(solver, lower, upper):
+        plan = real(solver, lower, upper)
+        rows = tuple(dataclasses.replace(s, feasible=False) if abs(s.payload - 0.062) < 1e-12 else s for s in plan.rows)
+        return dataclasses.replace(plan, rows=rows)
+
+    monkeypatch.setattr(payload_design, "schedule", failing_at_62_g)
+    result = design(load_problem(PROBLEMS / "woo2019_hybrid.toml"))
+    assert result.status.value == "failed"
+    assert "first failing payload 62 g" in result.message
+    assert result.payload.samples == pytest.approx((0.0, 0.062, 0.122))  # 62 g was added to the samples
