@@ -16,8 +16,6 @@ from ...model.problem import Parameter, Variable
 from ...model.units import MASS, canonical_dimension, dimension_name
 from .context import Context
 
-#: payload masses (SI), resolved before the frames exist: name -> (lower, upper, nominal, unit)
-_Masses = dict[str, tuple[float, float, float, object]]
 
 
 def declare(ctx: Context) -> None:
