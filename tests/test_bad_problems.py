@@ -129,6 +129,14 @@ MANIFEST: dict[str, Expect] = {
     ),
     "dh_row_missing_theta.toml": Expect("frames.link_c.transforms.0.dh.theta", "missing required key"),
     "coupled_unknown_coordinate.toml": Expect("subsystems.leg.coupled.phi_c", "unknown name 'theta_d' in 'theta_c - theta_d'"),
+    # payload ranges and adjustments (docs/payload.md)
+    "payload_range_reversed.toml": Expect("payloads.tool.range", "lower end 122 g is greater than upper end 0 g"),
+    "payload_without_frame.toml": Expect("payloads.tool.frame", "missing required key"),
+    "payload_range_in_mm.toml": Expect("payloads.tool.range", "expected a mass, got a length ('0 mm')"),
+    "two_payloads.toml": Expect("payloads.camera", "only one payload range per problem is supported"),
+    "max_payload_range_without_payload.toml": Expect("objective", "max_payload_range needs a payload range"),
+    "travel_exceeds_bounds.toml": Expect("variables.M_c.travel", "travel 30 kg exceeds the span of the bounds [0 g, 20 kg]"),
+    "travel_not_adjustable.toml": Expect("variables.M_c.travel", "only an adjustable variable has a travel (add adjustable = true)"),
 }
 
 #: Longest error line (after ``<file>: ``) a bad file may produce: echoed input is clipped.

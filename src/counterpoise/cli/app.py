@@ -1,4 +1,5 @@
-"""Command line: ``counterpoise validate FILE...`` and ``counterpoise solve FILE...``.
+"""Command line: ``counterpoise validate FILE...``, ``counterpoise solve FILE...`` and
+``counterpoise schedule FILE --payload MASS``.
 
 A thin layer: it parses options, calls the library and prints. Exit status: 0 every
 problem solved to a verified optimum; 1 some problem is infeasible or failed (its reports
@@ -132,6 +133,58 @@ def solve(
             worst = max(worst, 1)
     _print_summary(rows)
     raise typer.Exit(worst)
+
+
+@app.command()
+def schedule(
+    file: Annotated[Path, typer.Argument(help="Problem file with a payload range.", show_default=False)],
+    payload: Annotated[str, typer.Option("--payload", help="Payload mass to print the settings for, e.g. '31 g'.", show_default=False)],
+    set_: SetOpt = None,
+) -> None:
+    """Print the adjustments for one payload: what an operator sets at the table."""
+    from ..errors import InputError
+    from ..model.units import MASS, canonical_dimension, dimension_name, parse_quantity
+
+    problem = _load_all([file], _overrides(set_))[0]
+    if not problem.payloads:
+        err_console.print(f"{file}: payloads: no payload range declared (add a [payloads.<name>] table)", markup=False)
+        raise typer.Exit(2)
+    try:
+        mass = parse_quantity(payload)
+    except InputError as exc:
+        err_console.print(f"{file}: --payload: {exc}", markup=False)
+        raise typer.Exit(2) from None
+    if mass.dimension != canonical_dimension(MASS):
+        err_console.print(f"{file}: --payload: expected a mass, got {dimension_name(mass.dimension)} ('{payload}')", markup=False)
+        raise typer.Exit(2)
+    if mass.si < 0:
+        err_console.print(f"{file}: --payload: a payload mass must not be negative ('{payload}')", markup=False)
+        raise typer.Exit(2)
+    from ..payload import settings_for
+
+    result = settings_for(problem, mass.si)
+    spec = result.design.payload
+    if result.setting is None:
+        out_console.print(f"{problem.name}: the design is {result.design.status.value}: {result.design.message}", markup=False)
+        raise typer.Exit(1)
+    if result.balanceable is not None:
+        lo, hi = result.balanceable
+        out_console.print(
+            f"{problem.name}: payload {spec.label(mass.si)} is outside the balanceable range "
+            f"{spec.label(lo)} to {spec.label(hi)} ({result.setting.message})",
+            markup=False,
+            soft_wrap=True,
+        )
+        raise typer.Exit(1)
+    out_console.print(f"{problem.name}: settings for payload {spec.name} = {spec.label(mass.si)}", markup=False, soft_wrap=True)
+    table = Table()
+    for col in ("adjustment", "value", "unit"):
+        table.add_column(col, justify="right" if col == "value" else "left")
+    for v in problem.variables:
+        if v.adjustable:
+            table.add_row(v.name, f"{v.unit.from_si(result.setting.values[v.name]):.6g}", v.unit.label)
+    out_console.print(table)
+    out_console.print(f"residual ratio {result.setting.residual_ratio:.2e} (balanced in every working mode)", markup=False)
 
 
 def _print_summary(rows: list[dict]) -> None:

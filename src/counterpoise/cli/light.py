@@ -11,6 +11,7 @@ from __future__ import annotations
 COMMANDS: dict[str, str] = {
     "validate": "Check problem files without solving them.",
     "solve": "Solve problem files and write their reports.",
+    "schedule": "Print the adjustments for one payload: what an operator sets at the table.",
 }
 
 DESCRIPTION = "Design gravity balancers for mechanisms. Add --debug to see the traceback of an internal error."

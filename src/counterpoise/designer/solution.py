@@ -31,4 +31,5 @@ class Solution:
 
     def variable_values(self, scenario: str) -> dict[str, float]:
         """Value of every variable as seen by ``scenario``."""
-        return {slot.variable: v for slot, v in self.values.items() if slot.scenario is None or slot.scenario == scenario}
+        setting = self.problem.setting(scenario)
+        return {slot.variable: v for slot, v in self.values.items() if slot.scenario is None or slot.scenario == setting}

@@ -26,7 +26,7 @@ class Slot:
     """One entry of the design vector: a variable, in one scenario if it is adjustable."""
 
     variable: str
-    scenario: str | None  # None: shared by every scenario
+    scenario: str | None  # None: shared by every scenario; else the scenario's setting
 
 
 class DesignLayout:
@@ -34,10 +34,12 @@ class DesignLayout:
 
     def __init__(self, problem: Problem) -> None:
         self.problem = problem
+        #: adjustable variables get one slot per setting (a scenario's own name unless
+        #: several scenarios share a setting, as the working modes at one payload do)
+        settings = tuple(dict.fromkeys(s.setting or s.name for s in problem.scenarios))
+        self.setting = {s.name: s.setting or s.name for s in problem.scenarios}
         self.slots: tuple[Slot, ...] = tuple(
-            Slot(v.name, s.name if v.adjustable else None)
-            for v in problem.variables
-            for s in (problem.scenarios if v.adjustable else problem.scenarios[:1])
+            Slot(v.name, setting if v.adjustable else None) for v in problem.variables for setting in (settings if v.adjustable else settings[:1])
         )
         self.index: Mapping[Slot, int] = {slot: i for i, slot in enumerate(self.slots)}
         variable = problem.variable
@@ -52,7 +54,7 @@ class DesignLayout:
 
     def slot(self, variable: str, scenario: str) -> Slot:
         """The slot that holds ``variable`` as seen by ``scenario``."""
-        return Slot(variable, scenario if self.problem.variable[variable].adjustable else None)
+        return Slot(variable, self.setting[scenario] if self.problem.variable[variable].adjustable else None)
 
     def to_z(self, x: np.ndarray) -> np.ndarray:
         return np.asarray(x, dtype=float) / self.scale

@@ -118,6 +118,8 @@ class ProblemBuilder:
         unit: str | None = None,
         adjustable: bool = False,
         description: str = "",
+        nominal: Value | None = None,
+        travel: Value | None = None,
     ) -> "ProblemBuilder":
         entry: dict[str, Any] = {"lower": lower, "upper": upper}
         if initial is not None:
@@ -126,7 +128,19 @@ class ProblemBuilder:
             entry["unit"] = unit
         if adjustable:
             entry["adjustable"] = True
+        for key, value in (("nominal", nominal), ("travel", travel)):
+            if value is not None:
+                entry[key] = value
         return self._put("variables", name, self._described(entry, description))
+
+    def payload(
+        self, name: str, frame: str, range: tuple[Value, Value], position: Vec3 = (0, 0, 0), nominal: Value | None = None, description: str = ""
+    ) -> "ProblemBuilder":
+        """A payload range (see docs/payload.md): a mass in ``range`` at ``position`` in ``frame``."""
+        entry: dict[str, Any] = {"frame": frame, "position": list(position), "range": list(range)}
+        if nominal is not None:
+            entry["nominal"] = nominal
+        return self._put("payloads", name, self._described(entry, description))
 
     def counter_mass(
         self, name: str, frame: str, mass: Value, position: Vec3, joint: str | None = None, description: str = ""
@@ -173,8 +187,12 @@ class ProblemBuilder:
             }
         return self._put("scenarios", name, self._described(entry, description))
 
-    def objective(self, mass_weight: float = 1.0, inertia_weight: Value = 0, stiffness_weight: Value = 0) -> "ProblemBuilder":
-        self._data["objective"] = {"mass_weight": mass_weight, "inertia_weight": inertia_weight, "stiffness_weight": stiffness_weight}
+    def objective(
+        self, mass_weight: float = 1.0, inertia_weight: Value = 0, stiffness_weight: Value = 0, goal: str | None = None
+    ) -> "ProblemBuilder":
+        """Minimise added mass, inertia and stiffness; ``goal="max_payload_range"`` finds the widest payload range instead."""
+        weights = {"mass_weight": mass_weight, "inertia_weight": inertia_weight, "stiffness_weight": stiffness_weight}
+        self._data["objective"] = goal if goal is not None else weights
         return self
 
     def report(self, name: str, expression: str, unit: str = "", description: str = "") -> "ProblemBuilder":

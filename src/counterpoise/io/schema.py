@@ -185,6 +185,8 @@ class VariableSpec(_Table):
     initial: Value | None = None
     unit: str | None = None
     adjustable: bool = False
+    nominal: Value | None = None
+    travel: Value | None = None
     description: str = ""
 
 
@@ -192,6 +194,21 @@ class ObjectiveSpec(_Table):
     mass_weight: Annotated[FiniteFloat, Field(ge=0)] = 1.0
     inertia_weight: Value = 0
     stiffness_weight: Value = 0
+
+
+#: ``objective = "max_payload_range"`` instead of an ``[objective]`` table
+ObjectiveEntry = Annotated[
+    Union[Annotated[ObjectiveSpec, Tag("table")], Annotated[Literal["max_payload_range"], Tag("goal")]],
+    Discriminator(lambda v: "goal" if isinstance(v, str) else "table"),
+]
+
+
+class PayloadSpec(_Table):
+    frame: str
+    position: Vec3 = (0, 0, 0)
+    range: tuple[Value, Value]
+    nominal: Value | None = None
+    description: str = ""
 
 
 class ReportSpec(_Table):
@@ -211,6 +228,7 @@ class SettingsSpec(_Table):
     verify_tolerance: Annotated[FiniteFloat, Field(gt=0, lt=1)] = 1e-8
     seed: Annotated[int, Field(ge=0, lt=2**63)] = 20190101
     max_iterations: Annotated[int, Field(ge=1, le=1_000_000)] = 500
+    schedule_points: Annotated[int, Field(ge=50, le=100_000)] = 51
 
 
 class ProblemFile(_Table):
@@ -224,7 +242,8 @@ class ProblemFile(_Table):
     springs: dict[Name, SpringSpec] = Field(default_factory=dict)
     substitutions: dict[Name, SubstitutionSpec] = Field(default_factory=dict)
     variables: dict[Name, VariableSpec] = Field(default_factory=dict)
-    objective: ObjectiveSpec = Field(default_factory=ObjectiveSpec)
+    objective: ObjectiveEntry = Field(default_factory=ObjectiveSpec)
     report: dict[Name, ReportSpec] = Field(default_factory=dict)
     scenarios: dict[Name, ScenarioSpec] = Field(default_factory=dict)
+    payloads: dict[Name, PayloadSpec] = Field(default_factory=dict)
     settings: SettingsSpec = Field(default_factory=SettingsSpec)

@@ -16,6 +16,7 @@ from .elements import CounterMass, ZeroFreeLengthSpring
 from .expr import Expr
 from .mechanism import Body, Coordinate, Frame, Subsystem
 from .substitution import Substitution
+from .payload import MIN_ADDED, Payload
 from .units import DisplayUnit
 
 
@@ -64,6 +65,17 @@ class Variable:
     unit: DisplayUnit
     adjustable: bool = False
     description: str = ""
+    #: payload problems: the setting at the nominal payload (None: chosen by the designer)
+    nominal: float | None = None
+    #: payload problems: the largest distance from ``nominal`` the adjustment may travel
+    travel: float | None = None
+
+    def adjusted_bounds(self) -> tuple[float, float]:
+        """Bounds of the adjustment at any payload: the bounds, narrowed by the travel."""
+        lo, hi = self.lower, self.upper
+        if self.nominal is not None and self.travel is not None:
+            lo, hi = max(lo, self.nominal - self.travel), min(hi, self.nominal + self.travel)
+        return lo, hi
 
     def bound_side(self, value: float) -> str:
         """'lower', 'upper' or '': which bound ``value`` (SI) sits on."""
@@ -88,6 +100,9 @@ class Scenario:
     gravity: Gravity
     parameters: Mapping[str, float]
     description: str = ""
+    #: adjustable variables take one value per *setting*; scenarios that name the same
+    #: setting share it (the working modes at one payload). None: the scenario's own.
+    setting: str | None = None
 
 
 @dataclass(frozen=True)
@@ -102,6 +117,7 @@ class Objective:
     mass_weight: float = 1.0
     inertia_weight: float = 0.0  # 1/m^2
     stiffness_weight: float = 0.0  # kg per N/m (s^2 in SI)
+    goal: str = MIN_ADDED  # or MAX_PAYLOAD_RANGE (counterpoise.model.payload)
 
 
 @dataclass(frozen=True)
@@ -120,6 +136,7 @@ class Settings:
     verify_tolerance: float = 1e-8  # largest residual_ratio accepted as balanced
     seed: int = 20190101  # random sampling is reproducible
     max_iterations: int = 500
+    schedule_points: int = 51  # payload problems: at least this many schedule rows
 
 
 @dataclass(frozen=True)
@@ -142,6 +159,7 @@ class Problem:
     report: tuple[ReportQuantity, ...]
     settings: Settings = field(default_factory=Settings)
     substitutions: tuple[Substitution, ...] = ()  # bodies replaced by point masses (already in ``bodies``)
+    payloads: tuple[Payload, ...] = ()
 
     @cached_property
     def frame(self) -> Mapping[str, Frame]:
@@ -158,6 +176,13 @@ class Problem:
     @cached_property
     def base_parameters(self) -> tuple[Parameter, ...]:
         return tuple(p for p in self.parameters if p.is_base)
+
+    def setting(self, scenario: str) -> str:
+        """The setting (adjustable-variable slot) that ``scenario`` uses."""
+        for s in self.scenarios:
+            if s.name == scenario:
+                return s.setting or s.name
+        raise KeyError(scenario)
 
     def subsystem_coordinates(self, subsystem: str) -> tuple[Coordinate, ...]:
         return tuple(c for c in self.coordinates if c.subsystem == subsystem)

@@ -1,7 +1,8 @@
 """Report files: CSV text from rows, written through a temporary file and a rename.
 
 ``results/<problem>/`` receives ``design.csv``, ``summary.csv``, ``verification.csv``,
-``status.txt`` and, when the problem substitutes a body, ``substitution.csv`` (see :mod:`.rows`). Floats are written with 10 significant digits; a missing
+``status.txt`` (see :mod:`.rows`), ``substitution.csv`` when the problem substitutes a body,
+and ``schedule.csv`` for a payload range (:mod:`.schedule`). Floats are written with 10 significant digits; a missing
 value (None, NaN) is an empty cell.
 """
 
@@ -65,7 +66,7 @@ def atomic_write_text(path: Path, text: str) -> None:
 
 def report_texts(result: DesignResult) -> dict[str, str]:
     """File name -> text of every report of ``result`` (substitution.csv only when the
-    problem substitutes a body)."""
+    problem substitutes a body; payload problems add ``schedule.csv``)."""
     texts = {
         "design.csv": csv_text(design_rows(result), DESIGN_COLUMNS),
         "summary.csv": csv_text([summary_row(result)], SUMMARY_COLUMNS),
@@ -74,6 +75,12 @@ def report_texts(result: DesignResult) -> dict[str, str]:
     }
     if result.problem.substitutions:
         texts["substitution.csv"] = csv_text(substitution_rows(result), SUBSTITUTION_COLUMNS)
+    if result.payload is not None:
+        from .schedule import payload_status_lines, schedule_columns, schedule_rows
+
+        texts["status.txt"] += payload_status_lines(result)
+        if result.payload.schedule is not None:
+            texts["schedule.csv"] = csv_text(schedule_rows(result), schedule_columns(result))
     return texts
 
 

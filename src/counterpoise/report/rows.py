@@ -85,7 +85,8 @@ def design_rows(result: DesignResult) -> list[Row]:
                 "unit": u.label,
                 "lower": u.from_si(v.lower),
                 "upper": u.from_si(v.upper),
-                "active_bound": v.bound_side(value),
+                # an adjustment fixed to its nominal at the nominal payload is not on an active bound
+                "active_bound": "" if result.payload is not None and result.payload.pinned(slot) else v.bound_side(value),
                 "description": v.description,
             }
         )

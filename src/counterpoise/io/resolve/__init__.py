@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from ...model.problem import Problem, Settings
 from ..schema import ProblemFile
-from . import mechanism, quantities, report, substitution
+from . import mechanism, payloads, quantities, report, substitution
 from .context import REPORT_FUNCTIONS, RESERVED, Context
 
 __all__ = ["REPORT_FUNCTIONS", "RESERVED", "resolve"]
@@ -21,15 +21,18 @@ def resolve(spec: ProblemFile, label: str) -> Problem:
     for kind in ("parameters", "variables", "report"):
         for name in getattr(spec, kind):
             ctx.declare(kind, name)
+    payloads.declare(ctx)
     for sub in spec.subsystems.values():
         for cname in sub.coordinates:
             ctx.declare("coordinates", cname)
-    parameters = quantities.parameters(ctx)
+    parameters = quantities.parameters(ctx) + payloads.parameters(ctx)
     variables = quantities.variables(ctx)
+    payloads.check_adjustments(ctx, variables)
     subsystems, coordinates = mechanism.subsystems(ctx)
     frames = mechanism.frames(ctx)
     by_name = {f.name: f for f in frames}
-    bodies, substitutions, substituted = substitution.substitutions(ctx, mechanism.bodies(ctx, by_name), by_name)
+    payload_bodies, payload_ranges = payloads.bodies(ctx, by_name)
+    bodies, substitutions, substituted = substitution.substitutions(ctx, mechanism.bodies(ctx, by_name) + payload_bodies, by_name)
     counter_masses = mechanism.counter_masses(ctx, by_name)
     springs = mechanism.springs(ctx, by_name)
     gravity = quantities.gravity(ctx, spec.gravity, "gravity")
@@ -56,4 +59,5 @@ def resolve(spec: ProblemFile, label: str) -> Problem:
         report=reports + substituted,
         settings=Settings(**spec.settings.model_dump()),
         substitutions=substitutions,
+        payloads=payload_ranges,
     )

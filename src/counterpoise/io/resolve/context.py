@@ -62,6 +62,7 @@ class Context:
         self.signed: list[tuple[str, ex.Expr, Any, str]] = []  # (key, tree, raw, what) of masses and stiffnesses
         self.derived_parameters: list[Parameter] = []
         self.coupled: dict[str, ex.Expr] = {}  # coupled coordinate -> its tree in the coordinates
+        self.payload_masses: dict[str, Any] = {}  # payload -> (lower, upper, nominal, unit), SI
 
     @contextmanager
     def at(self, key: str) -> Iterator[None]:

@@ -84,12 +84,30 @@ def variables(ctx: Context) -> tuple[Variable, ...]:
         init = initial.si if initial is not None else 0.5 * (lower.si + upper.si)
         if not lower.si <= init <= upper.si:
             raise ctx.fail(f"{key}.initial", f"initial value {v.initial} lies outside [{v.lower}, {v.upper}]")
+        nominal = _adjustment(ctx, v.nominal, f"{key}.nominal", unit)
+        travel = _adjustment(ctx, v.travel, f"{key}.travel", unit)
+        if nominal is not None and not lower.si <= nominal <= upper.si:
+            raise ctx.fail(f"{key}.nominal", f"nominal {v.nominal} lies outside the bounds [{v.lower}, {v.upper}]")
+        if travel is not None and travel < 0:
+            raise ctx.fail(f"{key}.travel", "must not be negative")
+        if travel is not None and travel > upper.si - lower.si:
+            raise ctx.fail(f"{key}.travel", f"travel {v.travel} exceeds the span of the bounds [{v.lower}, {v.upper}]")
         ctx.symbol_unit[name] = unit
         ctx.symbol_value[name] = init
         ctx.variable_lower[name] = lower.si
         ctx.box[name] = (lower.si, upper.si)
-        out.append(Variable(name, lower.si, upper.si, init, unit, v.adjustable, v.description))
+        out.append(Variable(name, lower.si, upper.si, init, unit, v.adjustable, v.description, nominal, travel))
     return tuple(out)
+
+
+def _adjustment(ctx: Context, raw: Any, key: str, unit: DisplayUnit) -> float | None:
+    """A variable's ``nominal`` or ``travel`` (SI), in the variable's dimension."""
+    if raw is None:
+        return None
+    q = ctx.literal(raw, key)
+    if q.dimension != unit.dimension and not (q.si == 0 and q.unit.symbol == ""):
+        raise ctx.fail(key, f"expected {dimension_name(unit.dimension)} like unit '{unit.label}', got {dimension_name(q.dimension)}")
+    return q.si
 
 
 def gravity(ctx: Context, g: Any, key: str) -> Gravity:
@@ -155,6 +173,8 @@ def check_scenario_values(ctx: Context, values: Mapping[str, float], key: str) -
 
 def objective(ctx: Context) -> Objective:
     o = ctx.spec.objective
+    if isinstance(o, str):  # objective = "max_payload_range"
+        return Objective(goal=o)
     key = "objective.inertia_weight"
     w = ctx.literal(o.inertia_weight, key)
     if w.si != 0 or w.unit.symbol:  # only a bare 0 fits any dimension; '0 kg' is a mass
@@ -164,7 +184,7 @@ def objective(ctx: Context) -> Objective:
         raise ctx.fail(key, "must not be negative")
     skey = "objective.stiffness_weight"
     ws = ctx.literal(o.stiffness_weight, skey)
-    if ws.si != 0:
+    if ws.si != 0 or ws.unit.symbol:  # as above: only a bare 0 fits any dimension
         with ctx.at(skey):
             check_dimension(ws.dimension, COMPLIANCE_MASS, f"'{o.stiffness_weight}'")
     if ws.si < 0:

@@ -1,0 +1,240 @@
+"""Designing for a payload range: samples, the shared design, its schedule, its widest range.
+
+:func:`design_payloads` is what :func:`counterpoise.pipeline.design` runs for a problem with
+a ``[payloads]`` range:
+
+1. **Samples.** The design is solved on the end points of the range and the nominal mass
+   (one scenario per working mode and mass; adjustments pinned to their ``nominal`` at the
+   nominal mass and kept within their ``travel`` elsewhere).
+2. **Schedule.** The shared variables are fixed and the adjustments alone are solved on a
+   grid of the declared range and between its points (:mod:`.schedule`). If some payload
+   fails, it joins the samples and the design is solved again (at most
+   :data:`REFINEMENTS` times): the samples are chosen by the schedule, so a design that
+   needs an interior payload to be feasible gets it. Adjustments linear in the payload
+   need only the end points (the values between are convex combinations of feasible
+   ones); the schedule confirms it and states their formulas.
+3. **Widest range** (``objective = "max_payload_range"``): with the design fixed, the
+   upper end is pushed until an adjustment reaches a limit (doubling steps, a scan for
+   holes, then bisection), and the schedule is re-solved on the range found.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+from ..designer.designer import Designer
+from ..designer.solution import Solution
+from ..model import expr as ex
+from ..model.payload import MAX_PAYLOAD_RANGE, Payload
+from ..model.problem import Problem, ReportQuantity
+from ..solvers.base import Status
+from ..verify.check import verify
+from ..verify.checks import Verification
+from ..verify.judge import judge
+from ..formulation.layout import Slot
+from .scenarios import Sampled, design_bounds, is_pinned, payload_of, sampled_problem, setting_name
+from .schedule import AdjustmentSolver, Schedule, Setting, schedule
+
+#: re-designs with an added failing payload before the schedule's failure is final
+REFINEMENTS = 3
+#: the widest-range search stops doubling after this many steps (reports "no limit found")
+MAX_DOUBLINGS = 30
+#: payloads scanned between the last feasible and the first infeasible one (holes)
+SCAN = 16
+
+
+@dataclass(frozen=True)
+class WidestRange:
+    lower: float  # kg
+    upper: float  # kg
+    limit: str  # what stops it, for the report
+
+
+@dataclass(frozen=True)
+class PayloadDesign:
+    """The outcome of a payload-range design (``problem`` is the sampled problem solved)."""
+
+    problem: Problem
+    payload: Payload
+    status: Status
+    message: str
+    solution: Solution
+    verification: Verification
+    samples: tuple[float, ...]
+    schedule: Schedule | None
+    checked: tuple[float, float]  # the payload range the schedule covers (kg)
+    widest: WidestRange | None
+
+    def pinned(self, slot: Slot) -> bool:
+        """Whether a design slot is an adjustment fixed to its nominal (not an active bound)."""
+        setting_mass = {setting_name(self.payload, m): m for m in self.samples}
+        return is_pinned(self.problem, slot, setting_mass)
+
+    def shared(self) -> dict[str, float]:
+        """The design's shared (non-adjustable) variables, SI."""
+        return {slot.variable: v for slot, v in self.solution.values.items() if slot.scenario is None}
+
+
+@dataclass(frozen=True)
+class OperatorSettings:
+    """What ``counterpoise schedule --payload`` prints: the adjustments for one payload."""
+
+    design: PayloadDesign
+    setting: Setting | None  # None when the design itself is not optimal
+    balanceable: tuple[float, float] | None  # computed when the payload cannot be balanced
+
+
+def settings_for(problem: Problem, mass: float) -> OperatorSettings:
+    """Design ``problem`` for its range, then solve the adjustments for payload ``mass``;
+    when they do not balance, also find the range of payloads the design can balance."""
+    outcome = design_payloads(problem)
+    if outcome.status is not Status.OPTIMAL or outcome.schedule is None:
+        return OperatorSettings(outcome, None, None)
+    solver = AdjustmentSolver(problem, outcome.shared())
+    setting = solver.at(mass)
+    if setting.feasible:
+        return OperatorSettings(outcome, setting, None)
+    upper = outcome.widest.upper if outcome.widest is not None else widest_range(solver, outcome.schedule)[0].upper
+    lower = _lowest(solver, outcome.schedule.rows[0])
+    return OperatorSettings(outcome, setting, (lower, upper))
+
+
+def _lowest(solver: AdjustmentSolver, first: Setting) -> float:
+    """The smallest payload (≥ 0) down to which the design balances, from a feasible one."""
+    good = first.payload
+    if good <= 0 or solver.at(0.0).feasible:
+        return 0.0
+    bad = 0.0
+    while good - bad > 1e-9 * max(good, solver.payload.unit.to_si):
+        mid = 0.5 * (good + bad)
+        if solver.at(mid).feasible:
+            good = mid
+        else:
+            bad = mid
+    return good
+
+
+def design_payloads(problem: Problem) -> PayloadDesign:
+    """Design ``problem`` for its payload range (see the module docstring)."""
+    payload = payload_of(problem)
+    masses = {payload.lower, payload.nominal, payload.upper}
+    for _ in range(REFINEMENTS + 1):
+        sampled = sampled_problem(problem, masses)
+        solution = Designer(sampled.problem).solve(bounds=design_bounds(sampled))
+        verification = verify(solution)
+        status, message = judge(solution, verification)
+        shared = {slot.variable: v for slot, v in solution.values.items() if slot.scenario is None}
+        solver = AdjustmentSolver(problem, shared)
+        plan = schedule(solver, payload.lower, payload.upper)
+        failure = plan.first_failure
+        if status is not Status.OPTIMAL or failure is None or failure.payload in masses:
+            break
+        masses.add(failure.payload)
+    range_text = f"{payload.label(payload.lower)} to {payload.label(payload.upper)}"
+    widest = None
+    if status is Status.INFEASIBLE:
+        message = _infeasible_message(sampled, solution, range_text, message)
+    elif status is Status.OPTIMAL and failure is not None:
+        status = Status.FAILED
+        message = (
+            f"the schedule fails inside the declared range {range_text}: first failing payload "
+            f"{payload.label(failure.payload)} ({failure.message})"
+        )
+    elif status is Status.OPTIMAL:
+        message = f"{message}; schedule feasible over {range_text} ({len(plan.rows)} grid payloads, {len(plan.between)} between them)"
+        if problem.objective.goal == MAX_PAYLOAD_RANGE:
+            widest, plan = widest_range(solver, plan)
+            message += f"; widest range {payload.label(widest.lower)} to {payload.label(widest.upper)}, {widest.limit}"
+            width = widest.upper - widest.lower
+            quantity = ReportQuantity(
+                "max_payload_range", ex.Num(width), payload.unit, f"widest payload range the design balances ({widest.limit})"
+            )
+            solved = replace(sampled.problem, report=sampled.problem.report + (quantity,))
+            solution = replace(solution, problem=solved)
+    checked = (plan.rows[0].payload, plan.rows[-1].payload)
+    return PayloadDesign(solution.problem, payload, status, message, solution, verification, sampled.masses, plan, checked, widest)
+
+
+def _infeasible_message(sampled: Sampled, solution: Solution, range_text: str, fallback: str) -> str:
+    """Name the adjustments at a limit in the closest design, and shared variables on a
+    bound; an adjustment pinned to its nominal is not a limit (it is fixed by the file)."""
+    problem = sampled.problem
+    payload = payload_of(problem)
+    limits, shared = [], []
+    for slot, value in solution.values.items():
+        v = problem.variable[slot.variable]
+        if not v.adjustable:
+            side = v.bound_side(value)
+            if side:
+                shared.append(f"{v.name} at its {side} bound")
+            continue
+        if is_pinned(problem, slot, sampled.setting_mass):
+            continue
+        lo, hi = v.adjusted_bounds()
+        band = 1e-6 * (v.upper - v.lower)
+        side = "lower" if value - lo <= band else "upper" if hi - value <= band else ""
+        if side:
+            bound = lo if side == "lower" else hi
+            what = "bound" if bound == (v.lower if side == "lower" else v.upper) else "travel limit"
+            mass = payload.label(sampled.setting_mass[slot.scenario or ""])
+            limits.append(f"{v.name} at its {side} {what} {v.unit.from_si(bound):.6g} {v.unit.label} at {mass}")
+    text = f"the required payload range {range_text} ({payload.name}) cannot be balanced"
+    text += ": limiting adjustment " + "; ".join(limits) if limits else ": no adjustment reaches a limit"
+    if shared:
+        text += "; " + ", ".join(shared)
+    unmet = fallback.split("; at the closest design")[0].removeprefix("balance cannot be met within the bounds: ")
+    return f"{text} (closest design: {unmet})"
+
+
+def widest_range(solver: AdjustmentSolver, plan: Schedule) -> tuple[WidestRange, Schedule]:
+    """Push the upper end of a feasible schedule until the adjustments cannot follow."""
+    payload = solver.payload
+    lower, a = plan.rows[0].payload, plan.rows[-1].payload
+    step = max(a - lower, 1e-3 * payload.unit.to_si, 1e-6)
+    last = plan.rows[-1]
+    upper_bad: Setting | None = None
+    for _ in range(MAX_DOUBLINGS):
+        s = solver.at(a + step)
+        if not s.feasible:
+            upper_bad = s
+            break
+        a, last, step = s.payload, s, 2 * step
+    if upper_bad is None:
+        return WidestRange(lower, a, f"no limit found up to {payload.label(a)}"), schedule(solver, lower, a)
+    for _ in range(REFINEMENTS + 1):
+        a, last = _bisect(solver, a, last, upper_bad.payload)
+        full = schedule(solver, lower, a)
+        failure = full.first_failure
+        if failure is None:
+            break
+        upper_bad = failure  # a hole below the end found: the range stops before it
+        below = [s for s in full.rows + full.between if s.feasible and s.payload < failure.payload]
+        last = max(below, key=lambda s: s.payload) if below else plan.rows[0]
+        a = last.payload
+    limit = solver.limit(last)
+    if limit is None:
+        text = f"beyond it the adjustments do not balance ({upper_bad.message})"
+    else:
+        name, side, bound = limit
+        v = solver.problem.variable[name]
+        text = f"limited by {name} at its {side} limit {v.unit.from_si(bound):.6g} {v.unit.label}"
+    return WidestRange(lower, a, text), full
+
+
+def _bisect(solver: AdjustmentSolver, good: float, good_setting: Setting, bad: float) -> tuple[float, Setting]:
+    """Largest feasible payload between ``good`` and ``bad``: scan for holes, then bisect."""
+    for i in range(1, SCAN):
+        t = good + (bad - good) * i / SCAN
+        s = solver.at(t)
+        if not s.feasible:
+            bad = t
+            break
+        good, good_setting = t, s
+    while bad - good > 1e-9 * max(bad, solver.payload.unit.to_si):
+        mid = 0.5 * (good + bad)
+        s = solver.at(mid)
+        if s.feasible:
+            good, good_setting = mid, s
+        else:
+            bad = mid
+    return good, good_setting

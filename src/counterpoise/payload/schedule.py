@@ -1,0 +1,172 @@
+"""Adjustment schedules: the adjustments of a fixed design, solved payload by payload.
+
+:class:`AdjustmentSolver` builds one solver for :func:`.scenarios.adjustment_problem` and
+solves it for any payload mass (the mass is a parameter of the NLP: nothing is rebuilt);
+each solution is verified densely (every working mode, random configurations plus the
+corners of the coordinate box) before it counts as feasible.
+
+:func:`schedule` solves a grid of at least ``settings.schedule_points`` payloads with a
+round step, then checks :data:`BETWEEN` more payloads inside every grid interval, so that
+a range is never declared balanced from its grid points alone. An adjustment whose solved
+values all lie on the straight line through its end values (to :data:`LINEAR_TOLERANCE` of
+its bound span) is reported as linear in the payload, with slope and intercept.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..designer.designer import Designer
+from ..formulation.layout import Slot
+from ..model.problem import Problem, bound_side
+from ..solvers.base import Status
+from ..verify.check import verify
+from ..verify.judge import judge
+from .scenarios import adjustable, adjustment_problem, payload_of
+
+#: payloads checked inside every grid interval, evenly spaced
+BETWEEN = 3
+#: largest deviation from the line through the end values, as a share of the bound span,
+#: for an adjustment to count as linear in the payload
+LINEAR_TOLERANCE = 1e-7
+#: a schedule point is verified on this share of settings.verify_samples (at least 200)
+VERIFY_SHARE = 20
+
+
+@dataclass(frozen=True)
+class Setting:
+    """The adjustments for one payload mass and whether they balance."""
+
+    payload: float  # kg
+    values: dict[str, float]  # adjustable variable -> SI value
+    residual_ratio: float
+    feasible: bool
+    message: str
+
+
+@dataclass(frozen=True)
+class Line:
+    """An adjustment linear in the payload: value = intercept + slope · payload (SI)."""
+
+    variable: str
+    slope: float
+    intercept: float
+    deviation: float  # largest distance of a solved value from the line (SI)
+
+
+@dataclass(frozen=True)
+class Schedule:
+    rows: tuple[Setting, ...]  # the grid, ascending
+    between: tuple[Setting, ...]  # the checks inside grid intervals
+    lines: tuple[Line, ...]  # adjustments found linear in the payload
+
+    @property
+    def first_failure(self) -> Setting | None:
+        bad = [s for s in self.rows + self.between if not s.feasible]
+        return min(bad, key=lambda s: s.payload) if bad else None
+
+    @property
+    def feasible(self) -> bool:
+        return self.first_failure is None
+
+
+class AdjustmentSolver:
+    """One solver for the adjustments of a fixed design; :meth:`at` solves one payload."""
+
+    def __init__(self, problem: Problem, shared: dict[str, float]) -> None:
+        self.source = problem
+        self.payload = payload_of(problem)
+        self.problem = adjustment_problem(problem, shared)
+        self.designer = Designer(self.problem)
+        self.samples = max(200, problem.settings.verify_samples // VERIFY_SHARE)
+        self._last: dict[Slot, float] = {}
+
+    def at(self, mass: float) -> Setting:
+        """Solve and verify the adjustments for payload ``mass`` (kg)."""
+        solution = self.designer.solve(initial=self._last or None, parameters={self.payload.name: mass})
+        verification = verify(solution, samples=self.samples)
+        status, message = judge(solution, verification)
+        values = {slot.variable: v for slot, v in solution.values.items()}
+        feasible = status is Status.OPTIMAL
+        if feasible:
+            self._last = dict(solution.values)
+        return Setting(mass, values, verification.residual_ratio, feasible, message)
+
+    def limit(self, setting: Setting, tolerance: float = 1e-4) -> tuple[str, str, float] | None:
+        """(variable, 'lower'|'upper', bound) of the adjustment at a limit of its travel or
+        bounds in ``setting`` (the one closest to it, within ``tolerance`` of its span)."""
+        best: tuple[float, str, str, float] | None = None
+        for v in self.problem.variables:
+            value = setting.values[v.name]
+            span = v.upper - v.lower
+            if span <= 0:
+                continue
+            side = bound_side(value, v.lower, v.upper, tolerance)
+            if side:
+                bound = v.lower if side == "lower" else v.upper
+                distance = abs(value - bound) / span
+                if best is None or distance < best[0]:
+                    best = (distance, v.name, side, bound)
+        return None if best is None else best[1:]
+
+
+def grid(lower: float, upper: float, to_si: float, points: int) -> list[float]:
+    """At least ``points`` payloads from ``lower`` to ``upper`` (SI), on a round step in
+    the display unit (1, 2, 2.5 or 5 × 10^k), end points included."""
+    if upper <= lower:
+        return [lower]
+    lo, hi = lower / to_si, upper / to_si
+    span = hi - lo
+    need = points - 1
+    step = span / need  # fallback; the loop below always finds a round step
+    for k in range(math.floor(math.log10(span)), math.floor(math.log10(span / need)) - 2, -1):
+        fits = [m * 10.0**k for m in (5.0, 2.5, 2.0, 1.0) if span / (m * 10.0**k) >= need]
+        if fits:
+            step = fits[0]
+            break
+    values = [lo]
+    n = math.ceil(lo / step - 1e-9)
+    while n * step < hi - 1e-9 * span:
+        x = n * step
+        if x > lo + 1e-9 * span:
+            values.append(x)
+        n += 1
+    values.append(hi)
+    return [round(v, 12) * to_si for v in values]
+
+
+def schedule(solver: AdjustmentSolver, lower: float, upper: float) -> Schedule:
+    """The schedule over [lower, upper] (SI): grid rows, checks between them, linear fits."""
+    payload = solver.payload
+    masses = grid(lower, upper, payload.unit.to_si, solver.source.settings.schedule_points)
+    rows = tuple(solver.at(m) for m in masses)
+    between = []
+    for a, b in zip(masses[:-1], masses[1:]):
+        for i in range(1, BETWEEN + 1):
+            between.append(solver.at(a + (b - a) * i / (BETWEEN + 1)))
+    return Schedule(rows, tuple(between), _lines(solver.problem, rows + tuple(between), lower, upper))
+
+
+def _lines(problem: Problem, settings: tuple[Setting, ...], lower: float, upper: float) -> tuple[Line, ...]:
+    if upper <= lower or not all(s.feasible for s in settings):
+        return ()
+    ordered = sorted(settings, key=lambda s: s.payload)
+    first, last = ordered[0], ordered[-1]
+    out = []
+    for v in problem.variables:
+        slope = (last.values[v.name] - first.values[v.name]) / (last.payload - first.payload)
+        intercept = first.values[v.name] - slope * first.payload
+        m = np.array([s.payload for s in ordered])
+        x = np.array([s.values[v.name] for s in ordered])
+        deviation = float(np.abs(x - (intercept + slope * m)).max())
+        tolerance = LINEAR_TOLERANCE * max(v.upper - v.lower, abs(x).max(), 1e-300)
+        if deviation <= tolerance:
+            # the line is claimed to this tolerance only: an intercept below it is a zero
+            out.append(Line(v.name, slope, 0.0 if abs(intercept) <= tolerance else intercept, deviation))
+    return tuple(out)
+
+
+__all__ = ["AdjustmentSolver", "BETWEEN", "Line", "Schedule", "Setting", "adjustable", "grid", "schedule"]
