@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from .designer.designer import Designer
 from .designer.quantities import QuantityValue, evaluate_quantities
@@ -13,6 +14,9 @@ from .verify.check import verify
 from .verify.checks import Verification
 from .verify.judge import judge
 
+if TYPE_CHECKING:
+    from .selection.parts import PartsReport
+
 
 @dataclass(frozen=True)
 class DesignResult:
@@ -22,6 +26,7 @@ class DesignResult:
     solution: Solution
     verification: Verification
     quantities: tuple[QuantityValue, ...]
+    parts: "PartsReport | None" = None  # chosen catalogue parts (problems with spring slots)
 
     @property
     def optimal(self) -> bool:
@@ -32,9 +37,36 @@ def design(problem: Problem, designer: Designer | None = None, **solve_options: 
     """Solve ``problem`` (with a prebuilt ``designer`` if given), verify it, evaluate reports.
 
     ``solve_options`` go to :meth:`Designer.solve` (``parameters``, ``bounds``, ``initial``).
+    A problem with spring slots first chooses its parts (:mod:`counterpoise.selection`)
+    and solves for their rates.
     """
+    if problem.slots:
+        return _design_with_parts(problem, designer, **solve_options)
     designer = designer or Designer(problem)
     solution = designer.solve(**solve_options)  # type: ignore[arg-type]
     verification = verify(solution)
     status, message = judge(solution, verification)
     return DesignResult(problem, status, message, solution, verification, evaluate_quantities(solution))
+
+
+def _design_with_parts(problem: Problem, designer: Designer | None, **solve_options: object) -> DesignResult:
+    from .selection import parts
+
+    search, rows, rates = parts.choose(problem)
+    designer = designer or Designer(problem)
+    given = dict(solve_options.pop("parameters", None) or {})  # type: ignore[call-overload]
+    solution = designer.solve(parameters={**given, **rates}, **solve_options)  # type: ignore[arg-type]
+    verification = verify(solution)
+    status, message = judge(solution, verification)
+    chosen = parts.report(problem, designer, solution, search, rows)
+    if search.choice is None:
+        near = "; ".join(m.text() for m in search.nearest) or "no candidate could be evaluated"
+        status, message = Status.INFEASIBLE, f"{search.message}. Nearest candidates: {near}"
+    elif status is Status.OPTIMAL and not chosen.fits:
+        bad = next(u for u in chosen.springs if not u.fits)
+        status = Status.INFEASIBLE
+        message = f"part {bad.part_number} of spring {bad.spring} leaves its limits on the dense check (margins: slack {bad.margin_slack:.3g} m, length {bad.margin_length:.3g} m, load {bad.margin_load:.3g} N)"
+    elif status is Status.OPTIMAL:
+        picked = ", ".join(f"{s.name}: {s.catalogue.part_number[rows[s.name]]}" for s in problem.slots)
+        message = f"{message}; parts {picked}"
+    return DesignResult(problem, status, message, solution, verification, evaluate_quantities(solution), chosen)

@@ -108,7 +108,8 @@ class PointSpec(_Table):
 
 
 class SpringSpec(_Table):
-    stiffness: Value
+    stiffness: Value | None = None  # or a slot: the rate of the catalogue part chosen for it
+    slot: Name | None = None
     from_: PointSpec = Field(alias="from")
     to: PointSpec
     description: str = ""
@@ -147,6 +148,34 @@ class SettingsSpec(_Table):
     max_iterations: Annotated[int, Field(ge=1)] = 500
 
 
+class CatalogueSpec(_Table):
+    """A spring catalogue (CSV) and how to read it (see docs/catalogues.md)."""
+
+    file: str  # path relative to the problem file, or "shipped"
+    columns: Union[str, dict[str, str]] = "counterpoise"  # a preset or field = "column"
+    units: str | None = None  # "SI", "N-mm" or "inch" (default: the preset's)
+    rate_tolerance: Value | None = None  # where the file has no tolerance column
+    initial_tension_tolerance: Value | None = None
+    description: str = ""
+
+
+class SlotSpec(_Table):
+    """A place for one catalogue part; springs name it with ``slot = "<name>"``."""
+
+    catalogue: str
+    rate_tolerance: Value | None = None  # overrides the catalogue's
+    initial_tension_tolerance: Value | None = None
+    description: str = ""
+
+
+class SelectionSpec(_Table):
+    prefer: Literal["objective", "robust", "price"] = "objective"
+    adjust: tuple[Name, ...] = ()
+    max_enumeration: Annotated[int, Field(ge=1, le=1_000_000)] = 400
+    limit_samples: Annotated[int, Field(ge=16, le=1_000_000)] = 512
+    nearest: Annotated[int, Field(ge=1, le=100)] = 5
+
+
 class ProblemFile(_Table):
     problem: ProblemMeta
     gravity: GravitySpec
@@ -161,3 +190,6 @@ class ProblemFile(_Table):
     report: dict[Name, ReportSpec] = Field(default_factory=dict)
     scenarios: dict[Name, ScenarioSpec] = Field(default_factory=dict)
     settings: SettingsSpec = Field(default_factory=SettingsSpec)
+    catalogues: dict[Name, CatalogueSpec] = Field(default_factory=dict)
+    slots: dict[Name, SlotSpec] = Field(default_factory=dict)
+    selection: SelectionSpec = Field(default_factory=SelectionSpec)

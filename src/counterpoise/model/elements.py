@@ -31,7 +31,9 @@ class CounterMass:
 class ZeroFreeLengthSpring:
     """A spring of zero free length between two points: energy ½ k |a − b|².
 
-    Realised in practice by a spring behind a string over a pulley.
+    Realised in practice by a spring behind a string over a pulley. ``slot`` names the
+    catalogue slot the spring takes its part from (its stiffness is then the slot's rate
+    symbol), or is None for a spring whose stiffness the file gives.
     """
 
     name: str
@@ -39,3 +41,4 @@ class ZeroFreeLengthSpring:
     ends: tuple[Point, Point]
     subsystem: str | None
     description: str = ""
+    slot: str | None = None

@@ -15,6 +15,7 @@ from functools import cached_property
 from .elements import CounterMass, ZeroFreeLengthSpring
 from .expr import Expr
 from .mechanism import Body, Coordinate, Frame, Subsystem
+from .parts import SelectionSettings, SpringSlot
 from .units import DisplayUnit
 
 
@@ -138,6 +139,8 @@ class Problem:
     objective: Objective
     report: tuple[ReportQuantity, ...]
     settings: Settings = field(default_factory=Settings)
+    slots: tuple[SpringSlot, ...] = ()  # catalogue slots (their names are base parameters: the rates)
+    selection: SelectionSettings = field(default_factory=SelectionSettings)
 
     @cached_property
     def frame(self) -> Mapping[str, Frame]:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from ...model.problem import Problem, Settings
 from ..schema import ProblemFile
-from . import mechanism, quantities, report
+from . import mechanism, parts, quantities, report
 from .context import REPORT_FUNCTIONS, RESERVED, Context
 
 __all__ = ["REPORT_FUNCTIONS", "RESERVED", "resolve"]
@@ -21,10 +21,14 @@ def resolve(spec: ProblemFile, label: str) -> Problem:
     for kind in ("parameters", "variables", "report"):
         for name in getattr(spec, kind):
             ctx.declare(kind, name)
+    for name in spec.slots:
+        ctx.declare("slots", name)
     for sub in spec.subsystems.values():
         for cname in sub.coordinates:
             ctx.declare("coordinates", cname)
     parameters = quantities.parameters(ctx)
+    catalogues = parts.catalogues(ctx)
+    parameters += parts.slot_parameters(ctx, catalogues)
     variables = quantities.variables(ctx)
     subsystems, coordinates = mechanism.subsystems(ctx)
     frames = mechanism.frames(ctx)
@@ -32,6 +36,12 @@ def resolve(spec: ProblemFile, label: str) -> Problem:
     bodies = mechanism.bodies(ctx, by_name)
     counter_masses = mechanism.counter_masses(ctx, by_name)
     springs = mechanism.springs(ctx, by_name)
+    slot_springs: dict[str, list[str]] = {}
+    for s in springs:
+        if s.slot is not None:
+            slot_springs.setdefault(s.slot, []).append(s.name)
+    slots = parts.slots(ctx, catalogues, slot_springs)
+    selection = parts.selection(ctx)
     gravity = quantities.gravity(ctx, spec.gravity, "gravity")
     scenarios = quantities.scenarios(ctx, gravity, parameters)
     objective = quantities.objective(ctx)
@@ -55,4 +65,6 @@ def resolve(spec: ProblemFile, label: str) -> Problem:
         objective=objective,
         report=reports,
         settings=Settings(**spec.settings.model_dump()),
+        slots=slots,
+        selection=selection,
     )

@@ -132,12 +132,21 @@ def springs(ctx: Context, frames: Mapping[str, Frame]) -> tuple[ZeroFreeLengthSp
     out = []
     for name, s in ctx.spec.springs.items():
         key = f"springs.{name}"
-        k = ctx.expression(s.stiffness, f"{key}.stiffness", ctx.design_names())
-        ctx.nonnegative(k, s.stiffness, f"{key}.stiffness", STIFFNESS, "a stiffness")
+        if s.slot is not None:
+            if s.stiffness is not None:
+                raise ctx.fail(f"{key}.slot", "give either a stiffness or a slot (the slot's part sets the stiffness), not both")
+            if ctx.symbol_kind.get(s.slot) != "slots":
+                raise ctx.fail(f"{key}.slot", f"unknown slot '{s.slot}'{suggest(s.slot, list(ctx.spec.slots))}")
+            k: ex.Expr = ex.Name(s.slot)
+        elif s.stiffness is None:
+            raise ctx.fail(f"{key}.stiffness", "missing required key (or give a slot = \"<name>\" of [slots])")
+        else:
+            k = ctx.expression(s.stiffness, f"{key}.stiffness", ctx.design_names())
+            ctx.nonnegative(k, s.stiffness, f"{key}.stiffness", STIFFNESS, "a stiffness")
         a = ctx.point(s.from_.frame, s.from_.point, f"{key}.from.point", frames, f"{key}.from.frame")
         b = ctx.point(s.to.frame, s.to.point, f"{key}.to.point", frames, f"{key}.to.frame")
         subs = {ctx.subsystem_of(a.frame, frames), ctx.subsystem_of(b.frame, frames)} - {None}
         if len(subs) > 1:
             raise ctx.fail(key, f"connects subsystems {' and '.join(sorted(subs))}; subsystems must move independently")  # type: ignore[arg-type]
-        out.append(ZeroFreeLengthSpring(name, k, (a, b), next(iter(subs), None), s.description))
+        out.append(ZeroFreeLengthSpring(name, k, (a, b), next(iter(subs), None), s.description, s.slot))
     return tuple(out)
