@@ -16,6 +16,7 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 from ..pipeline import DesignResult
+from . import parts
 from .rows import DESIGN_COLUMNS, SUMMARY_COLUMNS, VERIFICATION_COLUMNS, Row, design_rows, status_text, summary_row, verification_rows
 
 FLOAT_FORMAT = "%.10g"
@@ -53,13 +54,17 @@ def atomic_write_text(path: Path, text: str) -> None:
 
 
 def report_texts(result: DesignResult) -> dict[str, str]:
-    """File name -> text of every report of ``result``."""
-    return {
-        "design.csv": csv_text(design_rows(result), DESIGN_COLUMNS),
+    """File name -> text of every report of ``result`` (with parts: springs.csv, tolerance.csv)."""
+    texts = {
+        "design.csv": csv_text(design_rows(result) + parts.part_design_rows(result), DESIGN_COLUMNS),
         "summary.csv": csv_text([summary_row(result)], SUMMARY_COLUMNS),
         "verification.csv": csv_text(verification_rows(result), VERIFICATION_COLUMNS),
-        "status.txt": status_text(result),
+        "status.txt": status_text(result) + parts.parts_status(result),
     }
+    if result.parts is not None:
+        texts["springs.csv"] = csv_text(parts.springs_rows(result), parts.SPRINGS_COLUMNS)
+        texts["tolerance.csv"] = csv_text(parts.tolerance_rows(result), parts.TOLERANCE_COLUMNS)
+    return texts
 
 
 def write_reports(result: DesignResult, out_dir: str | Path) -> Path:

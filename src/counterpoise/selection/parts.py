@@ -71,7 +71,7 @@ class Corner:
     deviation: tuple[tuple[str, float], ...]  # (slot, relative rate change)
     ratio: float  # residual ratio of the nominal design with these rates
     adjusted_ratio: float  # after re-solving the adjustment variables (NaN: none)
-    adjustment: tuple[tuple[str, float, float], ...]  # (variable, nominal SI, adjusted SI)
+    adjustment: tuple[tuple[str, float, float], ...]  # (variable, nominal SI, adjusted SI); empty: none balances
 
 
 @dataclass(frozen=True)
@@ -191,10 +191,11 @@ def adjust_corners(problem: Problem, designer: Designer, solution: Solution, row
                 slot: (value, value) for slot, value in solution.values.items() if slot.variable not in adjust
             }
             again = designer.solve(initial=solution.values, parameters=rates, bounds=bounds)
-            adjusted_ratio = verify(again, samples=samples).residual_ratio if again.status is Status.OPTIMAL else math.nan
-            for slot, value in solution.values.items():
-                if slot.variable in adjust:
-                    changes.append((_slot_name(slot), value, again.values[slot]))
+            if again.status is Status.OPTIMAL:
+                adjusted_ratio = verify(again, samples=samples).residual_ratio
+                for slot, value in solution.values.items():
+                    if slot.variable in adjust:
+                        changes.append((_slot_name(slot), value, again.values[slot]))
         out.append(Corner(tuple(deviation), ratio, adjusted_ratio, tuple(changes)))
     return tuple(out)
 
