@@ -298,7 +298,7 @@ class PartSearch:
                     evaluated.append((fixed, sol))
         else:
             method = "branch-and-bound"
-            evaluated = self._branch_and_bound(group, rates, others)
+            evaluated = self._branch_and_bound(group, rates, others, kept)
         for n in group:
             counts[n].rates_solved += len({fixed[n] for fixed, _ in evaluated})
         found, misses = self._limits(group, kept, evaluated, counts)
@@ -310,11 +310,14 @@ class PartSearch:
         self.solves += 1
         return sol if sol.status is Status.OPTIMAL else None
 
-    def _branch_and_bound(self, group: tuple[str, ...], rates: Mapping[str, np.ndarray], others: Mapping[str, tuple[float, float]]) -> list[tuple[dict[str, float], Any]]:
+    def _branch_and_bound(
+        self, group: tuple[str, ...], rates: Mapping[str, np.ndarray], others: Mapping[str, tuple[float, float]], kept: Mapping[str, np.ndarray]
+    ) -> list[tuple[dict[str, float], Any]]:
         """Best-first branch and bound over index ranges of the sorted distinct rates.
 
         A node's lower bound is the relaxed problem with each rate in its interval; nodes
-        whose bound exceeds the incumbent (beyond ties) are dropped; leaves are exact solves.
+        whose bound exceeds the incumbent (beyond ties) are dropped; leaves are exact solves,
+        and a leaf becomes the incumbent only when some of its parts meet their limits.
         """
         out: list[tuple[dict[str, float], Any]] = []
         incumbent = math.inf
@@ -330,7 +333,9 @@ class PartSearch:
                 sol = self._solve(fixed, others)
                 if sol is not None:
                     out.append((fixed, sol))
-                    incumbent = min(incumbent, sol.objective)
+                    scratch = {n: SlotCount(n, 0, (math.nan, math.nan)) for n in group}
+                    if self._limits(group, kept, [(fixed, sol)], scratch, rank=False)[0]:  # some parts fit
+                        incumbent = min(incumbent, sol.objective)
                 continue
             widest = max(range(len(group)), key=lambda i: node[i][1] - node[i][0])
             a, b = node[widest]
@@ -348,7 +353,12 @@ class PartSearch:
         return out
 
     def _limits(
-        self, group: tuple[str, ...], kept: Mapping[str, np.ndarray], evaluated: Sequence[tuple[dict[str, float], Any]], counts: Mapping[str, SlotCount]
+        self,
+        group: tuple[str, ...],
+        kept: Mapping[str, np.ndarray],
+        evaluated: Sequence[tuple[dict[str, float], Any]],
+        counts: Mapping[str, SlotCount],
+        rank: bool = True,
     ) -> tuple[list[Choice], list[NearMiss]]:
         """Margins of every kept part of the group's slots, for the solved designs (vectorised)."""
         if not evaluated:
@@ -367,6 +377,8 @@ class PartSearch:
                 d_max[s] = np.maximum(d_max[s], dist.max(axis=1))
         fits: dict[str, list[list[int]]] = {n: [[] for _ in evaluated] for n in group}
         misses: list[NearMiss] = []
+        fitting: dict[str, set[int]] = {n: set() for n in group}
+        failing: dict[str, set[int]] = {n: set() for n in group}
         for n in group:
             cat = self.slots[n].catalogue
             a = cat.arrays
@@ -382,12 +394,15 @@ class PartSearch:
                 m = margins(lo[e], hi[e], **part)
                 ok = m.ok()
                 fits[n][e] = [int(i) for i in mine[ok]]
-                counts[n].failed_limits += int((~ok).sum())
-                counts[n].fitting += int(ok.sum())
+                fitting[n].update(int(i) for i in mine[ok])
+                failing[n].update(int(i) for i in mine[~ok])
                 amount, which = violation(m, **part)
                 worst_spring = self.slots[n].springs[0]
                 for i in np.flatnonzero(~ok):
                     misses.append(NearMiss(n, cat.part_number[int(mine[i])], LIMITS[int(which[i])], worst_spring, float(amount[i]), tuple(evaluated[e][0].items())))
+        for n in group:  # a part fits when it fits in some solved design
+            counts[n].fitting += len(fitting[n])
+            counts[n].failed_limits += len(failing[n] - fitting[n])
         found = []
         prefer = self.problem.selection.prefer
         for e, (fixed, sol) in enumerate(evaluated):
@@ -404,6 +419,8 @@ class PartSearch:
                 parts[n] = min(options, key=key)
             price = sum(len(self.slots[n].springs) * self.slots[n].catalogue.price[parts[n]] for n in group)
             found.append(Choice(parts, dict(fixed), sol.objective, float(price)))
+        if not rank:
+            return found, misses
         if prefer == "robust":
             for c in found:
                 c.robust = self.robustness(c, self._solution_of(evaluated, c))
