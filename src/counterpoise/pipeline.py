@@ -6,6 +6,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from .designer.designer import Designer
+from .designer.minimax import MinimaxDesigner, has_direct_springs
 from .designer.quantities import QuantityValue, evaluate_quantities
 from .designer.solution import Solution
 from .model.problem import Problem
@@ -42,6 +43,8 @@ def design(problem: Problem, designer: Designer | None = None, **solve_options: 
     """
     if problem.slots:
         return _design_with_parts(problem, designer, **solve_options)
+    if has_direct_springs(problem):
+        return _design_minimax(problem, designer, **solve_options)
     designer = designer or Designer(problem)
     solution = designer.solve(**solve_options)  # type: ignore[arg-type]
     verification = verify(solution)
@@ -49,18 +52,27 @@ def design(problem: Problem, designer: Designer | None = None, **solve_options: 
     return DesignResult(problem, status, message, solution, verification, evaluate_quantities(solution))
 
 
-def _design_with_parts(problem: Problem, designer: Designer | None, **solve_options: object) -> DesignResult:
+def _design_with_parts(problem: Problem, designer: "Designer | MinimaxDesigner | None", **solve_options: object) -> DesignResult:
     from .selection import parts
+    from .selection.direct import part_parameters, search_direct
 
-    search, rows, rates = parts.choose(problem)
-    designer = designer or Designer(problem)
     given = dict(solve_options.pop("parameters", None) or {})  # type: ignore[call-overload]
-    solution = designer.solve(parameters={**given, **rates}, **solve_options)  # type: ignore[arg-type]
-    verification = verify(solution)
-    status, message = judge(solution, verification)
+    if has_direct_springs(problem):
+        designer = designer if isinstance(designer, MinimaxDesigner) else MinimaxDesigner(problem)
+        search = search_direct(problem, designer)
+        rows = dict(search.choice.parts) if search.choice else {s.name: 0 for s in problem.slots}
+        solution = designer.solve(parameters={**given, **part_parameters(problem, rows)}, **solve_options)  # type: ignore[arg-type]
+        verification = verify(solution)
+        status, message = _judge_minimax(solution, verification)
+    else:
+        search, rows, rates = parts.choose(problem)
+        designer = designer or Designer(problem)
+        solution = designer.solve(parameters={**given, **part_parameters(problem, rows)}, **solve_options)  # type: ignore[arg-type]
+        verification = verify(solution)
+        status, message = judge(solution, verification)
     chosen = parts.report(problem, designer, solution, search, rows)
     if search.choice is None:
-        near = "; ".join(m.text() for m in search.nearest) or "no candidate could be evaluated"
+        near = "; ".join(m.text() for m in search.nearest) or "none could be evaluated"
         status, message = Status.INFEASIBLE, f"{search.message}. Nearest candidates: {near}"
     elif status is Status.OPTIMAL and not chosen.fits:
         bad = next(u for u in chosen.springs if not u.fits)
@@ -70,3 +82,21 @@ def _design_with_parts(problem: Problem, designer: Designer | None, **solve_opti
         picked = ", ".join(f"{s.name}: {s.catalogue.part_number[rows[s.name]]}" for s in problem.slots)
         message = f"{message}; parts {picked}"
     return DesignResult(problem, status, message, solution, verification, evaluate_quantities(solution), chosen)
+
+
+def _judge_minimax(solution: Solution, verification: Verification) -> tuple[Status, str]:
+    """A minimax design is optimal when IPOPT converged; its dense ratio is reported as is."""
+    if solution.status is not Status.OPTIMAL:
+        return solution.status if solution.status is Status.FAILED else Status.FAILED, solution.message
+    dense = verification.residual_ratio
+    if dense != dense:
+        return Status.FAILED, "verification failed: the residual could not be evaluated (NaN)"
+    return Status.OPTIMAL, f"{solution.message}; dense check: worst residual ratio {dense:.6g}"
+
+
+def _design_minimax(problem: Problem, designer: "Designer | MinimaxDesigner | None", **solve_options: object) -> DesignResult:
+    designer = designer if isinstance(designer, MinimaxDesigner) else MinimaxDesigner(problem)
+    solution = designer.solve(**solve_options)  # type: ignore[arg-type]
+    verification = verify(solution)
+    status, message = _judge_minimax(solution, verification)
+    return DesignResult(problem, status, message, solution, verification, evaluate_quantities(solution))

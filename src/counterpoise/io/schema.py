@@ -110,6 +110,11 @@ class PointSpec(_Table):
 class SpringSpec(_Table):
     stiffness: Value | None = None  # or a slot: the rate of the catalogue part chosen for it
     slot: Name | None = None
+    mount: Literal["pulley", "direct"] = "pulley"  # direct: a real spring through a cable
+    free_length: Value | None = None  # direct mount only (from the part with a slot)
+    initial_tension: Value | None = None
+    max_length: Value | None = None
+    cable: Value | None = None
     from_: PointSpec = Field(alias="from")
     to: PointSpec
     description: str = ""

@@ -105,7 +105,12 @@ class Mechanics:
         for s in p.springs:
             if mine(s.subsystem):
                 d = sub(self.position(s.ends[0]), self.position(s.ends[1]))
-                balancers.append(mul(0.5, mul(self.value(s.stiffness), dot(d, d))))
+                if s.direct is None:
+                    balancers.append(mul(0.5, mul(self.value(s.stiffness), dot(d, d))))
+                else:  # a real spring through a cable: F0·x + ½ k x², x = |d| − cable − L0
+                    m = s.direct
+                    x = self.functions["sqrt"](dot(d, d)) - self.value(m.cable) - self.value(m.free_length)
+                    balancers.append(add(mul(self.value(m.initial_tension), x), mul(0.5, mul(self.value(s.stiffness), mul(x, x)))))
         return bodies, add_all(balancers)
 
     def energy(self, subsystem: str | None = None) -> Scalar:

@@ -28,6 +28,21 @@ class CounterMass:
 
 
 @dataclass(frozen=True)
+class DirectMount:
+    """A real spring attached directly (no pulley), through a cable of length ``cable``.
+
+    With d the distance between the ends and x = d − cable − free_length its extension,
+    it pulls with F = initial_tension + k·x (energy F0·x + ½ k x²), in tension only, while
+    free_length ≤ d − cable ≤ max_length (None: no upper limit).
+    """
+
+    free_length: Expr
+    initial_tension: Expr
+    cable: Expr
+    max_length: Expr | None = None
+
+
+@dataclass(frozen=True)
 class ZeroFreeLengthSpring:
     """A spring of zero free length between two points: energy ½ k |a − b|².
 
@@ -42,3 +57,4 @@ class ZeroFreeLengthSpring:
     subsystem: str | None
     description: str = ""
     slot: str | None = None
+    direct: DirectMount | None = None  # None: zero free length (behind a string over a pulley)

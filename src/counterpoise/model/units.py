@@ -27,6 +27,7 @@ DIMENSIONLESS = ""
 STIFFNESS = "[mass] / [time] ** 2"
 ACCELERATION = "[length] / [time] ** 2"
 INVERSE_AREA = "1 / [length] ** 2"
+FORCE = "[mass] * [length] / [time] ** 2"
 
 _DIMENSION_NAMES = {
     LENGTH: "a length",
@@ -35,6 +36,7 @@ _DIMENSION_NAMES = {
     STIFFNESS: "a stiffness (force per length)",
     ACCELERATION: "an acceleration",
     INVERSE_AREA: "an inverse area (1/length^2)",
+    FORCE: "a force",
 }
 
 

@@ -12,9 +12,9 @@ from typing import Any
 import numpy as np
 
 from ..catalogue.limits import margins
-from ..designer.designer import Designer
 from ..designer.solution import Solution
 from ..formulation.layout import Slot
+from ..mechanics import Mechanics
 from ..model.problem import Problem
 from ..solvers.base import Status
 from ..verify.check import verify
@@ -116,33 +116,37 @@ def choose(problem: Problem) -> tuple[SearchResult, dict[str, int], dict[str, fl
     return result, rows, rates
 
 
-def report(problem: Problem, designer: Designer, solution: Solution, search: SearchResult, rows: dict[str, int]) -> PartsReport:
+def report(problem: Problem, designer: Any, solution: Solution, search: SearchResult, rows: dict[str, int]) -> PartsReport:
     """Dense limit check, bill of materials and tolerance report of the chosen parts."""
     q = sample_configurations(problem, problem.settings.verify_samples, problem.settings.seed + 11)
     slots = {s.name: s for s in problem.slots}
     springs = [s for s in problem.springs if s.slot is not None]
     d_min = {s.name: math.inf for s in springs}
     d_max = {s.name: 0.0 for s in springs}
+    cable = {s.name: 0.0 for s in springs}  # directly attached springs: d − cable is the spring's length
     for scenario in problem.scenarios:
-        variables = {k: np.array([[v]]) for k, v in solution.variable_values(scenario.name).items()}
+        values = solution.variable_values(scenario.name)
+        variables = {k: np.array([[v]]) for k, v in values.items()}
         gravity, base = solution.scenario_parameters[scenario.name]
         lengths = spring_lengths(problem, [s.name for s in springs], q, variables, base, gravity)
-        for name, dist in lengths.items():
-            d_min[name] = min(d_min[name], float(dist.min()))
-            d_max[name] = max(d_max[name], float(dist.max()))
+        mech = Mechanics(problem, base, values, {c.name: c.home for c in problem.coordinates}, gravity)
+        for s in springs:
+            c = float(mech.value(s.direct.cable)) if s.direct is not None else 0.0
+            cable[s.name] = c
+            d_min[s.name] = min(d_min[s.name], float(lengths[s.name].min()) - c)
+            d_max[s.name] = max(d_max[s.name], float(lengths[s.name].max()) - c)
     uses = []
     for s in springs:
         cat = slots[s.slot].catalogue  # type: ignore[index]
         i = rows[s.slot]  # type: ignore[index]
         k, l0, f0, fmax, lmax = cat.rate[i], cat.free_length[i], cat.initial_tension[i], cat.max_load[i], cat.max_length[i]
-        m = margins(np.array(d_min[s.name]), np.array(d_max[s.name]), k, l0, f0, fmax, lmax)
-        uses.append(
-            SpringUse(
-                s.name, s.slot, cat.part_number[i], d_min[s.name], d_max[s.name],  # type: ignore[arg-type]
-                d_min[s.name] + l0 - f0 / k, d_max[s.name] + l0 - f0 / k, k * d_min[s.name], k * d_max[s.name],
-                l0, lmax, f0, fmax, float(m.slack), float(m.length), float(m.load),
-            )
-        )
+        lo, hi = d_min[s.name], d_max[s.name]
+        if s.direct is None:  # behind a string: length d + L0 − F0/k, force k·d
+            m = margins(np.array(lo), np.array(hi), k, l0, f0, fmax, lmax)
+            use = (lo, hi, lo + l0 - f0 / k, hi + l0 - f0 / k, k * lo, k * hi, float(m.slack), float(m.length), float(m.load))
+        else:  # attached directly: length d − c, force F0 + k (d − c − L0)
+            use = (lo + cable[s.name], hi + cable[s.name], lo, hi, f0 + k * (lo - l0), f0 + k * (hi - l0), lo - l0, lmax - hi, fmax - (f0 + k * (hi - l0)))
+        uses.append(SpringUse(s.name, s.slot, cat.part_number[i], *use[:6], l0, lmax, f0, fmax, *use[6:]))  # type: ignore[arg-type]
     bill: dict[str, BillLine] = {}
     for u in uses:
         cat = slots[u.slot].catalogue
@@ -158,14 +162,19 @@ def report(problem: Problem, designer: Designer, solution: Solution, search: Sea
             gravity, base = solution.scenario_parameters[scenario.name]
             values[scenario.name] = (solution.variable_values(scenario.name), base, gravity)
         tension = {u.spring: u.initial_tension for u in uses}
+        offsets = {s.name: cable[s.name] + rows_free_length(slots, rows, s) for s in springs if s.direct is not None}
         rate_tol = {u.spring: slots[u.slot].rate_tolerance for u in uses}
         tension_tol = {u.spring: slots[u.slot].initial_tension_tolerance for u in uses}
-        tolerance = tolerance_band(problem, values, tension, rate_tol, tension_tol, tq)
+        tolerance = tolerance_band(problem, values, tension, rate_tol, tension_tol, tq, offsets)
         corners = adjust_corners(problem, designer, solution, rows)
     return PartsReport(search, dict(rows), tuple(uses), tuple(bill.values()), tolerance, corners)
 
 
-def adjust_corners(problem: Problem, designer: Designer, solution: Solution, rows: dict[str, int]) -> tuple[Corner, ...]:
+def rows_free_length(slots: dict, rows: dict[str, int], spring: Any) -> float:
+    return float(slots[spring.slot].catalogue.free_length[rows[spring.slot]])
+
+
+def adjust_corners(problem: Problem, designer: Any, solution: Solution, rows: dict[str, int]) -> tuple[Corner, ...]:
     """Each combination of slot rates at ±tolerance: the residual left, and, with
     ``selection.adjust`` variables, what they must be re-set to (the others kept)."""
     slots = [s for s in problem.slots if s.rate_tolerance > 0]

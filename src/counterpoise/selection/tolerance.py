@@ -47,8 +47,14 @@ def tolerance_band(
     rate_tolerance: Mapping[str, float],
     tension_tolerance: Mapping[str, float],
     q: Mapping[str, np.ndarray],
+    offsets: Mapping[str, float] | None = None,
 ) -> ToleranceBand:
-    """Ratios for the springs named in ``tension`` (their part's F0, N) and tolerances (fractions)."""
+    """Ratios for the springs named in ``tension`` (their part's F0, N) and tolerances (fractions).
+
+    ``offsets``: for directly attached springs, cable + free length (m): the spring's
+    extension is then x = d − offset instead of d, and the rate term is t_k·k·|x|·|∂d/∂q|.
+    """
+    offsets = offsets or {}
     rows: list[tuple[bool, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
     for scenario in problem.scenarios:
         variables, base, gravity = values[scenario.name]
@@ -64,8 +70,10 @@ def tolerance_band(
                     continue
                 length, grad = geometry[spring.name]
                 k = float(mech.value(spring.stiffness))
-                rate_term += rate_tolerance[spring.name] * k * 0.5 * np.abs(grad)
-                tension_term += tension_tolerance[spring.name] * tension[spring.name] * np.abs(grad) / (2 * np.maximum(length, 1e-12))[:, None]
+                slope = np.abs(grad) / (2 * np.maximum(length, 1e-12))[:, None]  # |∂d/∂q|
+                extension = np.abs(length - offsets.get(spring.name, 0.0))[:, None]
+                rate_term += rate_tolerance[spring.name] * k * extension * slope
+                tension_term += tension_tolerance[spring.name] * tension[spring.name] * slope
             for j, name in enumerate(sub.coordinates):
                 revolute = problem.coordinate[name].unit.dimension == ""
                 rows.append((revolute, np.abs(r[:, j]), np.abs(t[:, j]), rate_term[:, j], tension_term[:, j]))

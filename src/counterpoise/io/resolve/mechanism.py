@@ -3,13 +3,15 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import Any
 
 
 from ...model import expr as ex
-from ...model.elements import CounterMass, ZeroFreeLengthSpring
+from ...model.elements import CounterMass, DirectMount, ZeroFreeLengthSpring
 from ...model.mechanism import GROUND, Body, Coordinate, Frame, Rotation, Subsystem, Transform, Translation
 from ...model.units import (
     DIMENSIONLESS,
+    FORCE,
     LENGTH,
     MASS,
     STIFFNESS,
@@ -148,5 +150,34 @@ def springs(ctx: Context, frames: Mapping[str, Frame]) -> tuple[ZeroFreeLengthSp
         subs = {ctx.subsystem_of(a.frame, frames), ctx.subsystem_of(b.frame, frames)} - {None}
         if len(subs) > 1:
             raise ctx.fail(key, f"connects subsystems {' and '.join(sorted(subs))}; subsystems must move independently")  # type: ignore[arg-type]
-        out.append(ZeroFreeLengthSpring(name, k, (a, b), next(iter(subs), None), s.description, s.slot))
+        out.append(ZeroFreeLengthSpring(name, k, (a, b), next(iter(subs), None), s.description, s.slot, direct_mount(ctx, s, key)))
     return tuple(out)
+
+
+def direct_mount(ctx: Context, s: Any, key: str) -> DirectMount | None:
+    """The cable and the spring's own data of a directly attached spring (None: pulley)."""
+    given = {k: getattr(s, k) for k in ("free_length", "initial_tension", "max_length", "cable") if getattr(s, k) is not None}
+    if s.mount == "pulley":
+        if given:
+            raise ctx.fail(f"{key}.{next(iter(given))}", 'only a directly attached spring (mount = "direct") has this key')
+        return None
+    values: dict[str, ex.Expr | None] = {}
+    for field in ("free_length", "initial_tension", "max_length"):
+        if s.slot is not None:
+            if field in given:
+                raise ctx.fail(f"{key}.{field}", "a spring with a slot takes this from its part")
+            values[field] = ex.Name(f"{s.slot}:{field}")
+        elif field in given:
+            dimension, what = (FORCE, "a force") if field == "initial_tension" else (LENGTH, "a length")
+            tree = ctx.expression(given[field], f"{key}.{field}", ctx.design_names())
+            ctx.nonnegative(tree, given[field], f"{key}.{field}", dimension, what)
+            values[field] = tree
+        elif field == "free_length":
+            raise ctx.fail(f"{key}.free_length", 'missing required key for a directly attached spring (or give a slot)')
+        else:
+            values[field] = ex.Num(0.0) if field == "initial_tension" else None
+    cable: ex.Expr = ex.Num(0.0)
+    if "cable" in given:
+        cable = ctx.expression(given["cable"], f"{key}.cable", ctx.design_names())
+        ctx.nonnegative(cable, given["cable"], f"{key}.cable", LENGTH, "a length")
+    return DirectMount(values["free_length"], values["initial_tension"], cable, values["max_length"])  # type: ignore[arg-type]

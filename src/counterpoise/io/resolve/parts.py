@@ -67,7 +67,16 @@ def slot_parameters(ctx: Context, found: dict[str, Catalogue]) -> tuple[Paramete
         ctx.symbol_unit[name] = unit
         ctx.symbol_value[name] = rate
         out.append(Parameter(name, unit, value=rate, description=f"rate of the part chosen for slot {name}"))
+        # the part's other data, for directly attached springs (names no expression can write)
+        for field, shown in (("free_length", "mm"), ("initial_tension", "N"), ("max_length", "mm")):
+            value = float(np.median(found[s.catalogue].array(field)))
+            out.append(Parameter(slot_parameter(name, field), display_unit(shown), value=value, description=f"{field} of the part of slot {name}"))
     return tuple(out)
+
+
+def slot_parameter(slot: str, field: str) -> str:
+    """Name of the parameter holding a field of the part chosen for ``slot``."""
+    return f"{slot}:{field}"
 
 
 def slots(ctx: Context, found: dict[str, Catalogue], springs: dict[str, list[str]]) -> tuple[SpringSlot, ...]:
