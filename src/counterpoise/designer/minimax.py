@@ -30,11 +30,23 @@ from ..model.problem import Problem
 from ..solvers.base import Bounds, Status
 from ..solvers.ipopt import IPOPT_DEFAULTS, IpoptBackend
 from ..threads import limit_blas_threads
-from ..verify.residuals import configurations
 from .solution import Solution
 
 #: sampled configurations per (subsystem, scenario): SAMPLES_PER_COORDINATE × n_q (+ corners)
 SAMPLES_PER_COORDINATE = 96
+
+
+def configurations(problem: Problem, subsystem: str, samples: int, rng: np.random.Generator) -> np.ndarray:
+    """Random configurations of a subsystem plus the corners of its box (as the verification samples)."""
+    import itertools
+
+    coords = problem.subsystem_coordinates(subsystem)
+    lo = np.array([c.lower for c in coords])
+    hi = np.array([c.upper for c in coords])
+    q = lo + (hi - lo) * rng.random((samples, len(coords)))
+    if len(coords) <= 12:
+        q = np.vstack([q, np.array(list(itertools.product(*zip(lo, hi))), dtype=float).reshape(-1, len(coords))])
+    return q
 
 
 def has_direct_springs(problem: Problem) -> bool:

@@ -33,7 +33,8 @@ def part_parameters(problem: Problem, rows: dict[str, int]) -> dict[str, float]:
         out[slot.name] = cat.rate[i]
         out[f"{slot.name}:free_length"] = cat.free_length[i]
         out[f"{slot.name}:initial_tension"] = cat.initial_tension[i]
-        out[f"{slot.name}:max_length"] = cat.max_length[i]
+        # the longest admissible length: the part's maximum length, or where it reaches its maximum load
+        out[f"{slot.name}:max_length"] = min(cat.max_length[i], cat.free_length[i] + (cat.max_load[i] - cat.initial_tension[i]) / cat.rate[i])
     return out
 
 
