@@ -50,18 +50,23 @@ Method and the argument for exactness
     smallest possible change of d over the motion.
 3.  For a fixed geometry (r, x, y) the residual is affine in t, so the best t on its
     feasible interval is a 1-D convex (minimax) problem solved exactly by bisection.
-4.  Coarse-to-fine search: every surviving part is evaluated on a geometry grid, the best
-    cells seed a batched Gauss-Newton/Lawson minimax refinement (analytic Jacobian,
-    feasibility kept by projection), and the best parts get more seeds and a refinement on
-    the full grid.  Two springs are seeded from pairs of the best one-spring cells and
-    from mirrored anchor templates.
-STATUS / LIMITATION (read this): steps 3-4 give realisable designs (upper bounds) fast,
-but this is a multi-start local search, NOT a certificate of the global optimum.  Checked
-offline against scipy SLSQP multi-starts (301-point grid): one spring, 5108N851, SLSQP
-0.0030025 vs this script 0.00302 (about 0.7 % worse); two springs, 8594N153, SLSQP 0.001178
-vs this script 0.00187 -- the Lawson/Gauss-Newton refinement converges slowly on this very
-steep landscape (rounding the SLSQP geometry to 0.1 mm raises its ratio to 0.0018).  A
-rigorous bound is sketched in the report: for fixed geometry the residual is
+4.  Coarse-to-fine search: every surviving part is evaluated on a geometry grid (a 25-point
+    screening grid in phi), the best cells seed a batched Gauss-Newton/Lawson minimax
+    refinement (analytic Jacobian, feasibility kept by projection), and the best parts get
+    a refinement on a 401-point grid. Two springs are seeded by a Gram-matrix pair search
+    (see pair_seeds: the 2-norm of every pair's residual from one matrix product per part,
+    on a grid that includes the bounds r = 15 mm, x = +-130 mm, y = 270 mm), keeping up to
+    three seeds per part so that another basin of the same part can still win.
+5.  Polish: SLSQP (scipy) on the epigraph form, from the best few designs of each case.
+    Without scipy the script still runs and reports its refine() results.
+
+STATUS / LIMITATION (read this): this is a multi-start local search, NOT a certificate of
+the global optimum. It reproduces the scipy SLSQP multi-start references (301-point grid,
+60 random starts per part): one spring 5108N851, 0.0030025 (this script: 0.003003 on the
+2001-point grid), two springs 8594N153, 0.0011782 (this script: 0.001178). The two-spring
+optimum puts the anchors on opposite sides (x = -130 and +120 mm, y = 238 and 270 mm),
+r at its 15 mm bound and no cable: the non-sinusoidal torques of the two springs cancel.
+A rigorous bound is sketched in the report: for fixed geometry the residual is
 (k r y - Mg) cos - k r x sin - k t r h(phi), h = sin(psi)/D_q(psi), and freeing the two
 sinusoid coefficients gives the lower bound k t r dist(h, span{cos, sin}), which is tight
 (0.05 %) at the one-spring optimum; turning it into a branch-and-bound is future work.
@@ -97,7 +102,8 @@ LO = np.array([R_LO, X_LO, Y_LO])
 HI = np.array([R_HI, X_HI, Y_HI])
 
 ROOT = Path(__file__).resolve().parent.parent
-DEFAULT_CATALOGUE = ROOT.parent / "shared" / "catalogues" / "mcmaster-extension-springs.csv"
+DEFAULT_CATALOGUE = Path("..") / "shared" / "catalogues" / "mcmaster-extension-springs.csv"  # from the repository root
+FALLBACK_CATALOGUE = ROOT.parent / "shared" / "catalogues" / "mcmaster-extension-springs.csv"
 CSV_COLUMNS = ["springs", "rank", "part_number", "worst_residual_ratio",
                "r_1_m", "x_1_m", "y_1_m", "c_1_m", "r_2_m", "x_2_m", "y_2_m", "c_2_m", "seconds"]
 
@@ -205,8 +211,9 @@ def refine(P, k, t0, s_lo, s_hi, phi, iters):
         w = w * (np.abs(e) + 1e-3 * f[:, None]) ** POW + 1e-300
         w /= w.sum(1, keepdims=True)
         Js = J * scale
-        A = np.einsum("bm,bma,bmc->bac", w, Js, Js)
-        gvec = np.einsum("bm,bma,bm->ba", w, Js, e)
+        Jw = (Js * w[:, :, None]).transpose(0, 2, 1)  # batched BLAS instead of a 3-operand einsum
+        A = Jw @ Js
+        gvec = (Jw @ e[:, :, None])[..., 0]
         dg = np.einsum("baa->ba", A)[:, :, None]
         step = -np.linalg.solve(A + lam[:, None, None] * (eye * dg + 1e-12 * eye), gvec[..., None])[..., 0]
         Pn, okn = project(P + (step * scale).reshape(B, ns, 4), t0, s_lo, s_hi)
@@ -235,8 +242,9 @@ def spring_torques(cat, idx, R, X, Y, C, S):
     k, t0, s_lo, s_hi = (cat[n][idx][:, None] for n in ("k", "t0", "s_lo", "s_hi"))
     tlo, thi = t_interval(R[None], X[None], Y[None], t0, s_lo, s_hi)
     d = np.sqrt(R * R + X * X + Y * Y - 2 * R * (X * C[:, None] + Y * S[:, None])).T  # (G, m)
-    g = (R[:, None] * (Y[:, None] * C - X[:, None] * S))  # (G, m)
-    tau = k[..., None] * (1 - tlo[..., None] / d[None]) * g[None] / MG  # (P, G, m)
+    g = (R[:, None] * (Y[:, None] * C - X[:, None] * S)) / MG  # (G, m)
+    h = g / d
+    tau = k[..., None] * g[None] - (k * tlo)[..., None] * h[None]  # k (1 - t/d) g, (P, G, m)
     return tau, tlo, tlo <= thi
 
 
@@ -336,14 +344,16 @@ def search(cat, ns, phi_grid, budget):
     nparts = len(cat["k"])
     phi_c = np.linspace(PHI0, PHI1, 41)
     C, S = np.cos(phi_c), np.sin(phi_c)
+    phi_s = np.linspace(PHI0, PHI1, 25)  # screening grid (seeds only; every figure is re-evaluated)
+    Cs, Ss = np.cos(phi_s), np.sin(phi_s)
     # rigorous necessary condition: torque capacity near phi = 0 with ns springs
     cap = ns * cat["f_allow"] * R_HI >= MG * (1 - budget["U"])
     idx = np.nonzero(cap)[0]
     if ns == 1:
         R, X, Y = grid_geometries(np.array([0.015, 0.02, 0.027, 0.036, 0.048, 0.065, 0.09]),
                                   np.linspace(X_LO, X_HI, 11), np.linspace(Y_LO, Y_HI, 7))
-        tau, tlo, feas = spring_torques(cat, idx, R, X, Y, C, S)
-        val = np.abs(tau - C).max(-1)
+        tau, tlo, feas = spring_torques(cat, idx, R, X, Y, Cs, Ss)
+        val = np.abs(tau - Cs).max(-1)
         val = np.where(feas, val, np.inf)
         nseed = 3
         order = np.argsort(val, 1)[:, :nseed]
@@ -354,7 +364,7 @@ def search(cat, ns, phi_grid, budget):
         gi = order[keep].ravel()
         P = np.stack([R[gi], X[gi], Y[gi], tlo[keep][np.arange(len(keep))[:, None], order[keep]].ravel()], -1)[:, None, :]
     else:
-        pi, P = pair_seeds(cat, idx, C, S, budget)
+        pi, P = pair_seeds(cat, idx, Cs, Ss, budget)
     k, t0, s_lo, s_hi = (cat[n][pi] for n in ("k", "t0", "s_lo", "s_hi"))
     P, f = refine(P, k, t0, s_lo, s_hi, phi_c, budget["it1"])
     # stage C: best parts, refine on the full grid
@@ -438,10 +448,13 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     if args.self_check:
         return 0 if self_check() else 1
+    if args.catalogue == DEFAULT_CATALOGUE and not args.catalogue.is_file() and FALLBACK_CATALOGUE.is_file():
+        args.catalogue = FALLBACK_CATALOGUE
     if not args.catalogue.is_file():
         print(f"catalogue not found: {args.catalogue} -- skipping")
         return 0
     t_start = time.perf_counter()
+    cpu_start = time.process_time()
     cat = load_catalogue(args.catalogue)
     phi_grid = np.linspace(PHI0, PHI1, args.grid)
     budget = dict(U=0.05, parts=args.parts, parts2=args.parts2, top=24, it1=40, it2=args.iters,
@@ -455,6 +468,7 @@ def main(argv=None) -> int:
         res.sort(key=lambda o: o[0])
         results[ns] = (res[:10], time.perf_counter() - t0)
     wall = time.perf_counter() - t_start
+    cpu = time.process_time() - cpu_start
     rows = []
     for ns, (res, secs) in results.items():
         ratio, i, P = res[0]
@@ -474,7 +488,7 @@ def main(argv=None) -> int:
                         v = v - cat["t0"][i]
                     row[f"{n}_{j+1}_m"] = "" if v is None else f"{v:.6f}"
             rows.append(row)
-    print(f"wall time, whole catalogue ({len(cat['k'])} parts), both cases: {wall:.3f} s")
+    print(f"wall time, whole catalogue ({len(cat['k'])} parts), both cases: {wall:.3f} s (CPU {cpu:.3f} s)")
     if args.out:
         with open(args.out, "w", newline="") as fh:
             wr = csv.DictWriter(fh, fieldnames=CSV_COLUMNS)
