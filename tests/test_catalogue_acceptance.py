@@ -126,3 +126,23 @@ def test_yasir_hybrid_one_part_for_three_legs(hybrid):
     assert f"leg_spring,part,,{uses[0].part_number}" in design_csv
     springs_csv = report_texts(r)["springs.csv"].splitlines()
     assert springs_csv[-1].startswith(f"bom,,,{uses[0].part_number},3,")
+
+
+def test_position_when_no_part_fits_one_slot():
+    """l12 held in [55, 62] mm needs k1 = 175.8 N / l12 in [2.84, 3.20] N/mm while the
+    attachment points come within l12 - 50 mm = 5-12 mm of each other: every part of that
+    rate has F0/k larger or too little stroke. The report names the nearest parts of slot
+    spring_1 (not of spring_2, which has fitting parts and keeps its best one) with the
+    limit each violates, without an optimisation per failing part."""
+    overrides = {"variables.l12.upper": "62 mm", "variables.l12.lower": "55 mm", "variables.l12.initial": "60 mm"}
+    r = design(load_problem(PROBLEMS / "essomba2021_position_catalogue.toml", overrides))
+    assert r.status is Status.INFEASIBLE
+    assert "no catalogue part fits slot(s) spring_1" in r.message
+    nearest = r.parts.search.nearest
+    assert nearest and {m.slot for m in nearest} == {"spring_1"}
+    assert all(m.limit in ("initial_tension", "max_length", "max_load", "rate") for m in nearest)
+    counts = {c.slot: c for c in r.parts.search.counts}
+    assert counts["spring_1"].fitting == 0 and counts["spring_2"].fitting > 0
+    # the slot that fits keeps a fitting part; the nearest part of the other is reported with its margins
+    uses = {u.slot: u for u in r.parts.springs}
+    assert uses["spring_2"].fits and not uses["spring_1"].fits

@@ -96,6 +96,9 @@ def choose(problem: Problem) -> tuple[SearchResult, dict[str, int], dict[str, fl
     rows: dict[str, int] = {}
     rates: dict[str, float] = {}
     slots = {s.name: s for s in problem.slots}
+    if result.candidates:  # the slots that have fitting parts keep their best one
+        rows.update(result.candidates[0].parts)
+        rates.update(result.candidates[0].rates)
     for miss in result.nearest:
         if miss.slot in rows:
             continue

@@ -170,12 +170,19 @@ class PartSearch:
             methods.append(method)
             nearest += misses
             choices_per_group.append(found)
+        failed = {n for g, found in zip(groups, choices_per_group) if not found for n in g}
+        if failed:  # the nearest candidates of the slots that nothing fits
+            nearest = [m for m in nearest if m.slot in failed]
         nearest.sort(key=lambda m: m.violation)
         nearest = nearest[: self.problem.selection.nearest]
-        if any(not found for found in choices_per_group):
+        if failed:
             empty = [" ".join(g) for g, found in zip(groups, choices_per_group) if not found]
             message = f"no catalogue part fits slot(s) {', '.join(empty)}"
-            return SearchResult(None, list(counts.values()), groups, methods, nearest, self.solves, time.perf_counter() - t0, message)
+            fitting = [found[0] for found in choices_per_group if found]
+            partial = Choice(
+                {k: v for c in fitting for k, v in c.parts.items()}, {k: v for c in fitting for k, v in c.rates.items()}, math.nan, math.nan
+            )
+            return SearchResult(None, list(counts.values()), groups, methods, nearest, self.solves, time.perf_counter() - t0, message, [partial])
         best = [found[0] for found in choices_per_group]
         choice = Choice(
             parts={k: v for c in best for k, v in c.parts.items()},
