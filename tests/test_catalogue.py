@@ -358,3 +358,17 @@ def test_independent_slots_are_searched_separately():
     problem = load_problem(Path(__file__).parent.parent / "problems" / "essomba2021_orientation_catalogue.toml")
     result = PartSearch(problem).run()
     assert sorted(result.groups) == [("spring_A",), ("spring_B",), ("spring_C",), ("spring_D",)]
+
+
+def test_cli_checks_catalogues(tmp_path):
+    """`counterpoise catalogue`: ok line per good file; one error line and exit 2 for a bad row."""
+    import subprocess
+    import sys
+
+    cli = Path(sys.executable).with_name("counterpoise")
+    bad = write(tmp_path / "bad.csv", f"{HEADER}\nP-1,500,0.05,1,40,0.12,0.01,0.001,x\nP-2,-5,0.05,1,40,0.12,0.01,0.001,x\n")
+    proc = subprocess.run([str(cli), "catalogue", "shipped"], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0 and "572 parts" in proc.stdout, proc.stderr
+    proc = subprocess.run([str(cli), "catalogue", str(bad)], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2
+    assert proc.stderr.strip() == f"{bad}: row 2 (line 3), column rate_N_per_m: the rate must be positive, got -5 N/m"
