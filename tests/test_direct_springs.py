@@ -136,3 +136,22 @@ def test_direct_slot_picks_the_part_with_the_smallest_worst_ratio(tmp_path):
     )
     assert chosen.length_min >= cat.free_length[i] - 1e-6  # tension only: d − c ≥ L0
     assert chosen.force_min == pytest.approx(cat.initial_tension[i] + cat.rate[i] * (chosen.length_min - cat.free_length[i]))
+
+
+@pytest.mark.parametrize(
+    "spring, key, fragment",
+    [
+        ('stiffness = "k"\nfree_length = "5 cm"', "springs.s.free_length", 'only a directly attached spring (mount = "direct") has this key'),
+        ('stiffness = "k"\nmount = "direct"', "springs.s.free_length", "missing required key for a directly attached spring"),
+        ('stiffness = "k"\nmount = "direct"\nfree_length = "2 N"', "springs.s.free_length", "expected a length"),
+        ('stiffness = "k"\nmount = "direct"\nfree_length = "5 cm"\ninitial_tension = "-1 N"', "springs.s.initial_tension", "must not be negative"),
+    ],
+)
+def test_direct_mount_keys_are_checked(tmp_path, spring, key, fragment):
+    text = ARM.format(spring=spring, extra="", stiffness_parameter='k = "200 N/m"').replace('mount = "direct"\ncable = "c"\n', "", 1)
+    path = tmp_path / "bad.toml"
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(ProblemFileError) as info:
+        load_problem(path)
+    assert info.value.key == key
+    assert fragment in info.value.message
