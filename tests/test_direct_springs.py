@@ -155,3 +155,72 @@ def test_direct_mount_keys_are_checked(tmp_path, spring, key, fragment):
         load_problem(path)
     assert info.value.key == key
     assert fragment in info.value.message
+
+
+PEER_ARM = """
+[problem]
+name = "peer_arm"
+
+[gravity]
+acceleration = "9.81 m/s^2"
+direction = [0, -1, 0]
+
+[parameters]
+L = "0.409 m"
+m_beam = "0.467 kg"
+m_end = "0.3272 kg"
+k = "{k} N/m"
+L0 = "{L0} m"
+F0 = "{F0} N"
+c = "{c} m"
+r = "{r} m"
+x = "{x} m"
+y = "{y} m"
+
+[subsystems.arm]
+coordinates.phi = {{ range = ["-43.4 deg", "53.6 deg"] }}
+
+[frames.arm]
+transforms = [{{ rotate = "z", angle = "phi" }}]
+
+[bodies.beams]
+frame = "arm"
+mass = "m_beam"
+com = ["L/2", 0, 0]
+[bodies.end]
+frame = "arm"
+mass = "m_end"
+com = ["L", 0, 0]
+
+[springs.s]
+stiffness = "k"
+mount = "direct"
+free_length = "L0"
+initial_tension = "F0"
+cable = "c"
+from = {{ frame = "ground", point = ["x", "y", 0] }}
+to = {{ frame = "arm", point = ["r", 0, 0] }}
+"""
+
+
+def test_engine_and_peer_benchmark_agree_on_the_torque(tmp_path):
+    """The peer benchmark's closed-form net torque (benchmarks/peer_1r_arm.py, with the
+    virtual offset t = c + L0 - F0/k) and the engine's complex-step residual dV/dphi of the
+    same arm with a directly attached spring are the same function with opposite signs
+    (residual = -net torque), for an arbitrary spring and geometry."""
+    import importlib.util
+
+    from counterpoise.verify.residuals import residuals
+
+    spec = importlib.util.spec_from_file_location("peer", Path(__file__).resolve().parent.parent / "benchmarks" / "peer_1r_arm.py")
+    peer = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(peer)
+    k, L0, F0, c, r, x, y = 350.0, 0.04, 3.0, 0.06, 0.03, -0.05, 0.21
+    path = tmp_path / "peer.toml"
+    path.write_text(PEER_ARM.format(k=k, L0=L0, F0=F0, c=c, r=r, x=x, y=y), encoding="utf-8")
+    problem = load_problem(path)
+    phi = np.linspace(problem.coordinates[0].lower, problem.coordinates[0].upper, 301)
+    base = {p.name: p.value for p in problem.base_parameters}
+    residual, _ = residuals(problem, "arm", phi[:, None], {}, base, (0.0, -9.81, 0.0))
+    tau = peer.net_torque(np.array([k]), np.array([[[r, x, y, c + L0 - F0 / k]]]), np.cos(phi), np.sin(phi))[0]
+    assert np.abs(residual[:, 0] + tau).max() < 1e-12 * np.abs(tau).max() + 1e-14
