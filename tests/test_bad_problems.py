@@ -137,6 +137,17 @@ MANIFEST: dict[str, Expect] = {
     "max_payload_range_without_payload.toml": Expect("objective", "max_payload_range needs a payload range"),
     "travel_exceeds_bounds.toml": Expect("variables.M_c.travel", "travel 30 kg exceeds the span of the bounds [0 g, 20 kg]"),
     "travel_not_adjustable.toml": Expect("variables.M_c.travel", "only an adjustable variable has a travel (add adjustable = true)"),
+    # spring catalogues and slots (the CSV files are in bad_problems/catalogues/)
+    "catalogue_negative_rate.toml": Expect(
+        "catalogues.parts.file", "negative_rate.csv: row 2 (line 3), column rate_N_per_m: the rate must be positive, got -500 N/m"
+    ),
+    "catalogue_max_length_below_free_length.toml": Expect(
+        "catalogues.parts.file",
+        "max_length_below_free_length.csv: row 3 (line 4), column max_length_m: the maximum length 0.06 m must be above the free length 0.08 m",
+    ),
+    "slot_unknown_catalogue.toml": Expect("slots.s.catalogue", "unknown catalogue 'shop'"),
+    "spring_slot_and_stiffness.toml": Expect("springs.s.slot", "give either a stiffness or a slot"),
+    "slot_tolerance_above_100_percent.toml": Expect("slots.s.rate_tolerance", "a tolerance must be between 0 and 100 %, got '150 %'"),
 }
 
 #: Longest error line (after ``<file>: ``) a bad file may produce: echoed input is clipped.

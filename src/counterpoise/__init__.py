@@ -9,10 +9,11 @@ Typical use::
 or build the problem in code with :class:`ProblemBuilder`. Heavy dependencies (CasADi,
 pandas, pydantic) are imported on first use, not here.
 
-Layers, each a subpackage with one job: ``model`` (typed problem) → ``io`` (files) →
-``mechanics`` (kinematics, energy) → ``formulation`` (symbols, exact conditions) →
-``solvers`` (one backend per module) → ``designer`` → ``verify`` (dense
-check) → ``report`` (CSV) → ``studies`` (many designs) → ``cli``.
+Layers, each a subpackage with one job: ``model`` (typed problem) → ``catalogue`` (spring
+catalogues) → ``io`` (files) → ``mechanics`` (kinematics, energy) → ``formulation``
+(symbols, exact conditions) → ``solvers`` (one backend per module) → ``designer`` →
+``verify`` (dense check) → ``selection`` (catalogue parts) → ``report`` (CSV) →
+``studies`` (many designs) → ``cli``.
 """
 
 from __future__ import annotations

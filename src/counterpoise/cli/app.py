@@ -1,5 +1,5 @@
 """Command line: ``counterpoise validate FILE...``, ``counterpoise solve FILE...`` and
-``counterpoise schedule FILE --payload MASS``.
+``counterpoise schedule FILE --payload MASS``, ``counterpoise catalogue CSV...``.
 
 A thin layer: it parses options, calls the library and prints. Exit status: 0 every
 problem solved to a verified optimum; 1 some problem is infeasible or failed (its reports
@@ -95,6 +95,39 @@ def validate(files: FilesArg, set_: SetOpt = None) -> None:
             f"{n_var} variable(s), {len(p.scenarios)} scenario(s))",
             markup=False,
         )
+
+
+@app.command()
+def catalogue(
+    files: Annotated[list[Path], typer.Argument(help="Catalogue files (CSV), or 'shipped'.", show_default=False)],
+    columns: Annotated[str, typer.Option("--columns", help="Column preset: counterpoise, vendor or vendor_inch.")] = "counterpoise",
+    units: Annotated[Optional[str], typer.Option("--units", help="Unit system: SI, N-mm or inch (default: the preset's).")] = None,
+) -> None:
+    """Check spring catalogues (every row) and print their ranges (docs/catalogues.md)."""
+    from ..catalogue import mapping_from, read_catalogue
+
+    try:
+        mapping = mapping_from(columns, units)
+    except ValueError as exc:
+        err_console.print(f"--columns/--units: {exc}", markup=False)
+        raise typer.Exit(2) from None
+    errors = 0
+    for path in files:
+        try:
+            cat = read_catalogue(path, mapping)
+        except ProblemFileError as exc:
+            err_console.print(str(exc), markup=False)
+            errors += 1
+            continue
+        a = cat.arrays
+        out_console.print(
+            f"ok  {cat.path}  ({len(cat)} parts; rate {a['rate'].min() / 1e3:.4g}-{a['rate'].max() / 1e3:.4g} N/mm, "
+            f"free length {a['free_length'].min() * 1e3:.4g}-{a['free_length'].max() * 1e3:.4g} mm, "
+            f"max load {a['max_load'].min():.4g}-{a['max_load'].max():.4g} N)",
+            markup=False,
+        )
+    if errors:
+        raise typer.Exit(2)
 
 
 @app.command()

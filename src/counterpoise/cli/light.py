@@ -10,6 +10,7 @@ from __future__ import annotations
 #: Command name -> first line of its help, in the order the app registers them.
 COMMANDS: dict[str, str] = {
     "validate": "Check problem files without solving them.",
+    "catalogue": "Check spring catalogues (every row) and print their ranges (docs/catalogues.md).",
     "solve": "Solve problem files and write their reports.",
     "schedule": "Print the adjustments for one payload: what an operator sets at the table.",
 }

@@ -28,6 +28,8 @@ class Solution:
     condition_summary: str
     #: per scenario name: gravity vector and base-parameter values the design was solved for
     scenario_parameters: dict[str, tuple[Gravity3, dict[str, float]]] = field(default_factory=dict)
+    #: minimax designs (directly attached springs): the worst residual ratio on the NLP's samples
+    sampled_ratio: float | None = None
 
     def variable_values(self, scenario: str) -> dict[str, float]:
         """Value of every variable as seen by ``scenario``."""

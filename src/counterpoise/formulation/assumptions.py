@@ -106,6 +106,14 @@ def check_exact_conditions(problem: Problem) -> None:
     """Raise :class:`ProblemFileError` naming the first entry that breaks the assumption."""
     coordinates = frozenset(c.name for c in problem.coordinates)
     variables = frozenset(problem.variable)
+    for spring in problem.springs:
+        if spring.direct is not None:
+            raise ProblemFileError(
+                problem.path,
+                f"springs.{spring.name}.mount",
+                "a directly attached spring (free length, initial tension) has no exact balance conditions: "
+                "design it with the minimax designer (counterpoise.designer.minimax), as design() does",
+            )
     for frame in problem.frames:
         for i, t in enumerate(frame.transforms):
             key = frame.key(i)

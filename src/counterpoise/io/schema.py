@@ -161,7 +161,13 @@ class PointSpec(_Table):
 
 
 class SpringSpec(_Table):
-    stiffness: Value
+    stiffness: Value | None = None  # or a slot: the rate of the catalogue part chosen for it
+    slot: Name | None = None
+    mount: Literal["pulley", "direct"] = "pulley"  # direct: a real spring through a cable
+    free_length: Value | None = None  # direct mount only (from the part with a slot)
+    initial_tension: Value | None = None
+    max_length: Value | None = None
+    cable: Value | None = None
     from_: PointSpec = Field(alias="from")
     to: PointSpec
     description: str = ""
@@ -231,6 +237,34 @@ class SettingsSpec(_Table):
     schedule_points: Annotated[int, Field(ge=50, le=100_000)] = 51
 
 
+class CatalogueSpec(_Table):
+    """A spring catalogue (CSV) and how to read it (see docs/catalogues.md)."""
+
+    file: str  # path relative to the problem file, or "shipped"
+    columns: Union[str, dict[str, str]] = "counterpoise"  # a preset or field = "column"
+    units: str | None = None  # "SI", "N-mm" or "inch" (default: the preset's)
+    rate_tolerance: Value | None = None  # where the file has no tolerance column
+    initial_tension_tolerance: Value | None = None
+    description: str = ""
+
+
+class SlotSpec(_Table):
+    """A place for one catalogue part; springs name it with ``slot = "<name>"``."""
+
+    catalogue: str
+    rate_tolerance: Value | None = None  # overrides the catalogue's
+    initial_tension_tolerance: Value | None = None
+    description: str = ""
+
+
+class SelectionSpec(_Table):
+    prefer: Literal["objective", "robust", "price"] = "objective"
+    adjust: tuple[Name, ...] = ()
+    max_enumeration: Annotated[int, Field(ge=1, le=1_000_000)] = 400
+    limit_samples: Annotated[int, Field(ge=16, le=1_000_000)] = 512
+    nearest: Annotated[int, Field(ge=1, le=100)] = 5
+
+
 class ProblemFile(_Table):
     problem: ProblemMeta
     gravity: GravitySpec
@@ -247,3 +281,6 @@ class ProblemFile(_Table):
     scenarios: dict[Name, ScenarioSpec] = Field(default_factory=dict)
     payloads: dict[Name, PayloadSpec] = Field(default_factory=dict)
     settings: SettingsSpec = Field(default_factory=SettingsSpec)
+    catalogues: dict[Name, CatalogueSpec] = Field(default_factory=dict)
+    slots: dict[Name, SlotSpec] = Field(default_factory=dict)
+    selection: SelectionSpec = Field(default_factory=SelectionSpec)

@@ -15,6 +15,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 
 from ..model import expr as ex
+from ..model.elements import ZeroFreeLengthSpring
 from ..model.mechanism import GROUND, Point, Rotation
 from ..model.problem import Problem
 from ..model.functions import NUMPY_FUNCTIONS, Functions
@@ -107,6 +108,17 @@ class Mechanics:
     def gravity_energy(self, mass: Scalar, point: Point) -> Scalar:
         return mul(-1.0, mul(mass, dot(self.gravity, self.position(point))))
 
+    def spring_energy(self, s: ZeroFreeLengthSpring, stiffness: Scalar | None = None) -> Scalar:
+        """A spring's energy: ½ k |a − b|² (zero free length), or for a real spring through a
+        cable F0·x + ½ k x² with x = |a − b| − cable − L0. ``stiffness`` replaces k."""
+        k = self.value(s.stiffness) if stiffness is None else stiffness
+        d = sub(self.position(s.ends[0]), self.position(s.ends[1]))
+        if s.direct is None:
+            return mul(0.5, mul(k, dot(d, d)))
+        m = s.direct
+        x = self.functions["sqrt"](dot(d, d)) - self.value(m.cable) - self.value(m.free_length)
+        return add(mul(self.value(m.initial_tension), x), mul(0.5, mul(k, mul(x, x))))
+
     def energy_terms(self, subsystem: str | None = None) -> tuple[Scalar, Scalar]:
         """(energy of the given bodies, energy of the balancers) of ``subsystem`` (all if None).
 
@@ -119,10 +131,7 @@ class Mechanics:
 
         bodies = add_all([self.gravity_energy(self.value(b.mass), b.com) for b in p.bodies if mine(b.subsystem)])
         balancers = [self.gravity_energy(self.value(c.mass), c.position) for c in p.counter_masses if mine(c.subsystem)]
-        for s in p.springs:
-            if mine(s.subsystem):
-                d = sub(self.position(s.ends[0]), self.position(s.ends[1]))
-                balancers.append(mul(0.5, mul(self.value(s.stiffness), dot(d, d))))
+        balancers += [self.spring_energy(s) for s in p.springs if mine(s.subsystem)]
         return bodies, add_all(balancers)
 
     def energy_magnitude(self, subsystem: str | None = None) -> Scalar:

@@ -28,10 +28,27 @@ class CounterMass:
 
 
 @dataclass(frozen=True)
+class DirectMount:
+    """A real spring attached directly (no pulley), through a cable of length ``cable``.
+
+    With d the distance between the ends and x = d − cable − free_length its extension,
+    it pulls with F = initial_tension + k·x (energy F0·x + ½ k x²), in tension only, while
+    free_length ≤ d − cable ≤ max_length (None: no upper limit).
+    """
+
+    free_length: Expr
+    initial_tension: Expr
+    cable: Expr
+    max_length: Expr | None = None
+
+
+@dataclass(frozen=True)
 class ZeroFreeLengthSpring:
     """A spring of zero free length between two points: energy ½ k |a − b|².
 
-    Realised in practice by a spring behind a string over a pulley.
+    Realised in practice by a spring behind a string over a pulley. ``slot`` names the
+    catalogue slot the spring takes its part from (its stiffness is then the slot's rate
+    symbol), or is None for a spring whose stiffness the file gives.
     """
 
     name: str
@@ -39,3 +56,5 @@ class ZeroFreeLengthSpring:
     ends: tuple[Point, Point]
     subsystem: str | None
     description: str = ""
+    slot: str | None = None
+    direct: DirectMount | None = None  # None: zero free length (behind a string over a pulley)

@@ -17,6 +17,7 @@ from .expr import Expr
 from .mechanism import Body, Coordinate, Frame, Subsystem
 from .substitution import Substitution
 from .payload import MIN_ADDED, Payload
+from .parts import SelectionSettings, SpringSlot
 from .units import DisplayUnit
 
 
@@ -160,6 +161,8 @@ class Problem:
     settings: Settings = field(default_factory=Settings)
     substitutions: tuple[Substitution, ...] = ()  # bodies replaced by point masses (already in ``bodies``)
     payloads: tuple[Payload, ...] = ()
+    slots: tuple[SpringSlot, ...] = ()  # catalogue slots (their names are base parameters: the rates)
+    selection: SelectionSettings = field(default_factory=SelectionSettings)
 
     @cached_property
     def frame(self) -> Mapping[str, Frame]:

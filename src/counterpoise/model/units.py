@@ -28,6 +28,7 @@ STIFFNESS = "[mass] / [time] ** 2"
 ACCELERATION = "[length] / [time] ** 2"
 INVERSE_AREA = "1 / [length] ** 2"
 COMPLIANCE_MASS = "[time] ** 2"  # kg per (N/m): a mass per unit of stiffness
+FORCE = "[mass] * [length] / [time] ** 2"
 
 _DIMENSION_NAMES = {
     LENGTH: "a length",
@@ -37,6 +38,7 @@ _DIMENSION_NAMES = {
     ACCELERATION: "an acceleration",
     INVERSE_AREA: "an inverse area (1/length^2)",
     COMPLIANCE_MASS: "a mass per stiffness (e.g. kg/(N/m))",
+    FORCE: "a force",
 }
 
 

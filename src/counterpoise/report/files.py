@@ -17,6 +17,7 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 from ..pipeline import DesignResult
+from . import parts
 from .rows import (
     DESIGN_COLUMNS,
     SUBSTITUTION_COLUMNS,
@@ -66,12 +67,13 @@ def atomic_write_text(path: Path, text: str) -> None:
 
 def report_texts(result: DesignResult) -> dict[str, str]:
     """File name -> text of every report of ``result`` (substitution.csv only when the
-    problem substitutes a body; payload problems add ``schedule.csv``)."""
+    problem substitutes a body; payload problems add ``schedule.csv``; problems with
+    catalogue parts ``springs.csv`` and ``tolerance.csv``)."""
     texts = {
-        "design.csv": csv_text(design_rows(result), DESIGN_COLUMNS),
+        "design.csv": csv_text(design_rows(result) + parts.part_design_rows(result), DESIGN_COLUMNS),
         "summary.csv": csv_text([summary_row(result)], SUMMARY_COLUMNS),
         "verification.csv": csv_text(verification_rows(result), VERIFICATION_COLUMNS),
-        "status.txt": status_text(result),
+        "status.txt": status_text(result) + parts.parts_status(result),
     }
     if result.problem.substitutions:
         texts["substitution.csv"] = csv_text(substitution_rows(result), SUBSTITUTION_COLUMNS)
@@ -81,6 +83,9 @@ def report_texts(result: DesignResult) -> dict[str, str]:
         texts["status.txt"] += payload_status_lines(result)
         if result.payload.schedule is not None:
             texts["schedule.csv"] = csv_text(schedule_rows(result), schedule_columns(result))
+    if result.parts is not None:
+        texts["springs.csv"] = csv_text(parts.springs_rows(result), parts.SPRINGS_COLUMNS)
+        texts["tolerance.csv"] = csv_text(parts.tolerance_rows(result), parts.TOLERANCE_COLUMNS)
     return texts
 
 

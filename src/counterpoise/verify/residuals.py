@@ -105,7 +105,8 @@ class _Element:
         #: the coordinates its energy depends on (its residual is 0 for the others)
         self.moves_with = (self.geometry | factor) & coordinates
         #: residual = factor(design, parameters) × an array fixed by the configurations and the geometry
-        self.separable = not factor & coordinates and not self.geometry & variables
+        #: (a real spring through a cable is not: its energy is not k × a function of the geometry)
+        self.separable = not factor & coordinates and not self.geometry & variables and getattr(element, "direct", None) is None
         #: ... with a literal factor: such arrays are summed into one
         self.constant = self.separable and not factor
 
@@ -113,9 +114,7 @@ class _Element:
         """The element's energy (per unit factor if ``unit_factor``)."""
         factor = 1.0 if unit_factor else mech.value(self.factor)
         if self.spring:
-            a, b = (mech.position(p) for p in self.points)
-            d = [x - y for x, y in zip(a, b)]
-            return 0.5 * factor * (d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+            return mech.spring_energy(self.element, factor)
         return mech.gravity_energy(factor, self.points[0])
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from ...model.problem import Problem, Settings
 from ..schema import ProblemFile
-from . import mechanism, payloads, quantities, report, substitution
+from . import mechanism, parts, payloads, quantities, report, substitution
 from .context import REPORT_FUNCTIONS, RESERVED, Context
 
 __all__ = ["REPORT_FUNCTIONS", "RESERVED", "resolve"]
@@ -22,10 +22,16 @@ def resolve(spec: ProblemFile, label: str) -> Problem:
         for name in getattr(spec, kind):
             ctx.declare(kind, name)
     payloads.declare(ctx)
+    for name in spec.slots:
+        ctx.declare("slots", name)
     for sub in spec.subsystems.values():
         for cname in sub.coordinates:
             ctx.declare("coordinates", cname)
+    if spec.payloads and spec.slots:
+        raise ctx.fail("slots", "spring slots and payload ranges cannot be combined yet: choose the parts for one payload first")
     parameters = quantities.parameters(ctx) + payloads.parameters(ctx)
+    catalogues = parts.catalogues(ctx)
+    parameters += parts.slot_parameters(ctx, catalogues)
     variables = quantities.variables(ctx)
     payloads.check_adjustments(ctx, variables)
     subsystems, coordinates = mechanism.subsystems(ctx)
@@ -35,6 +41,12 @@ def resolve(spec: ProblemFile, label: str) -> Problem:
     bodies, substitutions, substituted = substitution.substitutions(ctx, mechanism.bodies(ctx, by_name) + payload_bodies, by_name)
     counter_masses = mechanism.counter_masses(ctx, by_name)
     springs = mechanism.springs(ctx, by_name)
+    slot_springs: dict[str, list[str]] = {}
+    for s in springs:
+        if s.slot is not None:
+            slot_springs.setdefault(s.slot, []).append(s.name)
+    slots = parts.slots(ctx, catalogues, slot_springs)
+    selection = parts.selection(ctx)
     gravity = quantities.gravity(ctx, spec.gravity, "gravity")
     scenarios = quantities.scenarios(ctx, gravity, parameters)
     objective = quantities.objective(ctx)
@@ -60,4 +72,6 @@ def resolve(spec: ProblemFile, label: str) -> Problem:
         settings=Settings(**spec.settings.model_dump()),
         substitutions=substitutions,
         payloads=payload_ranges,
+        slots=slots,
+        selection=selection,
     )

@@ -152,7 +152,7 @@ class Context:
 
     def finite(self, tree: ex.Expr, raw: Any, key: str) -> float:
         """Evaluate at the given parameters and the initial design; the value must be finite."""
-        env = {n: v for n, v in self.symbol_value.items() if self.symbol_kind.get(n) in ("parameters", "variables", "coordinates")}
+        env = {n: v for n, v in self.symbol_value.items() if self.symbol_kind.get(n) in ("parameters", "slots", "variables", "coordinates")}
         with np.errstate(all="ignore"):
             try:
                 value = complex(ex.evaluate(tree, env, numpy_functions()))
@@ -192,15 +192,15 @@ class Context:
             raise self.fail(key, f"'{raw}' is not a finite number everywhere within the bounds: {values[i]} at {at}")
 
     def parameter_names(self) -> set[str]:
-        return {n for n, k in self.symbol_kind.items() if k == "parameters"}
+        return {n for n, k in self.symbol_kind.items() if k in ("parameters", "slots")}
 
     # -- sections ------------------------------------------------------------------
 
     def geometry_names(self) -> set[str]:
-        return {n for n, k in self.symbol_kind.items() if k in ("parameters", "variables", "coordinates", "coupled")}
+        return {n for n, k in self.symbol_kind.items() if k in ("parameters", "slots", "variables", "coordinates", "coupled")}
 
     def design_names(self) -> set[str]:
-        return {n for n, k in self.symbol_kind.items() if k in ("parameters", "variables")}
+        return {n for n, k in self.symbol_kind.items() if k in ("parameters", "slots", "variables")}
 
     def vector(
         self, values: Iterable[Any], key: str, dimension: str, what: str, allowed: set[str]

@@ -7,10 +7,11 @@ from typing import Any
 
 
 from ...model import expr as ex
-from ...model.elements import CounterMass, ZeroFreeLengthSpring
+from ...model.elements import CounterMass, DirectMount, ZeroFreeLengthSpring
 from ...model.mechanism import GROUND, Body, Coordinate, Frame, Rotation, Subsystem, Transform, Translation
 from ...model.units import (
     DIMENSIONLESS,
+    FORCE,
     LENGTH,
     MASS,
     STIFFNESS,
@@ -186,12 +187,50 @@ def springs(ctx: Context, frames: Mapping[str, Frame]) -> tuple[ZeroFreeLengthSp
     out = []
     for name, s in ctx.spec.springs.items():
         key = f"springs.{name}"
-        k = ctx.expression(s.stiffness, f"{key}.stiffness", ctx.design_names())
-        ctx.nonnegative(k, s.stiffness, f"{key}.stiffness", STIFFNESS, "a stiffness")
+        if s.slot is not None:
+            if s.stiffness is not None:
+                raise ctx.fail(f"{key}.slot", "give either a stiffness or a slot (the slot's part sets the stiffness), not both")
+            if ctx.symbol_kind.get(s.slot) != "slots":
+                raise ctx.fail(f"{key}.slot", f"unknown slot '{s.slot}'{suggest(s.slot, list(ctx.spec.slots))}")
+            k: ex.Expr = ex.Name(s.slot)
+        elif s.stiffness is None:
+            raise ctx.fail(f"{key}.stiffness", "missing required key (or give a slot = \"<name>\" of [slots])")
+        else:
+            k = ctx.expression(s.stiffness, f"{key}.stiffness", ctx.design_names())
+            ctx.nonnegative(k, s.stiffness, f"{key}.stiffness", STIFFNESS, "a stiffness")
         a = ctx.point(s.from_.frame, s.from_.point, f"{key}.from.point", frames, f"{key}.from.frame")
         b = ctx.point(s.to.frame, s.to.point, f"{key}.to.point", frames, f"{key}.to.frame")
         subs = {ctx.subsystem_of(a.frame, frames), ctx.subsystem_of(b.frame, frames)} - {None}
         if len(subs) > 1:
             raise ctx.fail(key, f"connects subsystems {' and '.join(sorted(subs))}; subsystems must move independently")  # type: ignore[arg-type]
-        out.append(ZeroFreeLengthSpring(name, k, (a, b), next(iter(subs), None), s.description))
+        out.append(ZeroFreeLengthSpring(name, k, (a, b), next(iter(subs), None), s.description, s.slot, direct_mount(ctx, s, key)))
     return tuple(out)
+
+
+def direct_mount(ctx: Context, s: Any, key: str) -> DirectMount | None:
+    """The cable and the spring's own data of a directly attached spring (None: pulley)."""
+    given = {k: getattr(s, k) for k in ("free_length", "initial_tension", "max_length", "cable") if getattr(s, k) is not None}
+    if s.mount == "pulley":
+        if given:
+            raise ctx.fail(f"{key}.{next(iter(given))}", 'only a directly attached spring (mount = "direct") has this key')
+        return None
+    values: dict[str, ex.Expr | None] = {}
+    for field in ("free_length", "initial_tension", "max_length"):
+        if s.slot is not None:
+            if field in given:
+                raise ctx.fail(f"{key}.{field}", "a spring with a slot takes this from its part")
+            values[field] = ex.Name(f"{s.slot}:{field}")
+        elif field in given:
+            dimension, what = (FORCE, "a force") if field == "initial_tension" else (LENGTH, "a length")
+            tree = ctx.expression(given[field], f"{key}.{field}", ctx.design_names())
+            ctx.nonnegative(tree, given[field], f"{key}.{field}", dimension, what)
+            values[field] = tree
+        elif field == "free_length":
+            raise ctx.fail(f"{key}.free_length", 'missing required key for a directly attached spring (or give a slot)')
+        else:
+            values[field] = ex.Num(0.0) if field == "initial_tension" else None
+    cable: ex.Expr = ex.Num(0.0)
+    if "cable" in given:
+        cable = ctx.expression(given["cable"], f"{key}.cable", ctx.design_names())
+        ctx.nonnegative(cable, given["cable"], f"{key}.cable", LENGTH, "a length")
+    return DirectMount(values["free_length"], values["initial_tension"], cable, values["max_length"])  # type: ignore[arg-type]

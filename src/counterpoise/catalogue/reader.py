@@ -1,0 +1,151 @@
+"""Read a spring catalogue CSV through a column mapping and validate every row.
+
+Every error is a :class:`CatalogueError`, one line naming the file, the row and the
+column: ``parts.csv: row 3 (line 4), column stiffness: the rate must be positive, got -5``.
+Rows are numbered from 1 (the first row after the header); the line counts the header.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+from ..errors import ProblemFileError
+from ..model.parts import Catalogue
+from .columns import ColumnMapping, mapping_from
+
+#: the name that stands for the catalogue shipped with the package
+SHIPPED = "shipped"
+
+
+class CatalogueError(ProblemFileError):
+    """A catalogue file is unreadable or one of its rows is invalid (file, row, column)."""
+
+    def __init__(self, file: str, where: str, message: str) -> None:
+        super().__init__(file, where, message)
+
+
+def shipped_catalogue_path() -> Path:
+    """The extension-spring catalogue shipped as package data (docs/spring-catalogue.md)."""
+    from importlib import resources
+
+    return Path(str(resources.files("counterpoise").joinpath("data/extension_springs.csv")))
+
+
+def read_catalogue(
+    path: str | Path,
+    mapping: ColumnMapping | None = None,
+    name: str = "",
+    rate_tolerance: float = math.nan,
+    initial_tension_tolerance: float = math.nan,
+) -> Catalogue:
+    """Read and validate ``path`` (the shipped catalogue for :data:`SHIPPED`).
+
+    ``rate_tolerance`` and ``initial_tension_tolerance`` fill those fields where the file
+    has no column for them (NaN: unknown).
+    """
+    mapping = mapping or mapping_from(None)
+    if str(path) == SHIPPED:
+        path = shipped_catalogue_path()
+    label = str(path)
+    try:
+        text = Path(path).read_text(encoding="utf-8-sig")
+    except OSError as exc:
+        raise CatalogueError(label, "file", f"cannot read: {exc.strerror or exc}") from None
+    except UnicodeDecodeError:
+        raise CatalogueError(label, "file", "not UTF-8 text") from None
+    rows = list(csv.reader(text.splitlines()))
+    if not rows or not any(cell.strip() for cell in rows[0]):
+        raise CatalogueError(label, "header", "the file is empty: expected a header line of column names")
+    header = [h.strip() for h in rows[0]]
+    index: dict[str, int] = {}
+    for field, column in mapping.columns:
+        if column in header:
+            index[field] = header.index(column)
+        elif field not in mapping.optional_columns:
+            raise CatalogueError(label, "header", f"missing column '{column}' (for {field.replace('_', ' ')}); columns are {', '.join(header)}")
+    values: dict[str, list] = {f: [] for f in (
+        "part_number", "material", "rate", "free_length", "initial_tension", "max_load", "max_length",
+        "outer_diameter", "wire_diameter", "mass", "price", "rate_tolerance", "initial_tension_tolerance",
+    )}
+    seen: dict[str, int] = {}
+    number = 0
+    for line, cells in enumerate(rows[1:], start=2):
+        if not any(c.strip() for c in cells):
+            continue  # blank line
+        number += 1
+        if len(cells) != len(header):
+            raise CatalogueError(label, f"row {number} (line {line})", f"expected {len(header)} cells, got {len(cells)}")
+        row = _row(label, number, line, cells, index, mapping, header)
+        part = row["part_number"]
+        if part in seen:
+            raise CatalogueError(label, _where(number, line, header[index["part_number"]]), f"duplicate part number '{part}' (also row {seen[part]})")
+        seen[part] = number
+        if math.isnan(row["rate_tolerance"]):
+            row["rate_tolerance"] = rate_tolerance
+        if math.isnan(row["initial_tension_tolerance"]):
+            row["initial_tension_tolerance"] = initial_tension_tolerance
+        for key in values:
+            values[key].append(row[key])
+    if not number:
+        raise CatalogueError(label, "file", "the catalogue has no parts")
+    return Catalogue(name or Path(label).stem, label, **{k: tuple(v) for k, v in values.items()})
+
+
+def _where(number: int, line: int, column: str) -> str:
+    return f"row {number} (line {line}), column {column}"
+
+
+def _row(label: str, number: int, line: int, cells: list[str], index: dict[str, int], mapping: ColumnMapping, header: list[str]) -> dict:
+    def cell(field: str) -> str | None:
+        return cells[index[field]].strip() if field in index else None
+
+    def fail(field: str, message: str) -> CatalogueError:
+        return CatalogueError(label, _where(number, line, header[index[field]]), message)
+
+    def number_of(field: str, required: bool) -> float:
+        raw = cell(field)
+        if raw is None or raw == "":
+            if required and field in index:
+                raise fail(field, "missing value")
+            return math.nan
+        try:
+            value = float(raw)
+        except ValueError:
+            raise fail(field, f"expected a number, got '{raw}'") from None
+        if not math.isfinite(value):
+            raise fail(field, f"the value must be finite, got '{raw}'")
+        return value * mapping.factor(field)
+
+    part = cell("part_number") or ""
+    if not part:
+        raise fail("part_number", "missing part number")
+    out: dict = {"part_number": part, "material": cell("material") or ""}
+    for field in ("rate", "free_length", "initial_tension", "max_load", "max_length"):
+        out[field] = number_of(field, required=True)
+    for field in ("outer_diameter", "wire_diameter", "mass", "price", "package_quantity", "rate_tolerance", "initial_tension_tolerance"):
+        out[field] = number_of(field, required=False)
+    unit = mapping.unit_name
+    if not out["rate"] > 0:
+        raise fail("rate", f"the rate must be positive, got {cell('rate')} {unit('rate')}")
+    if not out["free_length"] > 0:
+        raise fail("free_length", f"the free length must be positive, got {cell('free_length')} {unit('free_length')}")
+    if out["initial_tension"] < 0:
+        raise fail("initial_tension", f"the initial tension must not be negative, got {cell('initial_tension')} {unit('initial_tension')}")
+    if not out["max_load"] > out["initial_tension"]:
+        raise fail("max_load", f"the maximum load {cell('max_load')} {unit('max_load')} must be above the initial tension {cell('initial_tension')} {unit('initial_tension')}")
+    if not out["max_length"] > out["free_length"]:
+        raise fail("max_length", f"the maximum length {cell('max_length')} {unit('max_length')} must be above the free length {cell('free_length')} {unit('free_length')}")
+    for field in ("outer_diameter", "wire_diameter", "mass", "price"):
+        if out[field] < 0:
+            raise fail(field, f"must not be negative, got {cell(field)}")
+    quantity = out.pop("package_quantity")
+    if not math.isnan(quantity):
+        if not (quantity >= 1 and float(quantity).is_integer()):
+            raise fail("package_quantity", f"expected a whole number of springs per package, got {cell('package_quantity')}")
+        out["price"] = out["price"] / quantity
+    for field in ("rate_tolerance", "initial_tension_tolerance"):
+        if not math.isnan(out[field]) and not 0 <= out[field] <= 1:
+            raise fail(field, f"a tolerance is a fraction between 0 and 1 (0.1 = ±10 %), got {cell(field)}")
+    return out

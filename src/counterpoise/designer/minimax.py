@@ -1,0 +1,162 @@
+"""The minimax designer, for springs attached directly (free length, initial tension).
+
+A real spring attached without a pulley pulls with F0 + k·(d − c − L0): its energy is not
+a trigonometric polynomial of the joint angles, exact balance is generally impossible and
+rank-compressed conditions do not exist (:mod:`counterpoise.formulation.assumptions`).
+The design then minimises the worst residual ratio over sampled configurations, in
+epigraph form:
+
+    minimise t   subject to   −t ≤ r_j(q_s; z) / T ≤ t   for every sampled q_s and coordinate j,
+                              L0 ≤ d(q_s) − c ≤ L_max     for every directly attached spring,
+
+with T the largest unbalanced gravity torque over the samples (the verification's
+reference). The design is then checked on the dense verification sample like any other:
+the residual ratio reported is the dense one; ``Solution.sampled_ratio`` is t.
+Built once; :meth:`solve` takes parameters and bounds per call, like :class:`Designer`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from ..formulation.formulation import Formulation
+from ..formulation.layout import Slot
+from ..mechanics import Mechanics, casadi_functions
+from ..mechanics.kinematics import dot, sub
+from ..model.problem import Problem
+from ..solvers.base import Bounds, Status
+from ..solvers.ipopt import IPOPT_DEFAULTS, IpoptBackend
+from ..threads import limit_blas_threads
+from .solution import Solution
+
+#: sampled configurations per (subsystem, scenario): SAMPLES_PER_COORDINATE × n_q (+ corners)
+SAMPLES_PER_COORDINATE = 96
+
+
+def configurations(problem: Problem, subsystem: str, samples: int, rng: np.random.Generator) -> np.ndarray:
+    """Random configurations of a subsystem plus the corners of its box (as the verification samples)."""
+    import itertools
+
+    coords = problem.subsystem_coordinates(subsystem)
+    lo = np.array([c.lower for c in coords])
+    hi = np.array([c.upper for c in coords])
+    q = lo + (hi - lo) * rng.random((samples, len(coords)))
+    if len(coords) <= 12:
+        q = np.vstack([q, np.array(list(itertools.product(*zip(lo, hi))), dtype=float).reshape(-1, len(coords))])
+    return q
+
+
+def has_direct_springs(problem: Problem) -> bool:
+    return any(s.direct is not None for s in problem.springs)
+
+
+class MinimaxDesigner:
+    """Smallest worst-case residual ratio on sampled configurations (see the module docstring)."""
+
+    def __init__(self, problem: Problem, ipopt_options: Mapping[str, Any] | None = None) -> None:
+        import casadi as ca
+
+        limit_blas_threads()
+        self.problem = problem
+        self.formulation = f = Formulation(problem)
+        self.parameters = f.parameters.values()
+        rng = np.random.default_rng(problem.settings.seed + 5)
+        z0 = f.design.to_z(f.design.initial)
+        t = ca.SX.sym("t")
+        rows, lower = [], []
+        torque = {True: 0.0, False: 0.0}
+        samples: dict[tuple[str, str], np.ndarray] = {}
+        for block in f.blocks:
+            n_q = len(block.coordinates)
+            q = configurations(problem, block.subsystem, SAMPLES_PER_COORDINATE * n_q, rng)
+            samples[(block.subsystem, block.scenario)] = q
+            for j, name in enumerate(block.coordinates):
+                revolute = problem.coordinate[name].unit.dimension == ""
+                values = np.array(block.gravity_torque.map(q.shape[0])(q.T, z0, self.parameters))
+                torque[revolute] = max(torque[revolute], float(np.abs(values[j]).max(initial=0.0)))
+        for block in f.blocks:
+            q = samples[(block.subsystem, block.scenario)]
+            residual = block.residual.map(q.shape[0])(ca.DM(q.T), f.z, f.p)  # (n_q, N)
+            for j, name in enumerate(block.coordinates):
+                revolute = problem.coordinate[name].unit.dimension == ""
+                scale = torque[revolute] or 1.0
+                r = residual[j, :].T / scale
+                rows += [t - r, t + r]  # both ≥ 0
+        self.reference = torque
+        # spring lengths within [L0, L_max] on the samples
+        functions = casadi_functions()
+        for c, scenario in enumerate(problem.scenarios):
+            gravity, base = f.parameters.split(f.p, c)
+            variables = f.design.symbols(f.x, scenario.name)
+            for spring in problem.springs:
+                m = spring.direct
+                if m is None or spring.subsystem is None:
+                    continue
+                coords_sym = ca.SX.sym("q", len(problem.subsystem_coordinates(spring.subsystem)))
+                names = [k.name for k in problem.subsystem_coordinates(spring.subsystem)]
+                mech = Mechanics(problem, base, variables, {n: coords_sym[i] for i, n in enumerate(names)}, gravity, functions)
+                d = sub(mech.position(spring.ends[0]), mech.position(spring.ends[1]))
+                length = ca.sqrt(dot(d, d)) - mech.value(m.cable)
+                checks = [length - mech.value(m.free_length)]
+                if m.max_length is not None:
+                    checks.append(mech.value(m.max_length) - length)
+                fun = ca.Function("spring_length", [coords_sym, f.z, f.p], [ca.vertcat(*checks)])
+                q = samples[(spring.subsystem, scenario.name)]
+                values = fun.map(q.shape[0])(ca.DM(q.T), f.z, f.p)
+                for i in range(values.shape[0]):
+                    rows.append(values[i, :].T / max(float(np.max(np.abs(f.design.upper))), 1e-3))
+        self.n_rows = int(sum(r.numel() for r in rows))
+        g = ca.vertcat(*rows, f.nonnegative)
+        self.n_signs = int(f.nonnegative.numel())
+        self.z = ca.vertcat(f.z, t)
+        self.options = {**IPOPT_DEFAULTS, "max_iter": max(problem.settings.max_iterations, 1000), "tol": 1e-9, **dict(ipopt_options or {})}
+        self.backend = IpoptBackend({"x": self.z, "p": f.p, "f": t, "g": g}, self.options, "minimax")
+
+    def solve(
+        self,
+        initial: Mapping[Slot, float] | None = None,
+        parameters: Mapping[str, float] | None = None,
+        bounds: Mapping[Slot | str, tuple[float, float]] | None = None,
+    ) -> Solution:
+        f = self.formulation
+        d = f.design
+        p = f.parameters.values(parameters) if parameters else self.parameters
+        lbz, ubz = d.bounds(bounds)
+        z0 = np.clip(d.to_z(d.vector(initial or {})), lbz, ubz)
+        b = Bounds(
+            np.concatenate([lbz, [0.0]]),
+            np.concatenate([ubz, [np.inf]]),
+            np.zeros(self.n_rows + self.n_signs),
+            np.full(self.n_rows + self.n_signs, np.inf),
+        )
+        out = self.backend.solve(np.concatenate([z0, [10.0]]), p, b)
+        z = np.clip(out.z[:-1], lbz, ubz)
+        t = float(out.z[-1])
+        x = d.to_x(z)
+        objective, mass, inertia = (float(v) for v in f.report_function(z, p))
+        ok = out.status is Status.OPTIMAL
+        message = (
+            f"smallest worst-case residual ratio on the sampled configurations: {t:.6g} (directly attached springs: exact balance is generally impossible)"
+            if ok
+            else f"minimax design: {out.solver.upper()} {out.solver_status}"
+        )
+        return Solution(
+            problem=self.problem,
+            status=out.status,
+            message=message,
+            values=d.values(x),
+            objective=objective,
+            added_mass=mass,
+            added_inertia=inertia,
+            iterations=out.iterations,
+            solve_time=out.solve_time,
+            solver=out.solver,
+            solver_status=out.solver_status,
+            conditions=self.n_rows,
+            condition_summary="epigraph rows on sampled configurations",
+            scenario_parameters=f.parameters.scenario_values(p),
+            sampled_ratio=t,
+        )

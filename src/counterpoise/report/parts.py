@@ -1,0 +1,163 @@
+"""Reports of catalogue parts: ``springs.csv``, ``tolerance.csv``, design rows and status lines.
+
+``springs.csv`` has one row per spring (``kind = spring``): its part, the distance
+between its attachment points, its own length (d + L0 − F0/k behind the string) and its
+force (k·d) over every checked configuration and scenario, the part's limits and the three
+margins (≥ 0: the limit holds). It ends with the bill of materials (``kind = bom``): per
+part the quantity and, where the catalogue gives one, the unit and total price.
+Lengths in mm, forces in N.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ..pipeline import DesignResult
+from .rows import Row
+
+SPRINGS_COLUMNS = [
+    "kind",
+    "spring",
+    "slot",
+    "part_number",
+    "count",
+    "min_distance_mm",
+    "max_distance_mm",
+    "min_length_mm",
+    "max_length_mm",
+    "min_force_N",
+    "max_force_N",
+    "free_length_mm",
+    "part_max_length_mm",
+    "initial_tension_N",
+    "part_max_load_N",
+    "margin_slack_mm",
+    "margin_length_mm",
+    "margin_load_N",
+    "unit_price",
+    "price",
+]
+TOLERANCE_COLUMNS = ["case", "deviation", "residual_ratio", "adjusted_residual_ratio", "adjustment"]
+
+
+def springs_rows(result: DesignResult) -> list[Row]:
+    parts = result.parts
+    if parts is None:
+        return []
+    mm = 1e3
+    rows: list[Row] = []
+    for u in parts.springs:
+        rows.append(
+            {
+                "kind": "spring",
+                "spring": u.spring,
+                "slot": u.slot,
+                "part_number": u.part_number,
+                "count": 1,
+                "min_distance_mm": u.distance_min * mm,
+                "max_distance_mm": u.distance_max * mm,
+                "min_length_mm": u.length_min * mm,
+                "max_length_mm": u.length_max * mm,
+                "min_force_N": u.force_min,
+                "max_force_N": u.force_max,
+                "free_length_mm": u.free_length * mm,
+                "part_max_length_mm": u.max_length * mm,
+                "initial_tension_N": u.initial_tension,
+                "part_max_load_N": u.max_load,
+                "margin_slack_mm": u.margin_slack * mm,
+                "margin_length_mm": u.margin_length * mm,
+                "margin_load_N": u.margin_load,
+            }
+        )
+    for line in parts.bill:
+        rows.append(
+            {
+                "kind": "bom",
+                "part_number": line.part_number,
+                "count": line.quantity,
+                "unit_price": None if math.isnan(line.unit_price) else line.unit_price,
+                "price": None if math.isnan(line.unit_price) else line.price,
+            }
+        )
+    return rows
+
+
+def tolerance_rows(result: DesignResult) -> list[Row]:
+    parts = result.parts
+    if parts is None or parts.tolerance is None:
+        return []
+    t = parts.tolerance
+    slots = result.problem.slots
+    band = ", ".join(f"{s.name}: rate ±{100 * s.rate_tolerance:g} %, F0 ±{100 * s.initial_tension_tolerance:g} %" for s in slots)
+    rows: list[Row] = [
+        {"case": "nominal", "deviation": "", "residual_ratio": t.nominal},
+        {"case": "band", "deviation": band, "residual_ratio": t.worst},
+        {"case": "band_rate", "deviation": "rates only", "residual_ratio": t.worst_rate},
+        {"case": "band_initial_tension", "deviation": "initial tensions only", "residual_ratio": t.worst_tension},
+    ]
+    units = {v.name: v.unit for v in result.problem.variables}
+    for c in parts.corners:
+        changes = []
+        for name, nominal, adjusted in c.adjustment:
+            u = units[name.split("@")[0]]
+            changes.append(f"{name} {u.from_si(nominal):.6g} -> {u.from_si(adjusted):.6g} {u.label}")
+        rows.append(
+            {
+                "case": "corner",
+                "deviation": " ".join(f"{slot} {100 * d:+g} %" for slot, d in c.deviation),
+                "residual_ratio": c.ratio,
+                "adjusted_residual_ratio": c.adjusted_ratio,
+                "adjustment": "; ".join(changes) if changes or not result.problem.selection.adjust else "no adjustment within the bounds balances",
+            }
+        )
+    return rows
+
+
+def part_design_rows(result: DesignResult) -> list[Row]:
+    """One ``part`` row per slot for design.csv: the part number, its rate in the description."""
+    parts = result.parts
+    if parts is None:
+        return []
+    rows: list[Row] = []
+    for slot in result.problem.slots:
+        i = parts.chosen.get(slot.name)
+        if i is None:
+            continue
+        cat = slot.catalogue
+        rows.append(
+            {
+                "name": slot.name,
+                "kind": "part",
+                "scenario": "",
+                "value": cat.part_number[i],
+                "unit": "",
+                "lower": None,
+                "upper": None,
+                "active_bound": "",
+                "description": f"catalogue {cat.name}: rate {cat.rate[i] / 1e3:.6g} N/mm, free length {cat.free_length[i] * 1e3:.6g} mm, "
+                f"initial tension {cat.initial_tension[i]:.6g} N; springs {' '.join(slot.springs)}",
+            }
+        )
+    return rows
+
+
+def parts_status(result: DesignResult) -> str:
+    parts = result.parts
+    if parts is None:
+        return ""
+    s = parts.search
+    lines = [f"part search: {s.solves} NLP solves in {s.seconds:.3g} s; slot groups searched separately: {len(s.groups)}"]
+    for group, method in zip(s.groups, s.methods):
+        lines.append(f"  group {' '.join(group)}: {method}")
+    for c in s.counts:
+        lines.append(
+            f"  slot {c.slot}: {c.parts} parts, {c.pruned} pruned before any per-part solve (balanceable rates "
+            f"{c.window[0] / 1e3:.6g}-{c.window[1] / 1e3:.6g} N/mm), {c.rates_solved} rates solved, "
+            f"{c.failed_limits} failing a limit, {c.fitting} fitting"
+        )
+    if s.choice is None and s.nearest:
+        lines.append("nearest candidates:")
+        lines += [f"  {m.text()}" for m in s.nearest]
+    if parts.tolerance is not None:
+        lines.append(f"tolerance band: worst-case residual_ratio {parts.tolerance.worst:.3g} (nominal {parts.tolerance.nominal:.3g})")
+    return "\n".join(lines) + "\n"

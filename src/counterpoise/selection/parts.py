@@ -1,0 +1,216 @@
+"""The chosen parts of a design: how each spring uses its part, the bill of materials and
+the tolerance report. Built after the final (parametric) solve and its dense verification.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from ..catalogue.limits import margins
+from ..designer.solution import Solution
+from ..formulation.layout import Slot
+from ..mechanics import Mechanics
+from ..model.problem import Problem
+from ..solvers.base import Status
+from ..verify.check import verify
+from .geometry import sample_configurations, spring_lengths
+from .search import PartSearch, SearchResult
+from .tolerance import ToleranceBand, tolerance_band
+
+#: at most this many tolerance corners are re-adjusted (2 per slot, all combinations)
+MAX_CORNERS = 64
+
+
+@dataclass(frozen=True)
+class SpringUse:
+    """One spring with its part, over every checked configuration and scenario (SI)."""
+
+    spring: str
+    slot: str
+    part_number: str
+    distance_min: float  # between the attachment points
+    distance_max: float
+    length_min: float  # of the spring itself: d + L0 − F0/k
+    length_max: float
+    force_min: float  # k·d
+    force_max: float
+    free_length: float
+    max_length: float
+    initial_tension: float
+    max_load: float
+    margin_slack: float  # d_min − F0/k  (≥ 0: the string never goes slack)
+    margin_length: float  # L_max − length_max
+    margin_load: float  # F_max − force_max
+
+    @property
+    def fits(self) -> bool:
+        return self.margin_slack >= 0 and self.margin_length >= 0 and self.margin_load >= 0
+
+
+@dataclass(frozen=True)
+class BillLine:
+    part_number: str
+    quantity: int
+    unit_price: float  # NaN if unknown
+    currency: str = ""
+
+    @property
+    def price(self) -> float:
+        return self.quantity * self.unit_price
+
+
+@dataclass(frozen=True)
+class Corner:
+    """A tolerance corner: each slot's rate at nominal × (1 + sign·tolerance)."""
+
+    deviation: tuple[tuple[str, float], ...]  # (slot, relative rate change)
+    ratio: float  # residual ratio of the nominal design with these rates
+    adjusted_ratio: float  # after re-solving the adjustment variables (NaN: none)
+    adjustment: tuple[tuple[str, float, float], ...]  # (variable, nominal SI, adjusted SI); empty: none balances
+
+
+@dataclass(frozen=True)
+class PartsReport:
+    search: SearchResult
+    chosen: dict[str, int]  # slot -> catalogue row (empty when nothing fits and no nearest part)
+    springs: tuple[SpringUse, ...]
+    bill: tuple[BillLine, ...]
+    tolerance: ToleranceBand | None
+    corners: tuple[Corner, ...]
+
+    @property
+    def fits(self) -> bool:
+        return self.search.choice is not None and all(s.fits for s in self.springs)
+
+
+def choose(problem: Problem) -> tuple[SearchResult, dict[str, int], dict[str, float]]:
+    """Run the search; the chosen rows and rates (the nearest candidate's when none fits)."""
+    result = PartSearch(problem).run()
+    if result.choice is not None:
+        return result, dict(result.choice.parts), dict(result.choice.rates)
+    rows: dict[str, int] = {}
+    rates: dict[str, float] = {}
+    slots = {s.name: s for s in problem.slots}
+    if result.candidates:  # the slots that have fitting parts keep their best one
+        rows.update(result.candidates[0].parts)
+        rates.update(result.candidates[0].rates)
+    for miss in result.nearest:
+        if miss.slot in rows:
+            continue
+        catalogue = slots[miss.slot].catalogue
+        row = catalogue.part_number.index(miss.part_number)
+        rows[miss.slot] = row
+        rates[miss.slot] = catalogue.rate[row]
+        for other, rate in miss.rates:
+            if other not in rows:
+                match = [i for i, k in enumerate(slots[other].catalogue.rate) if k == rate]
+                if match:
+                    rows[other], rates[other] = match[0], rate
+    for name, slot in slots.items():  # a slot with no near miss: its median part
+        if name not in rows:
+            order = np.argsort(slot.catalogue.array("rate"))
+            rows[name] = int(order[len(order) // 2])
+            rates[name] = slot.catalogue.rate[rows[name]]
+    return result, rows, rates
+
+
+def report(problem: Problem, designer: Any, solution: Solution, search: SearchResult, rows: dict[str, int]) -> PartsReport:
+    """Dense limit check, bill of materials and tolerance report of the chosen parts."""
+    q = sample_configurations(problem, problem.settings.verify_samples, problem.settings.seed + 11)
+    slots = {s.name: s for s in problem.slots}
+    springs = [s for s in problem.springs if s.slot is not None]
+    d_min = {s.name: math.inf for s in springs}
+    d_max = {s.name: 0.0 for s in springs}
+    cable = {s.name: 0.0 for s in springs}  # directly attached springs: d − cable is the spring's length
+    for scenario in problem.scenarios:
+        values = solution.variable_values(scenario.name)
+        variables = {k: np.array([[v]]) for k, v in values.items()}
+        gravity, base = solution.scenario_parameters[scenario.name]
+        lengths = spring_lengths(problem, [s.name for s in springs], q, variables, base, gravity)
+        mech = Mechanics(problem, base, values, {c.name: c.home for c in problem.coordinates}, gravity)
+        for s in springs:
+            c = float(mech.value(s.direct.cable)) if s.direct is not None else 0.0
+            cable[s.name] = c
+            d_min[s.name] = min(d_min[s.name], float(lengths[s.name].min()) - c)
+            d_max[s.name] = max(d_max[s.name], float(lengths[s.name].max()) - c)
+    uses = []
+    for s in springs:
+        cat = slots[s.slot].catalogue  # type: ignore[index]
+        i = rows[s.slot]  # type: ignore[index]
+        k, l0, f0, fmax, lmax = cat.rate[i], cat.free_length[i], cat.initial_tension[i], cat.max_load[i], cat.max_length[i]
+        lo, hi = d_min[s.name], d_max[s.name]
+        if s.direct is None:  # behind a string: length d + L0 − F0/k, force k·d
+            m = margins(np.array(lo), np.array(hi), k, l0, f0, fmax, lmax)
+            use = (lo, hi, lo + l0 - f0 / k, hi + l0 - f0 / k, k * lo, k * hi, float(m.slack), float(m.length), float(m.load))
+        else:  # attached directly: length d − c, force F0 + k (d − c − L0)
+            use = (lo + cable[s.name], hi + cable[s.name], lo, hi, f0 + k * (lo - l0), f0 + k * (hi - l0), lo - l0, lmax - hi, fmax - (f0 + k * (hi - l0)))
+        uses.append(SpringUse(s.name, s.slot, cat.part_number[i], *use[:6], l0, lmax, f0, fmax, *use[6:]))  # type: ignore[arg-type]
+    bill: dict[str, BillLine] = {}
+    for u in uses:
+        cat = slots[u.slot].catalogue
+        line = bill.get(u.part_number)
+        quantity = (line.quantity if line else 0) + 1
+        bill[u.part_number] = BillLine(u.part_number, quantity, cat.price[rows[u.slot]], cat.currency)
+    tolerance = None
+    corners: tuple[Corner, ...] = ()
+    if solution.status is Status.OPTIMAL:
+        tq = sample_configurations(problem, min(problem.settings.verify_samples, 4000), problem.settings.seed + 13)
+        values = {}
+        for scenario in problem.scenarios:
+            gravity, base = solution.scenario_parameters[scenario.name]
+            values[scenario.name] = (solution.variable_values(scenario.name), base, gravity)
+        tension = {u.spring: u.initial_tension for u in uses}
+        offsets = {s.name: cable[s.name] + rows_free_length(slots, rows, s) for s in springs if s.direct is not None}
+        rate_tol = {u.spring: slots[u.slot].rate_tolerance for u in uses}
+        tension_tol = {u.spring: slots[u.slot].initial_tension_tolerance for u in uses}
+        tolerance = tolerance_band(problem, values, tension, rate_tol, tension_tol, tq, offsets)
+        corners = adjust_corners(problem, designer, solution, rows)
+    return PartsReport(search, dict(rows), tuple(uses), tuple(bill.values()), tolerance, corners)
+
+
+def rows_free_length(slots: dict, rows: dict[str, int], spring: Any) -> float:
+    return float(slots[spring.slot].catalogue.free_length[rows[spring.slot]])
+
+
+def adjust_corners(problem: Problem, designer: Any, solution: Solution, rows: dict[str, int]) -> tuple[Corner, ...]:
+    """Each combination of slot rates at ±tolerance: the residual left, and, with
+    ``selection.adjust`` variables, what they must be re-set to (the others kept)."""
+    slots = [s for s in problem.slots if s.rate_tolerance > 0]
+    if not slots or 2 ** len(slots) > MAX_CORNERS:
+        return ()
+    adjust = set(problem.selection.adjust)
+    nominal = {s.name: s.catalogue.rate[rows[s.name]] for s in problem.slots}
+    out = []
+    samples = min(problem.settings.verify_samples, 2000)
+    for signs in itertools.product((-1.0, 1.0), repeat=len(slots)):
+        rates = dict(nominal)
+        deviation = []
+        for s, sign in zip(slots, signs):
+            rates[s.name] = nominal[s.name] * (1 + sign * s.rate_tolerance)
+            deviation.append((s.name, sign * s.rate_tolerance))
+        p = designer.formulation.parameters.values(rates)
+        shifted = replace(solution, scenario_parameters=designer.formulation.parameters.scenario_values(p))
+        ratio = verify(shifted, samples=samples).residual_ratio
+        adjusted_ratio = math.nan
+        changes: list[tuple[str, float, float]] = []
+        if adjust:
+            bounds: dict[Any, tuple[float, float]] = {
+                slot: (value, value) for slot, value in solution.values.items() if slot.variable not in adjust
+            }
+            again = designer.solve(initial=solution.values, parameters=rates, bounds=bounds)
+            if again.status is Status.OPTIMAL:
+                adjusted_ratio = verify(again, samples=samples).residual_ratio
+                for slot, value in solution.values.items():
+                    if slot.variable in adjust:
+                        changes.append((_slot_name(slot), value, again.values[slot]))
+        out.append(Corner(tuple(deviation), ratio, adjusted_ratio, tuple(changes)))
+    return tuple(out)
+
+
+def _slot_name(slot: Slot) -> str:
+    return slot.variable if slot.scenario is None else f"{slot.variable}@{slot.scenario}"
