@@ -14,7 +14,7 @@ $(STAMP): pyproject.toml
 	@touch $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/counterpoise solve problems/*.toml --out results
+	$(BIN)/counterpoise solve problems/*.toml --out results --plot
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q

@@ -28,13 +28,20 @@ class DesignResult:
         return self.status is Status.OPTIMAL
 
 
-def design(problem: Problem, designer: Designer | None = None, **solve_options: object) -> DesignResult:
+def design(problem: Problem, designer: Designer | None = None, starts: int = 1, **solve_options: object) -> DesignResult:
     """Solve ``problem`` (with a prebuilt ``designer`` if given), verify it, evaluate reports.
 
     ``solve_options`` go to :meth:`Designer.solve` (``parameters``, ``bounds``, ``initial``).
+    ``starts`` > 1: a seeded multi-start over the free geometry (seed: ``settings.seed``),
+    see :func:`counterpoise.designer.convex.multistart`.
     """
     designer = designer or Designer(problem)
-    solution = designer.solve(**solve_options)  # type: ignore[arg-type]
+    if starts > 1:
+        from .designer.convex import multistart
+
+        solution = multistart(designer, starts, problem.settings.seed, **solve_options)
+    else:
+        solution = designer.solve(**solve_options)  # type: ignore[arg-type]
     verification = verify(solution)
     status, message = judge(solution, verification)
     return DesignResult(problem, status, message, solution, verification, evaluate_quantities(solution))

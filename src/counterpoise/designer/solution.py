@@ -28,6 +28,11 @@ class Solution:
     condition_summary: str
     #: per scenario name: gravity vector and base-parameter values the design was solved for
     scenario_parameters: dict[str, tuple[Gravity3, dict[str, float]]] = field(default_factory=dict)
+    #: objective minus the LP optimum at this design's geometry (kg; 0 on the convex path,
+    #: NaN when there is no LP to compare with): see :mod:`.convex`
+    certificate_gap: float = float("nan")
+    #: multi-start: (starts that reached the best objective, starts run); (1, 1) for one solve
+    starts: tuple[int, int] = (1, 1)
 
     def variable_values(self, scenario: str) -> dict[str, float]:
         """Value of every variable as seen by ``scenario``."""
