@@ -153,6 +153,7 @@ def study(
     out: Annotated[Path, typer.Option("--out", help="Folder for <problem>-study/.")] = Path("results"),
     jobs: Annotated[Optional[int], typer.Option("--jobs", help="Worker processes (default: the number of cores; 1 = in this process).")] = None,
     scheduler: Annotated[Optional[str], typer.Option("--scheduler", help="tcp://HOST:PORT of a Dask scheduler, or local for a Dask LocalCluster.")] = None,
+    scheduler_timeout: Annotated[float, typer.Option("--scheduler-timeout", help="Seconds to wait for the Dask scheduler.")] = 10.0,
     resume: Annotated[bool, typer.Option("--resume", help="Skip the points already in study.csv.")] = False,
     time_limit: Annotated[Optional[float], typer.Option("--time-limit", help="Seconds per point; a point past it is recorded as timeout.")] = None,
     batch_size: Annotated[int, typer.Option("--batch-size", help="Points per batch (one task of a worker).")] = 16,
@@ -163,7 +164,7 @@ def study(
     from ..studies.command import StudyOptions, run_study_command
 
     problem = _load_all([file], _overrides(set_))[0]
-    options = StudyOptions(tuple(vary), samples, method, seed, out, jobs, scheduler, resume, time_limit, batch_size, plot)
+    options = StudyOptions(tuple(vary), samples, method, seed, out, jobs, scheduler, scheduler_timeout, resume, time_limit, batch_size, plot)
     try:
         outcome = run_study_command(problem, options, err_console)
     except ProblemFileError as exc:

@@ -29,6 +29,7 @@ class StudyOptions:
     out: Path = Path("results")
     jobs: int | None = None
     scheduler: str | None = None
+    scheduler_timeout: float = 10.0
     resume: bool = False
     time_limit: float | None = None
     batch_size: int = 16
@@ -47,7 +48,7 @@ def make_runner(options: StudyOptions, label: str) -> Runner:
         address = options.scheduler.strip()
         if address != "local" and "://" not in address:
             raise ProblemFileError(label, "--scheduler", f"expected tcp://HOST:PORT or local, got '{address}'")
-        runner = DaskRunner(address, jobs)
+        runner = DaskRunner(address, jobs, options.scheduler_timeout)
         try:
             runner.connect()
         except SchedulerError as exc:
