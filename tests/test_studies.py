@@ -244,3 +244,12 @@ def test_bad_study_options_exit_2_with_one_line_and_write_nothing(tmp_path, caps
     if "scheduler" in message:
         assert "dask scheduler" in lines[0]  # how to start one
     assert not any(tmp_path.iterdir())
+
+
+def test_plot_command_redraws_a_study_and_rejects_other_folders(tmp_path, capsys):
+    problem = _pendulum()
+    outcome = run_study(problem, plan_study(problem, ["m=500 g:900 g:3"], "f"), tmp_path)
+    code, out = _cli(["plot", str(outcome.folder / "study.csv")], capsys)
+    assert code in (0, None) and "study.png" in out.out and not (outcome.folder / "pareto.png").exists()
+    code, out = _cli(["plot", str(tmp_path)], capsys)
+    assert code == 2 and out.err.strip().endswith(f"not a study (expected study.csv and study.json in {tmp_path})")

@@ -105,6 +105,7 @@ def _run(problem: Problem, plan: Any, options: StudyOptions, runner: Runner, tas
             rate = state["done"] / max(time.perf_counter() - t0, 1e-9)
             bar.update(job, advance=len(results), failed=state["failed"], rate=f"{rate:.1f} points/s")
 
-        outcome = run_study(problem, plan, options.out, runner, task=task, resume=options.resume, batch_size=options.batch_size, progress=progress)
+        outcome = run_study(problem, plan, options.out, runner, task=task, resume=options.resume, batch_size=options.batch_size,
+                            progress=progress, started=lambda skipped: bar.update(job, completed=skipped))
         bar.update(job, completed=total)
     return outcome

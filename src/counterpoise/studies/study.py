@@ -115,11 +115,13 @@ def run_study(
     batch_size: int = 16,
     flush_seconds: float = 1.0,
     progress: Callable[[list[PointResult]], None] | None = None,
+    started: Callable[[int], None] | None = None,
 ) -> StudyOutcome:
     """Run every point of ``plan`` (minus those already done when ``resume``) and write the study.
 
     Finished batches are written to ``study.csv`` at most every ``flush_seconds`` (0: after
-    every batch) and at the end.
+    every batch) and at the end. ``started(skipped)`` is called once the points already
+    done are known; ``progress(results)`` after each batch.
     """
     t0 = time.perf_counter()
     folder = study_folder(problem, out)
@@ -151,6 +153,8 @@ def run_study(
     rows = dict(done)
     atomic_write_text(csv_path, _csv([rows[i] for i in sorted(rows)], cols))
     task = task or StudyTask(problem)
+    if started is not None:
+        started(len(done))
     batches = batched(todo, batch_size)
     point_batches = [[plan.points[i] for i in b] for b in batches]
     last_flush = time.perf_counter()
