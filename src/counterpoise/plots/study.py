@@ -39,7 +39,7 @@ def study_plots(folder: str | Path) -> list[Path]:
     data = {c: np.array([_number(r.get(c, "")) for r in rows]) for c in columns if c not in ("status", "solver", "message")}
     plt = pyplot()
     ys = ["objective_kg"] + variables
-    fig, axes = plt.subplots(len(ys), len(varied), figsize=(5.0 * len(varied) + 1, 2.3 * len(ys) + 1), squeeze=False)
+    fig, axes = plt.subplots(len(ys), len(varied), figsize=(max(7.0, 5.0 * len(varied) + 1), 2.3 * len(ys) + 1.2), squeeze=False)
     one_axis = len(varied) == 1 and meta["plan"]["method"] == "grid"
     for j, x_name in enumerate(varied):
         x = data[x_name]
@@ -49,7 +49,7 @@ def study_plots(folder: str | Path) -> list[Path]:
             y = data[y_name]
             sel = order[ok[order]]
             if one_axis:
-                ax.plot(x[sel], y[sel], marker="o", markersize=3, linewidth=1.2, color="tab:blue", label="optimal")
+                ax.plot(x[sel], y[sel], marker="o" if len(rows) <= 200 else None, markersize=3, linewidth=1.5, color="tab:blue", label="optimal")
             else:
                 ax.scatter(x[sel], y[sel], s=8, color="tab:blue", label="optimal")
             if i == 0 and (~ok).any():
@@ -61,7 +61,7 @@ def study_plots(folder: str | Path) -> list[Path]:
             ax.grid(alpha=0.3)
             if i == 0:
                 ax.legend(fontsize=8, loc="best")
-    fig.suptitle(f"{meta['problem']}: study of {', '.join(varied)} ({len(rows)} points, {int(ok.sum())} optimal, {meta['plan']['method']})", fontsize=11)
+    fig.suptitle(f"{meta['problem']}: study of {', '.join(varied)}\n{len(rows)} points ({meta['plan']['method']}), {int(ok.sum())} optimal", fontsize=11)
     fig.tight_layout()
     paths = [folder / "study.png"]
     save(fig, paths[0])
