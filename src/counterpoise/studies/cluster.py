@@ -22,8 +22,8 @@ HOW_TO_START = (
 )
 
 
-#: environment of LocalCluster workers (Dask's defaults without MALLOC_TRIM_THRESHOLD_; see
-#: :meth:`DaskRunner._client`)
+#: environment of LocalCluster workers: Dask's defaults without MALLOC_TRIM_THRESHOLD_ (see
+#: :meth:`DaskRunner._client`); the workers then apply :data:`~.runners.MALLOC_SETTINGS`
 WORKER_ENVIRON = {"OMP_NUM_THREADS": 1, "MKL_NUM_THREADS": 1, "OPENBLAS_NUM_THREADS": 1}
 
 

@@ -55,7 +55,7 @@ def make_runner(options: StudyOptions, label: str) -> Runner:
             raise ProblemFileError(label, "--scheduler", str(exc)) from None
         return runner
     jobs = jobs or os.cpu_count() or 1
-    return SerialRunner() if jobs == 1 else ProcessRunner(jobs)
+    return SerialRunner(tune=True) if jobs == 1 else ProcessRunner(jobs)
 
 
 def run_study_command(problem: Problem, options: StudyOptions, console: Any) -> StudyOutcome:

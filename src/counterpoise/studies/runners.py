@@ -217,9 +217,15 @@ class Runner(Protocol):
 
 
 class SerialRunner:
-    """Everything in this process (the reference: other runners must give the same values)."""
+    """Everything in this process (the reference: other runners must give the same values).
+    ``tune=True`` also applies the workers' allocator settings to this process."""
+
+    def __init__(self, tune: bool = False) -> None:
+        self.tune = tune
 
     def map_batches(self, task: StudyTask, batches: Sequence[Sequence[Point]]) -> Iterator[list[PointResult]]:
+        if self.tune:
+            tune_allocator()
         for batch in batches:
             yield solve_batch(task, batch)
 
@@ -236,9 +242,31 @@ class ProcessRunner:
 
 
 def _single_threaded() -> None:
+    """Worker set-up: one BLAS thread, and an allocator that keeps its memory (below)."""
     from ..threads import limit_blas_threads
 
     limit_blas_threads()
+    tune_allocator()
+
+
+#: glibc malloc settings of study workers: the dense verification allocates and frees
+#: arrays of a few MB per point; with glibc's defaults each is mapped and unmapped again
+#: (~6,500 page faults per hybrid point, a third of the worker's time in the kernel).
+#: Keeping up to 256 MB (per worker) removes them: 16 hybrid points 0.79 s -> 0.67 s.
+MALLOC_SETTINGS = {"M_TRIM_THRESHOLD": (-1, 256 << 20), "M_TOP_PAD": (-2, 64 << 20), "M_MMAP_THRESHOLD": (-3, 32 << 20)}
+
+
+def tune_allocator() -> bool:
+    """Apply :data:`MALLOC_SETTINGS` with glibc's ``mallopt`` (no-op elsewhere); True if applied."""
+    import ctypes
+    import ctypes.util
+
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
+        mallopt = libc.mallopt
+    except (OSError, AttributeError):
+        return False
+    return all(mallopt(code, value) == 1 for code, value in MALLOC_SETTINGS.values())
 
 
 def batched(points: Sequence[Point], size: int) -> list[Sequence[Point]]:
