@@ -253,3 +253,15 @@ def test_plot_command_redraws_a_study_and_rejects_other_folders(tmp_path, capsys
     assert code in (0, None) and "study.png" in out.out and not (outcome.folder / "pareto.png").exists()
     code, out = _cli(["plot", str(tmp_path)], capsys)
     assert code == 2 and out.err.strip().endswith(f"not a study (expected study.csv and study.json in {tmp_path})")
+
+
+def test_bounds_and_weights_vary_per_point():
+    from counterpoise.studies.runners import solve_batch
+
+    # the optimum b = 1/sqrt(w) is cut off by an upper bound below it: b = min(1/sqrt(w), upper)
+    task = StudyTask(_pendulum())
+    points = [{"b.upper": 0.1}, {"b.upper": 0.3}, {"objective.inertia_weight": 100.0}, {"objective.inertia_weight": 100.0, "b.upper": 0.05}]
+    results = solve_batch(task, points)
+    assert [r.status for r in results] == ["optimal"] * 4
+    assert [r.values["b"] for r in results] == pytest.approx([0.1, 0.2, 0.1, 0.05], rel=1e-7)
+    assert [r.values["M"] for r in results] == pytest.approx([0.8 * 0.3 / b for b in (0.1, 0.2, 0.1, 0.05)], rel=1e-7)
