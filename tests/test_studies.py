@@ -265,3 +265,13 @@ def test_bounds_and_weights_vary_per_point():
     assert [r.status for r in results] == ["optimal"] * 4
     assert [r.values["b"] for r in results] == pytest.approx([0.1, 0.2, 0.1, 0.05], rel=1e-7)
     assert [r.values["M"] for r in results] == pytest.approx([0.8 * 0.3 / b for b in (0.1, 0.2, 0.1, 0.05)], rel=1e-7)
+
+
+def test_solve_with_plot_and_starts(tmp_path, capsys):
+    code, _ = _cli(["solve", str(PROBLEMS / "yasir2019_free_extensions.toml"), "--out", str(tmp_path), "--plot", "--starts", "3"], capsys)
+    folder = tmp_path / "yasir2019_free_extensions"
+    (summary,) = read_rows(folder / "summary.csv")
+    assert code == 0 and _png(folder / "energy.png")
+    assert summary["starts_reaching_best"].endswith("/3") and abs(float(summary["certificate_gap_kg"])) < 1e-9
+    code, out = _cli(["solve", str(PROBLEMS / "yasir2019_free_extensions.toml"), "--out", str(tmp_path / "x"), "--starts", "0"], capsys)
+    assert code == 2 and out.err.strip() == "--starts: must be at least 1, got 0" and not (tmp_path / "x").exists()

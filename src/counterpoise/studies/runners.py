@@ -14,6 +14,7 @@ import os
 import signal
 import threading
 import time
+from collections import OrderedDict
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from contextlib import contextmanager
@@ -83,7 +84,11 @@ class PointResult:
     certificate_gap: float = float("nan")
 
 
-_WORKER: dict[tuple[int, tuple[float, ...]], Any] = {}  # (task, weights) in this process -> designer, built once per worker
+#: designers built in this process, per thread (a CasADi function is not safe to call from
+#: two threads at once, and a Dask worker may run several task threads), least recently
+#: used last; at most :data:`CACHED_DESIGNERS` each (a weight study builds one per weight)
+_WORKER = threading.local()
+CACHED_DESIGNERS = 8
 
 
 class PointTimeout(Exception):
@@ -94,7 +99,8 @@ def _designer_for(task: StudyTask, weights: Mapping[str, float]) -> Any:
     """The designer of this task (and objective weights, which are built into the NLP)."""
     problem = task.problem
     key = (task.key, (weights.get("mass_weight", problem.objective.mass_weight), weights.get("inertia_weight", problem.objective.inertia_weight)))
-    designer = _WORKER.get(key)
+    cache: OrderedDict[Any, Any] = _WORKER.__dict__.setdefault("designers", OrderedDict())
+    designer = cache.pop(key, None)
     if designer is None:
         if weights:
             import dataclasses
@@ -102,7 +108,10 @@ def _designer_for(task: StudyTask, weights: Mapping[str, float]) -> Any:
             from ..model.problem import Objective
 
             problem = dataclasses.replace(problem, objective=Objective(*key[1]))
-        designer = _WORKER[key] = task.designer(problem)
+        designer = task.designer(problem)
+    cache[key] = designer
+    while len(cache) > CACHED_DESIGNERS:
+        cache.popitem(last=False)
     return designer
 
 

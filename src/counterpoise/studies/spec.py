@@ -2,7 +2,7 @@
 
 ``--vary NAME=START:STOP:N`` (grid) or ``--vary NAME=START:STOP`` with ``--samples N``
 (Latin hypercube, ``--seed S``; default :data:`DEFAULT_SEED`). START and STOP are
-quantities with units (``'m_endo=500 g:900 g:41'``). NAME is
+quantities with units (``'m_endo=500 g:900 g:41'``; a bare ``0`` is allowed). NAME is
 
 - a literal parameter of the file: ``m_endo`` or ``parameters.m_endo``;
 - a variable's bound: ``M_b.upper`` or ``variables.M_b.upper`` (``.lower`` likewise);
@@ -109,7 +109,7 @@ def parse_vary(problem: Problem, text: str, label: str) -> Vary:
             q = parse_quantity(part)
         except UnitError as exc:
             fail(str(exc))
-        if q.dimension != dimension:
+        if q.dimension != dimension and not (q.si == 0 and not q.unit.symbol):  # a bare 0 is 0 in any unit
             hint = f" such as '{parts[0]} {file_unit.symbol}'" if file_unit is not None and file_unit.symbol and q.unit.symbol == "" else ""
             fail(f"'{part}' is {dimension_name(q.dimension)}, expected {dimension_name(dimension)}{hint}")
         values.append(q.si)
