@@ -12,7 +12,8 @@ pandas, pydantic) are imported on first use, not here.
 Layers, each a subpackage with one job: ``model`` (typed problem) → ``io`` (files) →
 ``mechanics`` (kinematics, energy) → ``formulation`` (symbols, exact conditions) →
 ``solvers`` (one backend per module) → ``designer`` → ``verify`` (dense
-check) → ``report`` (CSV) → ``studies`` (many designs) → ``cli``.
+check) → ``report`` (CSV) → ``plots`` (PNG, matplotlib) → ``studies`` (many designs)
+→ ``cli``.
 """
 
 from __future__ import annotations
