@@ -246,8 +246,17 @@ class ProcessRunner:
         self.jobs = jobs or os.cpu_count() or 1
 
     def map_batches(self, task: StudyTask, batches: Sequence[Sequence[Point]]) -> Iterator[list[PointResult]]:
-        with ProcessPoolExecutor(max_workers=self.jobs, initializer=_single_threaded) as pool:
-            yield from pool.map(solve_batch, [task] * len(batches), batches)
+        pool = ProcessPoolExecutor(max_workers=self.jobs, initializer=_single_threaded)
+        finished = False
+        try:
+            futures = [pool.submit(solve_batch, task, batch) for batch in batches]
+            for future in futures:
+                yield future.result()
+            finished = True
+        finally:
+            # interrupted (Ctrl-C, a failure): drop the batches not started instead of
+            # waiting for the whole study; the running ones end with their batch
+            pool.shutdown(wait=finished, cancel_futures=not finished)
 
 
 def _single_threaded() -> None:
