@@ -275,3 +275,21 @@ def test_solve_with_plot_and_starts(tmp_path, capsys):
     assert summary["starts_reaching_best"].endswith("/3") and abs(float(summary["certificate_gap_kg"])) < 1e-9
     code, out = _cli(["solve", str(PROBLEMS / "yasir2019_free_extensions.toml"), "--out", str(tmp_path / "x"), "--starts", "0"], capsys)
     assert code == 2 and out.err.strip() == "--starts: must be at least 1, got 0" and not (tmp_path / "x").exists()
+
+
+class _Interrupted:
+    """A runner that is interrupted (Ctrl-C) after its first batch."""
+
+    def map_batches(self, task, batches):
+        from counterpoise.studies.runners import solve_batch
+
+        yield solve_batch(task, batches[0])
+        raise KeyboardInterrupt
+
+
+def test_an_interrupted_study_keeps_its_finished_batches(tmp_path):
+    problem = _pendulum()
+    plan = plan_study(problem, ["m=500 g:900 g:5"], "f")
+    with pytest.raises(KeyboardInterrupt):
+        run_study(problem, plan, tmp_path, _Interrupted(), batch_size=2, flush_seconds=3600)
+    assert [r["point"] for r in read_rows(tmp_path / "pendulum-study" / "study.csv")] == ["0", "1"]

@@ -120,7 +120,7 @@ def run_study(
     """Run every point of ``plan`` (minus those already done when ``resume``) and write the study.
 
     Finished batches are written to ``study.csv`` at most every ``flush_seconds`` (0: after
-    every batch) and at the end. ``started(skipped)`` is called once the points already
+    every batch) and at the end, also when the study is interrupted. ``started(skipped)`` is called once the points already
     done are known; ``progress(results)`` after each batch.
     """
     t0 = time.perf_counter()
@@ -158,15 +158,17 @@ def run_study(
     batches = batched(todo, batch_size)
     point_batches = [[plan.points[i] for i in b] for b in batches]
     last_flush = time.perf_counter()
-    for indices, results in zip(batches, (runner or SerialRunner()).map_batches(task, point_batches)):
-        for i, r in zip(indices, results):
-            rows[i] = result_row(problem, plan, i, r)
-            outcome.counts[r.status] = outcome.counts.get(r.status, 0) + 1
-        if time.perf_counter() - last_flush >= flush_seconds:  # whole batches, at most once per flush_seconds
-            atomic_write_text(csv_path, _csv([rows[i] for i in sorted(rows)], cols))
-            last_flush = time.perf_counter()
-        if progress is not None:
-            progress(results)
-    atomic_write_text(csv_path, _csv([rows[i] for i in sorted(rows)], cols))
+    try:
+        for indices, results in zip(batches, (runner or SerialRunner()).map_batches(task, point_batches)):
+            for i, r in zip(indices, results):
+                rows[i] = result_row(problem, plan, i, r)
+                outcome.counts[r.status] = outcome.counts.get(r.status, 0) + 1
+            if time.perf_counter() - last_flush >= flush_seconds:  # whole batches, at most once per flush_seconds
+                atomic_write_text(csv_path, _csv([rows[i] for i in sorted(rows)], cols))
+                last_flush = time.perf_counter()
+            if progress is not None:
+                progress(results)
+    finally:  # also when interrupted: keep every finished batch
+        atomic_write_text(csv_path, _csv([rows[i] for i in sorted(rows)], cols))
     outcome.wall_time = time.perf_counter() - t0
     return outcome
