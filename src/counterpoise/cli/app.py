@@ -170,6 +170,9 @@ def study(
     except ProblemFileError as exc:
         err_console.print(str(exc), markup=False)
         raise typer.Exit(2) from None
+    except OSError as exc:
+        err_console.print(f"{problem.path}: cannot write the study to {out}: {exc.strerror or exc}", markup=False)
+        raise typer.Exit(1) from None
     counts = ", ".join(f"{n} {s}" for s, n in sorted(outcome.counts.items()))
     skipped = f", {outcome.skipped} already done" if outcome.skipped else ""
     out_console.print(f"{problem.name}: {outcome.run} points run ({counts or 'none'}){skipped} in {outcome.wall_time:.1f} s; study in {outcome.folder}/", markup=False)
@@ -195,8 +198,11 @@ def plot(
         from ..plots import energy_plot
 
         problem = _load_all([file], _overrides(set_))[0]
-        result = design(problem)
-        paths = energy_plot(result, out / problem.name)
+        try:
+            paths = energy_plot(design(problem), out / problem.name)
+        except (CounterpoiseError, OSError) as exc:
+            err_console.print(f"{problem.path}: {exc}", markup=False)
+            raise typer.Exit(1) from None
     for path in paths:
         out_console.print(f"wrote {path}", markup=False)
 
