@@ -6,6 +6,8 @@ built once and solved many times.
 so ``solve(parameters=...)`` re-solves a study point without rebuilding, and variable
 bounds may be changed per call. CasADi objects do not pickle: a designer pickles as its
 description (the problem and the solver options) and rebuilds itself in the worker.
+When the problem is an LP (fixed geometry) it is solved by Clarabel, and an IPOPT design
+gets a certificate gap (:mod:`.convex`).
 """
 
 from __future__ import annotations
@@ -22,8 +24,8 @@ from ..formulation.layout import Slot
 from ..model.problem import BOUND_TOLERANCE, Problem
 from ..solvers.base import Bounds, SolverOutput, Status
 from ..solvers.ipopt import IPOPT_DEFAULTS, IpoptBackend
-from . import convex
 from ..threads import limit_blas_threads
+from . import convex
 from .solution import Solution
 
 BoundsOverride = Mapping["Slot | str", tuple[float, float]]
