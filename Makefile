@@ -5,7 +5,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test bench clean
+.PHONY: demo studies test bench clean
 
 $(STAMP): pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -15,7 +15,13 @@ $(STAMP): pyproject.toml
 	@touch $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/counterpoise solve problems/*.toml --out results
+	$(BIN)/counterpoise solve problems/*.toml --out results --plot
+
+# the committed studies in results/: the Pareto front of the free-extensions leg and a
+# 1000-point payload sweep of the hybrid (docs/studies.md)
+studies: $(STAMP)
+	$(BIN)/counterpoise study problems/yasir2019_free_extensions.toml --vary 'inertia_weight=0 1/m^2:400 1/m^2:41' --out results
+	$(BIN)/counterpoise study problems/yasir2019_hybrid.toml --vary 'm_endo=400 g:1000 g:1000' --out results
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q

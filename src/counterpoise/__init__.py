@@ -12,8 +12,9 @@ pandas, pydantic) are imported on first use, not here.
 Layers, each a subpackage with one job: ``model`` (typed problem) → ``catalogue`` (spring
 catalogues) → ``io`` (files) → ``mechanics`` (kinematics, energy) → ``formulation``
 (symbols, exact conditions) → ``solvers`` (one backend per module) → ``designer`` →
-``verify`` (dense check) → ``selection`` (catalogue parts) → ``report`` (CSV) →
-``studies`` (many designs) → ``cli``.
+``verify`` (dense check) → ``selection`` (catalogue parts) → ``payload`` (payload ranges,
+schedules) → ``report`` (CSV) → ``plots`` (PNG, matplotlib) → ``studies`` (many designs) →
+``cli``.
 """
 
 from __future__ import annotations

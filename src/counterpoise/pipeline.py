@@ -36,7 +36,7 @@ class DesignResult:
         return self.status is Status.OPTIMAL
 
 
-def design(problem: Problem, designer: Designer | None = None, **solve_options: object) -> DesignResult:
+def design(problem: Problem, designer: Designer | None = None, starts: int = 1, **solve_options: object) -> DesignResult:
     """Solve ``problem`` (with a prebuilt ``designer`` if given), verify it, evaluate reports.
 
     ``solve_options`` go to :meth:`Designer.solve` (``parameters``, ``bounds``, ``initial``).
@@ -44,6 +44,8 @@ def design(problem: Problem, designer: Designer | None = None, **solve_options: 
     a designer or solve options are given: then it is solved at its nominal payload. A
     problem with spring slots first chooses its parts (:mod:`counterpoise.selection`) and
     solves for their rates; one with directly attached springs minimises the worst residual.
+    ``starts`` > 1 (plain problems): a seeded multi-start over the free geometry (seed: ``settings.seed``),
+    see :func:`counterpoise.designer.convex.multistart`.
     """
     if problem.slots:
         return _design_with_parts(problem, designer, **solve_options)
@@ -56,7 +58,12 @@ def design(problem: Problem, designer: Designer | None = None, **solve_options: 
         s = outcome.solution
         return DesignResult(s.problem, outcome.status, outcome.message, s, outcome.verification, evaluate_quantities(s), payload=outcome)
     designer = designer or Designer(problem)
-    solution = designer.solve(**solve_options)  # type: ignore[arg-type]
+    if starts > 1:
+        from .designer.convex import multistart
+
+        solution = multistart(designer, starts, problem.settings.seed, **solve_options)
+    else:
+        solution = designer.solve(**solve_options)  # type: ignore[arg-type]
     verification = verify(solution)
     status, message = judge(solution, verification)
     return DesignResult(problem, status, message, solution, verification, evaluate_quantities(solution))

@@ -135,24 +135,33 @@ def solve(
     files: FilesArg,
     out: Annotated[Path, typer.Option("--out", help="Folder for the reports (one subfolder per problem).")] = Path("results"),
     set_: SetOpt = None,
+    plot: Annotated[bool, typer.Option("--plot", help="Also write energy.png (energies and residual torque) next to the reports.")] = False,
+    starts: Annotated[int, typer.Option("--starts", help="Seeded multi-start over the free geometry: number of starts.")] = 1,
 ) -> None:
     """Solve problem files and write their reports."""
     from ..pipeline import design
     from ..report.files import write_reports
     from ..report.rows import summary_row
 
+    if starts < 1:
+        err_console.print(f"--starts: must be at least 1, got {starts}", markup=False)
+        raise typer.Exit(2)
     problems = _load_all(files, _overrides(set_))
     rows, worst = [], 0
     for problem in problems:
         t0 = time.perf_counter()
         try:
-            result = design(problem)
+            result = design(problem, starts=starts)
         except CounterpoiseError as exc:
             err_console.print(f"{problem.path}: {exc}", markup=False)
             worst = max(worst, 1)
             continue
         try:
             folder = write_reports(result, out)
+            if plot:
+                from ..plots import energy_plot
+
+                energy_plot(result, folder)
         except OSError as exc:
             err_console.print(f"{problem.path}: cannot write reports to {out}: {exc.strerror or exc}", markup=False)
             worst = max(worst, 1)
@@ -218,6 +227,70 @@ def schedule(
             table.add_row(v.name, f"{v.unit.from_si(result.setting.values[v.name]):.6g}", v.unit.label)
     out_console.print(table)
     out_console.print(f"residual ratio {result.setting.residual_ratio:.2e} (balanced in every working mode)", markup=False)
+
+
+@app.command()
+def study(
+    file: Annotated[Path, typer.Argument(help="Problem file (TOML).", show_default=False)],
+    vary: Annotated[list[str], typer.Option("--vary", help="NAME=START:STOP:N (grid) or NAME=START:STOP (with --samples), with units, e.g. 'm_endo=500 g:900 g:41'.")],
+    samples: Annotated[Optional[int], typer.Option("--samples", help="Number of Latin-hypercube samples.")] = None,
+    method: Annotated[Optional[str], typer.Option("--method", help="grid or lhs (default: lhs with --samples, else grid).")] = None,
+    seed: Annotated[Optional[int], typer.Option("--seed", help="Seed of the Latin hypercube (the default is written in study.json).")] = None,
+    out: Annotated[Path, typer.Option("--out", help="Folder for <problem>-study/.")] = Path("results"),
+    jobs: Annotated[Optional[int], typer.Option("--jobs", help="Worker processes (default: the number of cores; 1 = in this process).")] = None,
+    scheduler: Annotated[Optional[str], typer.Option("--scheduler", help="tcp://HOST:PORT of a Dask scheduler, or local for a Dask LocalCluster.")] = None,
+    scheduler_timeout: Annotated[float, typer.Option("--scheduler-timeout", help="Seconds to wait for the Dask scheduler.")] = 10.0,
+    resume: Annotated[bool, typer.Option("--resume", help="Skip the points already in study.csv.")] = False,
+    time_limit: Annotated[Optional[float], typer.Option("--time-limit", help="Seconds per point; a point past it is recorded as timeout.")] = None,
+    batch_size: Annotated[int, typer.Option("--batch-size", help="Points per batch (one task of a worker).")] = 16,
+    plot: Annotated[bool, typer.Option("--plot/--no-plot", help="Write study.png (and pareto.png when a weight is varied).")] = True,
+    set_: SetOpt = None,
+) -> None:
+    """Solve a problem over a grid or a Latin hypercube of parameters, bounds or weights."""
+    from ..studies.command import StudyOptions, run_study_command
+
+    problem = _load_all([file], _overrides(set_))[0]
+    options = StudyOptions(tuple(vary), samples, method, seed, out, jobs, scheduler, scheduler_timeout, resume, time_limit, batch_size, plot)
+    try:
+        outcome = run_study_command(problem, options, err_console)
+    except ProblemFileError as exc:
+        err_console.print(str(exc), markup=False)
+        raise typer.Exit(2) from None
+    except OSError as exc:
+        err_console.print(f"{problem.path}: cannot write the study to {out}: {exc.strerror or exc}", markup=False)
+        raise typer.Exit(1) from None
+    counts = ", ".join(f"{n} {s}" for s, n in sorted(outcome.counts.items()))
+    skipped = f", {outcome.skipped} already done" if outcome.skipped else ""
+    out_console.print(f"{problem.name}: {outcome.run} points run ({counts or 'none'}){skipped} in {outcome.wall_time:.1f} s; study in {outcome.folder}/", markup=False)
+
+
+@app.command()
+def plot(
+    file: Annotated[Path, typer.Argument(help="A problem file (solve it, plot its energies), or a study folder or its study.csv.", show_default=False)],
+    out: Annotated[Path, typer.Option("--out", help="Folder for <problem>/energy.png (problem files).")] = Path("results"),
+    set_: SetOpt = None,
+) -> None:
+    """Write plots: energy.png of a problem's design, or study.png/pareto.png of a study."""
+    if file.is_dir() or file.suffix == ".csv":
+        from ..plots import study_plots
+
+        folder = file if file.is_dir() else file.parent
+        if not (folder / "study.json").exists() or not (folder / "study.csv").exists():
+            err_console.print(f"{file}: file: not a study (expected study.csv and study.json in {folder})", markup=False)
+            raise typer.Exit(2)
+        paths = study_plots(folder)
+    else:
+        from ..pipeline import design
+        from ..plots import energy_plot
+
+        problem = _load_all([file], _overrides(set_))[0]
+        try:
+            paths = energy_plot(design(problem), out / problem.name)
+        except (CounterpoiseError, OSError) as exc:
+            err_console.print(f"{problem.path}: {exc}", markup=False)
+            raise typer.Exit(1) from None
+    for path in paths:
+        out_console.print(f"wrote {path}", markup=False)
 
 
 def _print_summary(rows: list[dict]) -> None:

@@ -13,6 +13,8 @@ COMMANDS: dict[str, str] = {
     "catalogue": "Check spring catalogues (every row) and print their ranges (docs/catalogues.md).",
     "solve": "Solve problem files and write their reports.",
     "schedule": "Print the adjustments for one payload: what an operator sets at the table.",
+    "study": "Solve a problem over a grid or a Latin hypercube of parameters, bounds or weights.",
+    "plot": "Write plots: energy.png of a problem's design, or study.png/pareto.png of a study.",
 }
 
 DESCRIPTION = "Design gravity balancers for mechanisms. Add --debug to see the traceback of an internal error."

@@ -6,6 +6,8 @@ built once and solved many times.
 so ``solve(parameters=...)`` re-solves a study point without rebuilding, and variable
 bounds may be changed per call. CasADi objects do not pickle: a designer pickles as its
 description (the problem and the solver options) and rebuilds itself in the worker.
+When the problem is an LP (fixed geometry) it is solved by Clarabel, and an IPOPT design
+gets a certificate gap (:mod:`.convex`).
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from ..model.problem import BOUND_TOLERANCE, Problem
 from ..solvers.base import Bounds, SolverOutput, Status
 from ..solvers.ipopt import IPOPT_DEFAULTS, IpoptBackend
 from ..threads import limit_blas_threads
+from . import convex
 from .solution import Solution
 
 BoundsOverride = Mapping["Slot | str", tuple[float, float]]
@@ -39,7 +42,9 @@ SNAP_BAND = 1e-5
 class Designer:
     """Builds the solver for a problem once; :meth:`solve` may be called many times."""
 
-    def __init__(self, problem: Problem, ipopt_options: Mapping[str, Any] | None = None) -> None:
+    def __init__(self, problem: Problem, ipopt_options: Mapping[str, Any] | None = None, backend: str = "auto") -> None:
+        """``backend``: ``auto`` (the convex path when the problem is an LP/QP, else IPOPT),
+        ``ipopt`` or ``clarabel`` (an error when the problem is not convex)."""
         import casadi as ca
 
         limit_blas_threads()
@@ -52,12 +57,17 @@ class Designer:
         self.options = {**IPOPT_DEFAULTS, "max_iter": problem.settings.max_iterations, **self._ipopt_options}
         nlp = {"x": f.z, "p": f.p, "f": f.objective, "g": ca.vertcat(self.conditions.equalities, f.nonnegative)}
         self.backend = IpoptBackend(nlp, self.options, "design")
+        self.backend_choice = backend
+        self.nlp = nlp
+        #: the LP/QP backend when every variable enters linearly (see :mod:`.convex`)
+        self.convex = convex.convex_backend(self, backend)
+        self._certificate: Any = None
         self._feasibility: IpoptBackend | None = None
         self._residual_jacobian: Any = None
 
     def __reduce__(self) -> tuple[Any, ...]:
         """Pickle as a description; the worker rebuilds the CasADi objects."""
-        return (Designer, (self.problem, self._ipopt_options))
+        return (Designer, (self.problem, self._ipopt_options, self.backend_choice))
 
     # -- one call ------------------------------------------------------------------
     def bounds(self, n_equalities: int, overrides: BoundsOverride | None = None) -> Bounds:
@@ -90,6 +100,8 @@ class Designer:
         p = self.formulation.parameters.values(parameters) if parameters else self.parameters
         b = self.bounds(self.n_equalities, bounds)
         z0 = np.clip(d.to_z(d.vector(initial or {})), b.lbz, b.ubz)
+        if self.convex is not None:
+            return convex.solve_convex(self, z0, p, b, bounds)
         if self.n_equalities > len(d):
             return self._overdetermined(z0, p, b, bounds)
         out = self.backend.solve(z0, p, b)
@@ -305,6 +317,7 @@ class Designer:
             conditions=self.n_equalities,
             condition_summary=self.conditions.summary(),
             scenario_parameters=f.parameters.scenario_values(parameters),
+            certificate_gap=convex.certificate_gap(self, z, parameters, b, out, objective),
         )
 
 

@@ -30,6 +30,11 @@ class Solution:
     scenario_parameters: dict[str, tuple[Gravity3, dict[str, float]]] = field(default_factory=dict)
     #: minimax designs (directly attached springs): the worst residual ratio on the NLP's samples
     sampled_ratio: float | None = None
+    #: objective minus the LP optimum at this design's geometry (kg; 0 on the convex path,
+    #: NaN when there is no LP to compare with): see :mod:`.convex`
+    certificate_gap: float = float("nan")
+    #: multi-start: (starts that reached the best objective, starts run); (1, 1) for one solve
+    starts: tuple[int, int] = (1, 1)
 
     def variable_values(self, scenario: str) -> dict[str, float]:
         """Value of every variable as seen by ``scenario``."""

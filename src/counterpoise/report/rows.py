@@ -29,6 +29,8 @@ SUMMARY_COLUMNS = [
     "solver",
     "max_residual_N",
     "max_gravity_force_N",
+    "certificate_gap_kg",
+    "starts_reaching_best",
     "worst_scenario",
 ]
 VERIFICATION_COLUMNS = [
@@ -128,6 +130,8 @@ def summary_row(result: DesignResult) -> Row:
         "solver": s.solver,
         "max_residual_N": v.max_residual(PRISMATIC),
         "max_gravity_force_N": v.max_gravity_torque(PRISMATIC),
+        "certificate_gap_kg": s.certificate_gap,
+        "starts_reaching_best": f"{s.starts[0]}/{s.starts[1]}",
         "worst_scenario": worst.scenario if (worst := v.worst()) is not None else "",
     }
 

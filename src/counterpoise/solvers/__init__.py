@@ -1,8 +1,9 @@
 """Solver backends, one module each, behind the interface of :mod:`.base`.
 
-:mod:`.ipopt` (CasADi ``nlpsol``) solves the general design NLP. A convex backend (cvxpy
-with Clarabel) and a discrete one (bonmin or branch and bound over catalogue parts) plug
-in beside it with the same :class:`~.base.Backend` call.
+:mod:`.ipopt` (CasADi ``nlpsol``) solves the general design NLP; :mod:`.convex` (cvxpy
+with Clarabel) solves it as an LP/QP when the free variables enter linearly. A discrete
+backend (bonmin or branch and bound over catalogue parts) plugs in beside them with the
+same :class:`~.base.Backend` call.
 """
 
 from __future__ import annotations

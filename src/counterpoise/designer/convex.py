@@ -1,0 +1,154 @@
+"""The convex path of the designer, the certificate gap of a general design, and multi-start.
+
+- **Convex path.** When every design variable enters the balance conditions, the sign
+  constraints and the objective linearly (a fixed geometry: only masses, stiffnesses and
+  payload shares are free), the design problem is an LP. :func:`convex_backend` detects
+  this (on the CasADi expressions, not on names) and the designer then solves it with
+  Clarabel (:mod:`counterpoise.solvers.convex`); the solution reports ``solver = clarabel``.
+- **Certificate gap.** For a general problem solved by IPOPT, the variables that do not
+  enter any position (frames, points) are the *linear* ones. With the geometry fixed at
+  IPOPT's answer, the best linear variables are an LP; ``certificate_gap`` = IPOPT's
+  objective − that LP's optimum, in kg: how much lighter the design could be at the same
+  geometry. It is 0 (to rounding) at a true optimum, and 0 by construction on the convex path.
+- **Multi-start** (:func:`multistart`): seeded random initial geometries; the best optimal
+  design wins and the count of starts that reached its objective is reported.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..model import expr as ex
+from ..model.mechanism import Rotation
+from ..model.problem import Problem
+from ..solvers.base import Bounds, SolverOutput, Status
+
+if TYPE_CHECKING:
+    from .designer import Designer
+    from .solution import Solution
+
+#: two objectives agree (multi-start) when within this relative distance
+SAME_OBJECTIVE = 1e-7
+
+
+def geometric_variables(problem: Problem) -> set[str]:
+    """Variables that appear in a position: a frame transform, a body's centre of mass, a
+    counter-mass position or a spring end."""
+    trees: list[ex.Expr] = []
+    for frame in problem.frames:
+        for t in frame.transforms:
+            trees += [t.angle, *t.axis] if isinstance(t, Rotation) else list(t.vector)
+    points = [b.com for b in problem.bodies] + [c.position for c in problem.counter_masses]
+    points += [end for s in problem.springs for end in s.ends]
+    for point in points:
+        trees += list(point.position)
+    names: set[str] = set()
+    for tree in trees:
+        names |= ex.names(tree)
+    return names & set(problem.variable)
+
+
+def linear_slots(designer: "Designer") -> list[int]:
+    """Indices of the design-vector slots whose variables never move a point."""
+    geometric = geometric_variables(designer.problem)
+    return [i for i, slot in enumerate(designer.formulation.design.slots) if slot.variable not in geometric]
+
+
+def convex_backend(designer: "Designer", choice: str) -> Any:
+    """The LP/QP backend when the whole problem is convex and ``choice`` allows it."""
+    from ..solvers.convex import ConvexBackend, affine_variables
+
+    if choice not in ("auto", "ipopt", "clarabel"):
+        raise ValueError(f"unknown backend {choice!r}: expected auto, ipopt or clarabel")
+    if choice == "ipopt":
+        return None
+    n = len(designer.formulation.design)
+    every = list(range(n))
+    convex = n > 0 and len(linear_slots(designer)) == n and affine_variables(designer.nlp, every)
+    if not convex:
+        if choice == "clarabel":
+            raise ValueError(f"{designer.problem.name}: not a convex problem (a design variable moves a point or enters nonlinearly)")
+        return None
+    return ConvexBackend(designer.nlp, every)
+
+
+def solve_convex(designer: "Designer", z0: np.ndarray, p: np.ndarray, b: Bounds, bounds: Any) -> "Solution":
+    """The LP's optimum (variables on a bound put exactly on it), or the closest design."""
+    out = designer.convex.solve(z0, p, b)
+    if out.status is Status.OPTIMAL:
+        # An interior-point LP solution meets the equalities to ~1e-8 relative: put bound
+        # variables on their bounds, then Newton steps on the (linear) equalities for the
+        # others finish to rounding (a 24-link chain's masses span ten orders of magnitude).
+        z = designer.polish(out.z, p, b)
+        on_bound = (z <= b.lbz) | (z >= b.ubz)
+        fixed = Bounds(np.where(on_bound, z, b.lbz), np.where(on_bound, z, b.ubz), b.lbg, b.ubg)
+        z = designer.refine(z, p, fixed)
+        return designer._solution(z, p, b, out, "balanced design found (LP, Clarabel)")
+    if out.status is Status.INFEASIBLE:
+        closest = designer.closest_design(z0, p, bounds)
+        out = SolverOutput(closest.z, Status.INFEASIBLE, out.solver_status, out.iterations, out.solve_time + closest.solve_time, out.solver)
+        return designer._solution(closest.z, p, b, out, "CLARABEL: infeasible")
+    return designer._solution(out.z, p, b, out, f"CLARABEL: {out.solver_status}")
+
+
+def certificate_gap(designer: "Designer", z: np.ndarray, p: np.ndarray, b: Bounds, out: SolverOutput, objective: float) -> float:
+    """Objective minus the LP optimum at the geometry of ``z`` (kg); see the module docstring."""
+    from ..solvers.convex import ConvexBackend, affine_variables
+
+    if out.solver == "clarabel":
+        return 0.0
+    if designer._certificate is None:
+        linear = linear_slots(designer)
+        ok = bool(linear) and affine_variables(designer.nlp, linear)
+        designer._certificate = ConvexBackend(designer.nlp, linear) if ok else False
+    lp = designer._certificate
+    if lp is False or b.lbg.size != int(designer.nlp["g"].numel()):
+        return float("nan")
+    fixed = np.ones(z.size, dtype=bool)
+    fixed[lp.linear] = False
+    lbz, ubz = b.lbz.copy(), b.ubz.copy()
+    lbz[fixed] = ubz[fixed] = np.clip(z[fixed], b.lbz[fixed], b.ubz[fixed])
+    try:
+        cert = lp.solve(z, p, Bounds(lbz, ubz, b.lbg, b.ubg))
+    except ValueError:
+        return float("nan")
+    if cert.status is not Status.OPTIMAL:
+        return float("nan")
+    best = float(designer.formulation.report_function(cert.z, p)[0])
+    return objective - best
+
+
+def multistart(designer: "Designer", starts: int, seed: int, **solve_options: Any) -> "Solution":
+    """Solve from the file's initial design and ``starts - 1`` seeded random geometries.
+
+    Only the variables that move a point are drawn (uniformly in their bounds); the others
+    keep their initial values (they enter linearly). The best optimal solution is returned
+    (the best of all when none is optimal), with ``starts = (reached, run)``: how many
+    starts ended within :data:`SAME_OBJECTIVE` (relative) of the best objective.
+    """
+    if starts < 1:
+        raise ValueError("starts must be at least 1")
+    d = designer.formulation.design
+    rng = np.random.default_rng(seed)
+    geometric = geometric_variables(designer.problem)
+    draw = [slot for slot in d.slots if slot.variable in geometric] or list(d.slots)
+    initial: Mapping[Any, float] = dict(solve_options.pop("initial", None) or {})
+    solutions = []
+    for k in range(starts):
+        guess = dict(initial)
+        if k:
+            for slot in draw:
+                i = d.index[slot]
+                guess[slot] = float(d.lower[i] + (d.upper[i] - d.lower[i]) * rng.random())
+        solutions.append(designer.solve(initial=guess, **solve_options))
+    optimal = [s for s in solutions if s.status is Status.OPTIMAL] or solutions
+    best = min(optimal, key=lambda s: s.objective if np.isfinite(s.objective) else np.inf)
+    reached = sum(
+        1 for s in optimal if s.status is best.status and abs(s.objective - best.objective) <= SAME_OBJECTIVE * max(1.0, abs(best.objective))
+    )
+    best.starts = (reached, starts)
+    best.solve_time = sum(s.solve_time for s in solutions)
+    return best

@@ -1,0 +1,100 @@
+"""Energy plot of a solved design: one row per (subsystem, coordinate), one file per scenario.
+
+Left: potential energy of gravity (given bodies and counter-masses), of the springs, and
+their total against the coordinate, the other coordinates of its subsystem at home; a
+balanced design has a flat total. Right: the residual generalized force ∂V/∂q of the
+design (zero when balanced), with the unbalanced gravity torque (given bodies alone) for
+scale.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..mechanics import NUMPY_FUNCTIONS, Mechanics
+from ..verify.residuals import residuals
+from ._mpl import pyplot, save
+
+if TYPE_CHECKING:
+    from ..pipeline import DesignResult
+
+SAMPLES = 181
+
+
+def _energies(problem, subsystem: str, coords: dict, variables: dict, base: dict, gravity) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # type: ignore[no-untyped-def]
+    """(gravity energy of the bodies alone, of bodies and counter-masses, of the springs)."""
+    mech = Mechanics(problem, base, variables, coords, gravity, NUMPY_FUNCTIONS)
+    n = len(next(iter(coords.values())))
+    grav = np.zeros(n)
+    for b in problem.bodies:
+        if b.subsystem == subsystem:
+            grav = grav + np.broadcast_to(mech.gravity_energy(mech.value(b.mass), b.com), (n,))
+    bodies = grav.astype(float)
+    for c in problem.counter_masses:
+        if c.subsystem == subsystem:
+            grav = grav + np.broadcast_to(mech.gravity_energy(mech.value(c.mass), c.position), (n,))
+    spring = np.zeros(n)
+    for s in problem.springs:
+        if s.subsystem == subsystem:
+            a, b = mech.position(s.ends[0]), mech.position(s.ends[1])
+            d2 = sum((np.asarray(x) - np.asarray(y)) ** 2 for x, y in zip(a, b))
+            spring = spring + np.broadcast_to(0.5 * mech.value(s.stiffness) * d2, (n,))
+    return bodies, grav.astype(float), spring.astype(float)
+
+
+def energy_plot(result: "DesignResult", folder: str | Path) -> list[Path]:
+    """Write ``energy.png`` (``energy-<scenario>.png`` with several scenarios) into ``folder``."""
+    plt = pyplot()
+    problem, solution = result.problem, result.solution
+    paths = []
+    rows = [(sub, name) for sub in problem.subsystems for name in sub.coordinates]
+    for scenario in problem.scenarios:
+        gravity, base = solution.scenario_parameters[scenario.name]
+        variables = solution.variable_values(scenario.name)
+        home = {c.name: c.home for c in problem.coordinates}
+        fig, axes = plt.subplots(len(rows), 2, figsize=(11, 2.6 * len(rows) + 1.2), squeeze=False, layout="constrained")
+        for r, (sub, name) in enumerate(rows):
+            coord = problem.coordinate[name]
+            q = np.linspace(coord.lower, coord.upper, SAMPLES)
+            coords = {c: np.full(SAMPLES, home[c]) for c in sub.coordinates}
+            coords[name] = q
+            bodies, grav, spring = _energies(problem, sub.name, coords, variables, base, gravity)
+            x = coord.unit.from_si(q)
+            xlabel = f"{name} [{coord.unit.label}]"
+            ax = axes[r, 0]
+            ax.plot(x, bodies, label="gravity of the bodies alone (unbalanced)", color="tab:red", linestyle="--", linewidth=1)
+            ax.plot(x, grav, label="gravity (bodies + counter-masses)", color="tab:blue", linewidth=3.5, alpha=0.6)
+            if problem.springs and any(s.subsystem == sub.name for s in problem.springs):
+                ax.plot(x, spring, label="springs", color="tab:orange")
+            ax.plot(x, grav + spring, label="total", color="black", linewidth=2)
+            ax.set_xlabel(xlabel)
+            ax.set_ylabel("potential energy [J]")
+            ax.set_title(f"{sub.name}: energy against {name}", fontsize=10)
+            ax.grid(alpha=0.3)
+            qmat = np.column_stack([coords[c] for c in sub.coordinates])
+            res, torque = residuals(problem, sub.name, qmat, variables, base, gravity)
+            j = sub.coordinates.index(name)
+            unit = "N·m" if coord.unit.dimension == "" else "N"
+            ax = axes[r, 1]
+            ax.plot(x, torque[:, j], label="gravity torque of the bodies alone (unbalanced)", color="tab:red", linestyle="--", linewidth=1)
+            ax.plot(x, res[:, j], label="residual ∂V/∂q of the design", color="black", linewidth=2)
+            ax.set_xlabel(xlabel)
+            ax.set_ylabel(f"∂V/∂{name} [{unit}]")
+            ax.set_title(f"{sub.name}: generalized force on {name}", fontsize=10)
+            ax.grid(alpha=0.3)
+        title = f"{problem.name}: {result.status.value}, added mass {solution.added_mass:.4g} kg"
+        if len(problem.scenarios) > 1:
+            title += f", scenario {scenario.name}"
+        fig.suptitle(title + "\n(other coordinates of each subsystem at home)", fontsize=11)
+        legend: dict[str, object] = {}
+        for ax in axes.flat:
+            for handle, label in zip(*ax.get_legend_handles_labels()):
+                legend.setdefault(label, handle)
+        fig.legend(list(legend.values()), list(legend.keys()), loc="outside lower center", ncols=3, fontsize=9)
+        path = Path(folder) / ("energy.png" if len(problem.scenarios) == 1 else f"energy-{scenario.name}.png")
+        save(fig, path)
+        paths.append(path)
+    return paths

@@ -1,0 +1,85 @@
+"""Plots of a study folder (``study.csv`` + ``study.json``): curves and a Pareto front.
+
+``study.png``: the objective and every design variable (rows) against each varied key
+(columns), in the CSV's display units; points that did not end ``optimal`` are marked
+with a red cross on the objective row. ``pareto.png`` (when an objective weight is
+varied): added mass against added inertia of the optimal points, coloured by the weight.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ._mpl import pyplot, save
+
+FIXED = {"point", "status", "objective_kg", "added_mass_kg", "added_inertia_kg_m2", "residual_ratio", "certificate_gap_kg", "solve_time_s", "solver", "message"}
+
+
+def _number(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        return float("nan")
+
+
+def study_plots(folder: str | Path) -> list[Path]:
+    """Write ``study.png`` (and ``pareto.png`` when a weight was varied) into ``folder``."""
+    folder = Path(folder)
+    meta = json.loads((folder / "study.json").read_text(encoding="utf-8"))
+    with (folder / "study.csv").open(encoding="utf-8", newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    columns = meta["columns"]
+    varied = [f"{v['key']} [{v['unit'] or '1'}]" for v in meta["plan"]["vary"]]
+    variables = [c for c in columns if c not in FIXED and c not in varied]
+    ok = np.array([r["status"] == "optimal" for r in rows], dtype=bool)
+    data = {c: np.array([_number(r.get(c, "")) for r in rows]) for c in columns if c not in ("status", "solver", "message")}
+    plt = pyplot()
+    ys = ["objective_kg"] + variables
+    fig, axes = plt.subplots(len(ys), len(varied), figsize=(max(7.0, 5.0 * len(varied) + 1), 2.3 * len(ys) + 1.2), squeeze=False)
+    one_axis = len(varied) == 1 and meta["plan"]["method"] == "grid"
+    for j, x_name in enumerate(varied):
+        x = data[x_name]
+        order = np.argsort(x, kind="stable")
+        for i, y_name in enumerate(ys):
+            ax = axes[i, j]
+            y = data[y_name]
+            sel = order[ok[order]]
+            if one_axis:
+                ax.plot(x[sel], y[sel], marker="o" if len(rows) <= 200 else None, markersize=3, linewidth=1.5, color="tab:blue", label="optimal")
+            else:
+                ax.scatter(x[sel], y[sel], s=8, color="tab:blue", label="optimal")
+            if i == 0 and (~ok).any():
+                bad = ~ok & np.isfinite(x)
+                ax.scatter(x[bad], np.where(np.isfinite(y[bad]), y[bad], np.nanmin(y[sel]) if sel.size else 0.0), marker="x", color="red",
+                           label=f"not optimal ({int((~ok).sum())})")
+            ax.set_xlabel(x_name)
+            ax.set_ylabel(y_name.replace("objective_kg", "objective [kg]"))
+            ax.grid(alpha=0.3)
+            if i == 0:
+                ax.legend(fontsize=8, loc="best")
+    fig.suptitle(f"{meta['problem']}: study of {', '.join(varied)}\n{len(rows)} points ({meta['plan']['method']}), {int(ok.sum())} optimal", fontsize=11)
+    fig.tight_layout()
+    paths = [folder / "study.png"]
+    save(fig, paths[0])
+    weights = [v for v in varied if v.startswith("objective.")]
+    if weights:
+        w = data[weights[0]]
+        fig, ax = plt.subplots(figsize=(7, 5))
+        sel = np.argsort(w, kind="stable")
+        sel = sel[ok[sel]]
+        inertia, mass = data["added_inertia_kg_m2"][sel], data["added_mass_kg"][sel]
+        ax.plot(inertia, mass, color="0.6", linewidth=1, zorder=1)
+        points = ax.scatter(inertia, mass, c=w[sel], cmap="viridis", s=28, zorder=2)
+        fig.colorbar(points, ax=ax, label=weights[0])
+        ax.set_xlabel("added inertia Σ M d² [kg·m²]")
+        ax.set_ylabel("added mass Σ M [kg]")
+        ax.set_title(f"{meta['problem']}: Pareto front of added mass and added inertia\n(each point: the optimum for one {weights[0]})", fontsize=11)
+        ax.grid(alpha=0.3)
+        fig.tight_layout()
+        paths.append(folder / "pareto.png")
+        save(fig, paths[1])
+    return paths

@@ -1,0 +1,111 @@
+"""``counterpoise study``: from command-line options to a finished study (the CLI stays thin).
+
+Bad input (``--vary``, ``--samples``, ``--scheduler``...) raises a one-line
+:class:`~counterpoise.errors.ProblemFileError` before anything is written; the CLI prints
+it and exits 2. A finished study exits 0 whatever its points' statuses (they are data).
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from ..errors import ProblemFileError
+from ..model.problem import Problem
+from .runners import PointResult, ProcessRunner, Runner, SerialRunner, StudyTask
+from .spec import plan_study
+from .study import StudyOutcome, run_study
+
+
+@dataclass(frozen=True)
+class StudyOptions:
+    vary: tuple[str, ...]
+    samples: int | None = None
+    method: str | None = None
+    seed: int | None = None
+    out: Path = Path("results")
+    jobs: int | None = None
+    scheduler: str | None = None
+    scheduler_timeout: float = 10.0
+    resume: bool = False
+    time_limit: float | None = None
+    batch_size: int = 16
+    plot: bool = True
+    progress: bool = True
+
+
+def make_runner(options: StudyOptions, label: str) -> Runner:
+    """The engine: in-process (``--jobs 1``), a process pool, or Dask (``--scheduler``)."""
+    jobs = options.jobs
+    if jobs is not None and jobs < 1:
+        raise ProblemFileError(label, "--jobs", f"must be at least 1, got {jobs}")
+    if options.scheduler is not None:
+        from .cluster import DaskRunner, SchedulerError
+
+        address = options.scheduler.strip()
+        if address != "local" and "://" not in address:
+            raise ProblemFileError(label, "--scheduler", f"expected tcp://HOST:PORT or local, got '{address}'")
+        runner = DaskRunner(address, jobs, options.scheduler_timeout)
+        try:
+            runner.connect()
+        except SchedulerError as exc:
+            raise ProblemFileError(label, "--scheduler", str(exc)) from None
+        return runner
+    jobs = jobs or os.cpu_count() or 1
+    return SerialRunner(tune=True) if jobs == 1 else ProcessRunner(jobs)
+
+
+def run_study_command(problem: Problem, options: StudyOptions, console: Any) -> StudyOutcome:
+    """Plan, run (with a progress bar on ``console``), and plot a study."""
+    label = problem.path or problem.name
+    plan = plan_study(problem, list(options.vary), label, options.samples, options.method, options.seed)
+    if options.time_limit is not None and not options.time_limit > 0:
+        raise ProblemFileError(label, "--time-limit", f"must be positive, got {options.time_limit}")
+    if options.batch_size < 1:
+        raise ProblemFileError(label, "--batch-size", f"must be at least 1, got {options.batch_size}")
+    runner = make_runner(options, label)
+    task = StudyTask(problem, time_limit=options.time_limit)
+    try:
+        outcome = _run(problem, plan, options, runner, task, console)
+    finally:
+        close = getattr(runner, "close", None)
+        if close is not None:
+            close()
+    if options.plot:
+        from ..plots import study_plots
+
+        study_plots(outcome.folder)
+    return outcome
+
+
+def _run(problem: Problem, plan: Any, options: StudyOptions, runner: Runner, task: StudyTask, console: Any) -> StudyOutcome:
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
+    columns = (
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("[red]{task.fields[failed]} not optimal[/red]"),
+        TextColumn("{task.fields[rate]}"),
+        TimeElapsedColumn(),
+        TimeRemainingColumn(),
+    )
+    with Progress(*columns, console=console, disable=not options.progress) as bar:
+        t0 = time.perf_counter()
+        state = {"done": 0, "failed": 0}
+        total = len(plan.points)
+        job = bar.add_task(f"{problem.name}", total=total, failed=0, rate="")
+
+        def progress(results: list[PointResult]) -> None:
+            state["done"] += len(results)
+            state["failed"] += sum(r.status != "optimal" for r in results)
+            rate = state["done"] / max(time.perf_counter() - t0, 1e-9)
+            bar.update(job, advance=len(results), failed=state["failed"], rate=f"{rate:.1f} points/s")
+
+        outcome = run_study(problem, plan, options.out, runner, task=task, resume=options.resume, batch_size=options.batch_size,
+                            progress=progress, started=lambda skipped: bar.update(job, completed=skipped))
+        bar.update(job, completed=total)
+    return outcome
