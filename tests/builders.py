@@ -131,3 +131,33 @@ position = ["-b", 0, 0]
 mass_weight = 1
 inertia_weight = "{w} 1/m^2"
 """
+
+
+#: A counter-mass whose x position scales with its own mass: its x-moment is quadratic in M,
+#: its y-moment linear, so two independent balance conditions for one variable (the
+#: over-determined path of the designer: balanced only at M = M0).
+OVERDETERMINED_TOML = """
+[problem]
+name = "overdetermined"
+[gravity]
+acceleration = "9.81 m/s^2"
+direction = [0, -1, 0]
+[parameters]
+M0 = "1 kg"
+d0 = "0.1 m"
+[subsystems.arm]
+coordinates.q = { range = ["-180 deg", "180 deg"] }
+[frames.link]
+transforms = [{ rotate = "z", angle = "q" }]
+[bodies.tip]
+frame = "link"
+mass = "1 kg"
+com = ["0.1 m", "0.1 m", 0]
+[variables.M]
+lower = "0.2 kg"
+upper = "3 kg"
+[counter_masses.cm]
+frame = "link"
+mass = "M"
+position = ["-d0 * M / M0", "-d0", 0]
+"""

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from builders import pendulum, pendulum_toml
+from builders import OVERDETERMINED_TOML, pendulum, pendulum_toml
 from counterpoise.designer import Designer
 from counterpoise.errors import ProblemFileError, SolverError
 from counterpoise.formulation import Slot
@@ -269,31 +269,7 @@ def test_solve_time_counts_solver_calls_not_builds(monkeypatch):
 
     monkeypatch.setattr(ipopt.IpoptBackend, "solve", counting_solve)
     monkeypatch.setattr(ipopt.IpoptBackend, "__init__", counting_init)
-    text = """
-[problem]
-name = "overdetermined"
-[gravity]
-acceleration = "9.81 m/s^2"
-direction = [0, -1, 0]
-[parameters]
-M0 = "1 kg"
-d0 = "0.1 m"
-[subsystems.arm]
-coordinates.q = { range = ["-180 deg", "180 deg"] }
-[frames.link]
-transforms = [{ rotate = "z", angle = "q" }]
-[bodies.tip]
-frame = "link"
-mass = "1 kg"
-com = ["0.1 m", "0.1 m", 0]
-[variables.M]
-lower = "0.2 kg"
-upper = "3 kg"
-[counter_masses.cm]
-frame = "link"
-mass = "M"
-position = ["-d0 * M / M0", "-d0", 0]
-"""
+    text = OVERDETERMINED_TOML
     designer = Designer(load_problem_text(text))
     assert builds == ["design"]
     calls.clear()

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from builders import Chain, Link, pendulum, pendulum_toml
+from builders import OVERDETERMINED_TOML, Chain, Link, pendulum, pendulum_toml
 from counterpoise.pipeline import design
 from counterpoise.io.loader import load_problem_text
 from counterpoise.designer import Designer
@@ -249,31 +249,7 @@ def test_more_conditions_than_variables_but_consistent():
     while the y-moment is linear: rank 2 > 1 variable. The designer finds the balanced design
     and reduces the conditions to the rank of their Jacobian there.
     """
-    text = """
-[problem]
-name = "overdetermined"
-[gravity]
-acceleration = "9.81 m/s^2"
-direction = [0, -1, 0]
-[parameters]
-M0 = "1 kg"
-d0 = "0.1 m"
-[subsystems.arm]
-coordinates.q = { range = ["-180 deg", "180 deg"] }
-[frames.link]
-transforms = [{ rotate = "z", angle = "q" }]
-[bodies.tip]
-frame = "link"
-mass = "1 kg"
-com = ["0.1 m", "0.1 m", 0]
-[variables.M]
-lower = "0.2 kg"
-upper = "3 kg"
-[counter_masses.cm]
-frame = "link"
-mass = "M"
-position = ["-d0 * M / M0", "-d0", 0]
-"""
+    text = OVERDETERMINED_TOML
     problem = load_problem_text(text)
     designer = Designer(problem)
     assert designer.n_equalities == 2 > len(problem.variables)
