@@ -38,7 +38,7 @@ __all__ = [
     "Designer",
     "DesignResult",
     "Status",
-    "verify",
+    "verify_design",
     "write_reports",
 ]
 
@@ -56,7 +56,8 @@ _LAZY = {
     "DesignResult": ("pipeline", "DesignResult"),
     "Designer": ("designer.designer", "Designer"),
     "Status": ("solvers.base", "Status"),
-    "verify": ("verify.check", "verify"),
+    # not "verify": that name is the subpackage once it is imported
+    "verify_design": ("verify.check", "verify"),
     "write_reports": ("report.files", "write_reports"),
 }
 
@@ -67,7 +68,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from .pipeline import DesignResult, design
     from .report.files import write_reports
     from .solvers.base import Status
-    from .verify.check import verify
+    from .verify.check import verify as verify_design
 
 
 def __getattr__(name: str) -> Any:
