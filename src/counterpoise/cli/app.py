@@ -1,5 +1,6 @@
-"""Command line: ``counterpoise validate FILE...``, ``counterpoise solve FILE...`` and
-``counterpoise schedule FILE --payload MASS``, ``counterpoise catalogue CSV...``.
+"""Command line: ``counterpoise validate FILE...``, ``counterpoise catalogue CSV...``,
+``counterpoise solve FILE...``, ``counterpoise schedule FILE --payload MASS``,
+``counterpoise study FILE --vary ...`` and ``counterpoise plot FILE|STUDY``.
 
 A thin layer: it parses options, calls the library and prints. Exit status: 0 every
 problem solved to a verified optimum; 1 some problem is infeasible or failed (its reports
