@@ -94,11 +94,11 @@ def solve_convex(designer: "Designer", z0: np.ndarray, p: np.ndarray, b: Bounds,
     return designer._solution(out.z, p, b, out, f"CLARABEL: {out.solver_status}")
 
 
-def certificate_gap(designer: "Designer", z: np.ndarray, p: np.ndarray, b: Bounds, out: SolverOutput, objective: float) -> float:
+def certificate_gap(designer: "Designer", z: np.ndarray, p: np.ndarray, b: Bounds, solver: str, objective: float) -> float:
     """Objective minus the LP optimum at the geometry of ``z`` (kg); see the module docstring."""
     from ..solvers.convex import ConvexBackend, affine_variables
 
-    if out.solver == "clarabel":
+    if solver == "clarabel":
         return 0.0
     if designer._certificate is None:
         linear = linear_slots(designer)
@@ -143,12 +143,13 @@ def multistart(designer: "Designer", starts: int, seed: int, **solve_options: An
             for slot in draw:
                 i = d.index[slot]
                 guess[slot] = float(d.lower[i] + (d.upper[i] - d.lower[i]) * rng.random())
-        solutions.append(designer.solve(initial=guess, **solve_options))
+        solutions.append(designer.solve(initial=guess, certify=False, **solve_options))
     optimal = [s for s in solutions if s.status is Status.OPTIMAL] or solutions
     best = min(optimal, key=lambda s: s.objective if np.isfinite(s.objective) else np.inf)
     reached = sum(
         1 for s in optimal if s.status is best.status and abs(s.objective - best.objective) <= SAME_OBJECTIVE * max(1.0, abs(best.objective))
     )
+    designer.certify(best, solve_options.get("parameters"), solve_options.get("bounds"))
     best.starts = (reached, starts)
     best.solve_time = sum(s.solve_time for s in solutions)
     return best

@@ -28,6 +28,11 @@ from ..threads import limit_blas_threads
 from . import convex
 from .solution import Solution
 
+#: Balance equalities below this are rounding noise: each coordinate's rows are scaled by its
+#: largest sampled residual (formulation.conditions), so the equalities are of order one and
+#: a few thousand ulps of them is noise, not a worse balance (used when polishing onto bounds).
+ROUNDING_FLOOR = 1e-12
+
 BoundsOverride = Mapping["Slot | str", tuple[float, float]]
 
 #: Seeded random starts of the closest-design search after the given ones (see
@@ -86,6 +91,7 @@ class Designer:
         initial: Mapping[Slot, float] | None = None,
         parameters: Mapping[str, float] | None = None,
         bounds: BoundsOverride | None = None,
+        certify: bool = True,
     ) -> Solution:
         """Solve with the built solver.
 
@@ -95,11 +101,32 @@ class Designer:
         compression was computed at the file's values; the dense verification of the
         result says whether it still holds (a parameter that was 0 at build time may have
         hidden a condition).
+
+        ``certify``: compute the solution's certificate gap (an LP, see :mod:`.convex`);
+        callers that solve many times and report one design (part searches, schedules,
+        multi-start) pass False and :meth:`certify` the one they report.
         """
         d = self.formulation.design
         p = self.formulation.parameters.values(parameters) if parameters else self.parameters
         b = self.bounds(self.n_equalities, bounds)
         z0 = np.clip(d.to_z(d.vector(initial or {})), b.lbz, b.ubz)
+        solution = self._solve(z0, p, b, bounds)
+        if certify:
+            solution.certificate_gap = self._certificate_gap(solution, p, b)
+        return solution
+
+    def certify(self, solution: Solution, parameters: Mapping[str, float] | None = None, bounds: BoundsOverride | None = None) -> Solution:
+        """Set the certificate gap of ``solution`` (solved with these ``parameters`` and ``bounds``)."""
+        p = self.formulation.parameters.values(parameters) if parameters else self.parameters
+        solution.certificate_gap = self._certificate_gap(solution, p, self.bounds(self.n_equalities, bounds))
+        return solution
+
+    def _certificate_gap(self, solution: Solution, p: np.ndarray, b: Bounds) -> float:
+        d = self.formulation.design
+        return convex.certificate_gap(self, d.to_z(d.vector(solution.values)), p, b, solution.solver, solution.objective)
+
+    def _solve(self, z0: np.ndarray, p: np.ndarray, b: Bounds, bounds: BoundsOverride | None) -> Solution:
+        d = self.formulation.design
         if self.convex is not None:
             return convex.solve_convex(self, z0, p, b, bounds)
         if self.n_equalities > len(d):
@@ -198,7 +225,7 @@ class Designer:
         g_old = np.array(gj(z, p)[0]).reshape(-1)
         worst_new = np.abs(g_new).max(initial=0.0)
         worst_old = np.abs(g_old).max(initial=0.0)
-        if not (worst_new <= max(worst_old, 1e-14) and (signs.size == 0 or signs.min() >= 0)):
+        if not (worst_new <= max(worst_old, ROUNDING_FLOOR) and (signs.size == 0 or signs.min() >= 0)):
             return z
         if objective_limit is not None and not float(self.formulation.report_function(candidate, p)[0]) <= objective_limit:
             return z
@@ -317,7 +344,6 @@ class Designer:
             conditions=self.n_equalities,
             condition_summary=self.conditions.summary(),
             scenario_parameters=f.parameters.scenario_values(parameters),
-            certificate_gap=convex.certificate_gap(self, z, parameters, b, out, objective),
         )
 
 

@@ -86,7 +86,7 @@ class AdjustmentSolver:
 
     def at(self, mass: float) -> Setting:
         """Solve and verify the adjustments for payload ``mass`` (kg)."""
-        solution = self.designer.solve(initial=self._last or None, parameters={self.payload.name: mass})
+        solution = self.designer.solve(initial=self._last or None, parameters={self.payload.name: mass}, certify=False)
         verification = verify(solution, samples=self.samples)
         status, message = judge(solution, verification)
         values = {slot.variable: v for slot, v in solution.values.items()}
@@ -164,8 +164,7 @@ def _lines(problem: Problem, settings: tuple[Setting, ...], lower: float, upper:
         deviation = float(np.abs(x - (intercept + slope * m)).max())
         tolerance = LINEAR_TOLERANCE * max(v.upper - v.lower, abs(x).max(), 1e-300)
         if deviation <= tolerance:
-            # the line is claimed to this tolerance only: an intercept below it is a zero
-            out.append(Line(v.name, slope, 0.0 if abs(intercept) <= tolerance else intercept, deviation))
+            out.append(Line(v.name, slope, intercept, deviation))
     return tuple(out)
 
 

@@ -202,7 +202,7 @@ def adjust_corners(problem: Problem, designer: Any, solution: Solution, rows: di
             bounds: dict[Any, tuple[float, float]] = {
                 slot: (value, value) for slot, value in solution.values.items() if slot.variable not in adjust
             }
-            again = designer.solve(initial=solution.values, parameters=rates, bounds=bounds)
+            again = designer.solve(initial=solution.values, parameters=rates, bounds=bounds, certify=False)
             if again.status is Status.OPTIMAL:
                 adjusted_ratio = verify(again, samples=samples).residual_ratio
                 for slot, value in solution.values.items():

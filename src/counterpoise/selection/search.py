@@ -143,7 +143,7 @@ class PartSearch:
         t0 = time.perf_counter()
         d = self.designer
         counts = {n: SlotCount(n, len(s.catalogue), (math.nan, math.nan)) for n, s in self.slots.items()}
-        base = d.solve()
+        base = d.solve(certify=False)
         self.solves += 1
         if base.status is not Status.OPTIMAL:
             message = (
@@ -313,7 +313,7 @@ class PartSearch:
 
     def _solve(self, fixed: Mapping[str, float], others: Mapping[str, tuple[float, float]]) -> Any | None:
         bounds = {**{n: (k, k) for n, k in fixed.items()}, **others}
-        sol = self.designer.solve(initial=self.base.values, bounds=bounds)
+        sol = self.designer.solve(initial=self.base.values, bounds=bounds, certify=False)
         self.solves += 1
         return sol if sol.status is Status.OPTIMAL else None
 
@@ -353,7 +353,7 @@ class PartSearch:
                 if all(lo == hi for lo, hi in child):
                     heapq.heappush(heap, (bound, next(counter), child))
                     continue
-                sol = self.designer.solve(initial=self.base.values, bounds={**intervals, **others})
+                sol = self.designer.solve(initial=self.base.values, bounds={**intervals, **others}, certify=False)
                 self.solves += 1
                 if sol.status is Status.OPTIMAL:
                     heapq.heappush(heap, (sol.objective, next(counter), child))
