@@ -145,7 +145,6 @@ MANIFEST: dict[str, Expect] = {
         "catalogues.parts.file",
         "max_length_below_free_length.csv: row 3 (line 4), column max_length_m: the maximum length 0.06 m must be above the free length 0.08 m",
     ),
-    "slot_with_payload_range.toml": Expect("slots", "spring slots and payload ranges cannot be combined yet"),
     "slot_unknown_catalogue.toml": Expect("slots.s.catalogue", "unknown catalogue 'shop'"),
     "spring_slot_and_stiffness.toml": Expect("springs.s.slot", "give either a stiffness or a slot"),
     "slot_tolerance_above_100_percent.toml": Expect("slots.s.rate_tolerance", "a tolerance must be between 0 and 100 %, got '150 %'"),

@@ -1,14 +1,31 @@
-"""Solve, verify and evaluate a problem: the result a report is written from."""
+"""Solve, verify and evaluate a problem: the result a report is written from.
+
+:func:`build_method` builds a problem's design method once, nested by the problem's
+content (:mod:`counterpoise.designer.methods`)::
+
+    PartsMethod            spring slots: a catalogue part per slot      (selection.method)
+      PayloadMethod        a payload range: samples, then a schedule     (payload.method)
+        MultiStart         starts > 1: seeded random geometries          (designer.methods)
+          Plain | Minimax  IPOPT or the LP path | directly attached springs
+
+Each layer is present only when the problem needs it, and each takes the same options
+(``parameters``, ``bounds``, ``initial``), so every option acts on every kind of problem.
+:func:`run` solves a method, verifies and judges the design: the one wrapper that makes a
+:class:`DesignResult`. :func:`design` is both in one call.
+"""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from .designer.designer import Designer
-from .designer.minimax import MinimaxDesigner, has_direct_springs
+from .designer.methods import DesignMethod, core_method
+from .designer.minimax import has_direct_springs
 from .designer.quantities import QuantityValue, evaluate_quantities
 from .designer.solution import Solution
+from .formulation.layout import Slot
 from .model.problem import Problem
 from .solvers.base import Status
 from .verify.check import verify
@@ -16,7 +33,11 @@ from .verify.checks import Verification
 from .verify.judge import judge
 
 if TYPE_CHECKING:
+    from .payload import OperatorSettings
     from .selection.parts import PartsReport
+
+#: the options :func:`design` passes on to a method's ``solve``
+SOLVE_OPTIONS = ("parameters", "bounds", "initial")
 
 
 @dataclass(frozen=True)
@@ -36,84 +57,65 @@ class DesignResult:
         return self.status is Status.OPTIMAL
 
 
-def design(problem: Problem, designer: Designer | None = None, starts: int = 1, **solve_options: object) -> DesignResult:
+def build_method(problem: Problem, starts: int = 1, backend: str = "auto", designer: Any = None) -> DesignMethod:
+    """The design method of ``problem`` (see the module docstring), built once.
+
+    ``starts`` > 1: a seeded multi-start (seed ``settings.seed``) around the innermost
+    solve, for every kind of problem. ``backend``: ``auto``, ``ipopt`` or ``clarabel``
+    (see :class:`~counterpoise.designer.designer.Designer`). ``designer``: a prebuilt
+    designer of ``problem`` for the innermost solve (plain problems without a payload range).
+    """
+    if starts < 1:
+        raise ValueError("starts must be at least 1")
+    direct = has_direct_springs(problem)
+    method: DesignMethod
+    if problem.payloads:
+        from .payload.method import PayloadMethod
+
+        method = PayloadMethod(problem, lambda sampled: core_method(sampled, starts, backend))
+    else:
+        method = core_method(problem, starts, backend, designer)
+    if problem.slots:
+        from .selection.method import PartsMethod
+
+        method = PartsMethod(problem, method, direct)
+    return method
+
+
+def run(
+    method: DesignMethod,
+    parameters: Mapping[str, float] | None = None,
+    bounds: Mapping["Slot | str", tuple[float, float]] | None = None,
+    initial: Mapping[Slot, float] | None = None,
+) -> DesignResult:
+    """Solve ``method`` with these options, verify the design densely and judge it."""
+    solution = method.solve(parameters, bounds, initial)
+    verification = solution.verification or verify(solution)
+    status, message = judge(solution, verification)
+    return DesignResult(solution.problem, status, message, solution, verification, evaluate_quantities(solution), solution.payload, solution.parts)
+
+
+def design(problem: Problem, designer: Designer | Any | None = None, starts: int = 1, **solve_options: Any) -> DesignResult:
     """Solve ``problem`` (with a prebuilt ``designer`` if given), verify it, evaluate reports.
 
-    ``solve_options`` go to :meth:`Designer.solve` (``parameters``, ``bounds``, ``initial``).
-    A problem with a payload range is designed for the whole range (:mod:`.payload`) unless
-    a designer or solve options are given: then it is solved at its nominal payload. A
-    problem with spring slots first chooses its parts (:mod:`counterpoise.selection`) and
-    solves for their rates; one with directly attached springs minimises the worst residual.
-    ``starts`` > 1 (plain problems): a seeded multi-start over the free geometry (seed: ``settings.seed``),
-    see :func:`counterpoise.designer.convex.multistart`.
+    ``solve_options``: ``parameters``, ``bounds``, ``initial`` (see :func:`run`); any other
+    name is an error. They act on every kind of problem: a payload range is designed over
+    its whole range with them, a problem with slots searches its parts with them.
+    ``starts`` > 1: a seeded multi-start over the free geometry (seed ``settings.seed``).
+    To solve one problem many times, build its method once (:func:`build_method`) and
+    call :func:`run`.
     """
-    if problem.slots:
-        return _design_with_parts(problem, designer, **solve_options)
-    if has_direct_springs(problem):
-        return _design_minimax(problem, designer, **solve_options)
-    if problem.payloads and designer is None and not solve_options:
-        from .payload import design_payloads
-
-        outcome = design_payloads(problem)
-        s = outcome.solution
-        return DesignResult(s.problem, outcome.status, outcome.message, s, outcome.verification, evaluate_quantities(s), payload=outcome)
-    designer = designer or Designer(problem)
-    if starts > 1:
-        from .designer.convex import multistart
-
-        solution = multistart(designer, starts, problem.settings.seed, **solve_options)
-    else:
-        solution = designer.solve(**solve_options)  # type: ignore[arg-type]
-    verification = verify(solution)
-    status, message = judge(solution, verification)
-    return DesignResult(problem, status, message, solution, verification, evaluate_quantities(solution))
+    unknown = sorted(set(solve_options) - set(SOLVE_OPTIONS))
+    if unknown:
+        raise TypeError(f"design() got an unexpected option {unknown[0]!r} (expected {', '.join(SOLVE_OPTIONS)})")
+    return run(build_method(problem, starts, designer=designer), **solve_options)
 
 
-def _design_with_parts(problem: Problem, designer: "Designer | MinimaxDesigner | None", **solve_options: object) -> DesignResult:
-    from .selection import parts
-    from .selection.direct import part_parameters, search_direct
+def operator_settings(problem: Problem, mass: float, method: DesignMethod | None = None) -> "OperatorSettings":
+    """What ``counterpoise schedule`` prints: the design of ``problem`` for its range (through
+    its design method, so parts and every other layer take part), then its adjustments
+    for payload ``mass`` (kg)."""
+    from .payload import settings_for
 
-    given = dict(solve_options.pop("parameters", None) or {})  # type: ignore[call-overload]
-    if has_direct_springs(problem):
-        designer = designer if isinstance(designer, MinimaxDesigner) else MinimaxDesigner(problem)
-        search = search_direct(problem, designer)
-        rows = dict(search.choice.parts) if search.choice else {s.name: 0 for s in problem.slots}
-        solution = designer.solve(parameters={**given, **part_parameters(problem, rows)}, **solve_options)  # type: ignore[arg-type]
-        verification = verify(solution)
-        status, message = _judge_minimax(solution, verification)
-    else:
-        search, rows, rates = parts.choose(problem)
-        designer = designer or Designer(problem)
-        solution = designer.solve(parameters={**given, **part_parameters(problem, rows)}, **solve_options)  # type: ignore[arg-type]
-        verification = verify(solution)
-        status, message = judge(solution, verification)
-    chosen = parts.report(problem, designer, solution, search, rows)
-    if search.choice is None:
-        near = "; ".join(m.text() for m in search.nearest) or "none could be evaluated"
-        status, message = Status.INFEASIBLE, f"{search.message}. Nearest candidates: {near}"
-    elif status is Status.OPTIMAL and not chosen.fits:
-        bad = next(u for u in chosen.springs if not u.fits)
-        status = Status.INFEASIBLE
-        message = f"part {bad.part_number} of spring {bad.spring} leaves its limits on the dense check (margins: slack {bad.margin_slack:.3g} m, length {bad.margin_length:.3g} m, load {bad.margin_load:.3g} N)"
-    elif status is Status.OPTIMAL:
-        picked = ", ".join(f"{s.name}: {s.catalogue.part_number[rows[s.name]]}" for s in problem.slots)
-        message = f"{message}; parts {picked}"
-    return DesignResult(problem, status, message, solution, verification, evaluate_quantities(solution), parts=chosen)
-
-
-def _judge_minimax(solution: Solution, verification: Verification) -> tuple[Status, str]:
-    """A minimax design is optimal when IPOPT converged; its dense ratio is reported as is."""
-    if solution.status is not Status.OPTIMAL:
-        return solution.status if solution.status is Status.FAILED else Status.FAILED, solution.message
-    dense = verification.residual_ratio
-    if dense != dense:
-        return Status.FAILED, "verification failed: the residual could not be evaluated (NaN)"
-    return Status.OPTIMAL, f"{solution.message}; dense check: worst residual ratio {dense:.6g}"
-
-
-def _design_minimax(problem: Problem, designer: "Designer | MinimaxDesigner | None", **solve_options: object) -> DesignResult:
-    designer = designer if isinstance(designer, MinimaxDesigner) else MinimaxDesigner(problem)
-    solution = designer.solve(**solve_options)  # type: ignore[arg-type]
-    verification = verify(solution)
-    status, message = _judge_minimax(solution, verification)
-    return DesignResult(problem, status, message, solution, verification, evaluate_quantities(solution))
+    solution = (method or build_method(problem)).solve()
+    return settings_for(problem, mass, solution.payload)

@@ -203,9 +203,9 @@ def schedule(
     if mass.si < 0:
         err_console.print(f"{file}: --payload: a payload mass must not be negative ('{payload}')", markup=False)
         raise typer.Exit(2)
-    from ..payload import settings_for
+    from ..pipeline import operator_settings
 
-    result = settings_for(problem, mass.si)
+    result = operator_settings(problem, mass.si)
     spec = result.design.payload
     if result.setting is None:
         out_console.print(f"{problem.name}: the design is {result.design.status.value}: {result.design.message}", markup=False)

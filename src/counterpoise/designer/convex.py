@@ -16,7 +16,6 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -75,8 +74,9 @@ def convex_backend(designer: "Designer", choice: str) -> Any:
     return ConvexBackend(designer.nlp, every)
 
 
-def solve_convex(designer: "Designer", z0: np.ndarray, p: np.ndarray, b: Bounds, bounds: Any) -> "Solution":
-    """The LP's optimum (variables on a bound put exactly on it), or the closest design."""
+def solve_convex(designer: "Designer", z0: np.ndarray, p: np.ndarray, b: Bounds, bounds: Any) -> tuple[np.ndarray, SolverOutput, str]:
+    """The LP's optimum (variables on a bound put exactly on it), or the closest design:
+    (scaled point, solver output, message) for the designer to build its Solution from."""
     out = designer.convex.solve(z0, p, b)
     if out.status is Status.OPTIMAL:
         # An interior-point LP solution meets the equalities to ~1e-8 relative: put bound
@@ -86,70 +86,69 @@ def solve_convex(designer: "Designer", z0: np.ndarray, p: np.ndarray, b: Bounds,
         on_bound = (z <= b.lbz) | (z >= b.ubz)
         fixed = Bounds(np.where(on_bound, z, b.lbz), np.where(on_bound, z, b.ubz), b.lbg, b.ubg)
         z = designer.refine(z, p, fixed)
-        return designer._solution(z, p, b, out, "balanced design found (LP, Clarabel)")
+        return z, out, "balanced design found (LP, Clarabel)"
     if out.status is Status.INFEASIBLE:
         closest = designer.closest_design(z0, p, bounds)
         out = SolverOutput(closest.z, Status.INFEASIBLE, out.solver_status, out.iterations, out.solve_time + closest.solve_time, out.solver)
-        return designer._solution(closest.z, p, b, out, "CLARABEL: infeasible")
-    return designer._solution(out.z, p, b, out, f"CLARABEL: {out.solver_status}")
+        return closest.z, out, "CLARABEL: infeasible"
+    return out.z, out, f"CLARABEL: {out.solver_status}"
+
+
+class Certificate:
+    """The certificate LP of a designer (see the module docstring), built on first use.
+
+    It reads only the designer's public parts (problem, formulation, NLP) and keeps its own
+    state, so the designer's internals stay its own.
+    """
+
+    def __init__(self, designer: "Designer") -> None:
+        self.problem = designer.problem
+        self.formulation = designer.formulation
+        self.nlp = designer.nlp
+        self._lp: Any = None  # None: not built; False: no LP to compare with
+
+    def backend(self) -> Any:
+        """The LP backend over the linear slots, or False when there is none."""
+        from ..solvers.convex import ConvexBackend, affine_variables
+
+        if self._lp is None:
+            geometric = geometric_variables(self.problem)
+            linear = [i for i, slot in enumerate(self.formulation.design.slots) if slot.variable not in geometric]
+            ok = bool(linear) and affine_variables(self.nlp, linear)
+            self._lp = ConvexBackend(self.nlp, linear) if ok else False
+        return self._lp
+
+    def gap(self, z: np.ndarray, p: np.ndarray, b: Bounds, solver: str, objective: float) -> float:
+        """Objective minus the LP optimum at the geometry of ``z`` (kg)."""
+        if solver == "clarabel":
+            return 0.0
+        lp = self.backend()
+        if lp is False or b.lbg.size != int(self.nlp["g"].numel()):
+            return float("nan")
+        fixed = np.ones(z.size, dtype=bool)
+        fixed[lp.linear] = False
+        lbz, ubz = b.lbz.copy(), b.ubz.copy()
+        lbz[fixed] = ubz[fixed] = np.clip(z[fixed], b.lbz[fixed], b.ubz[fixed])
+        try:
+            cert = lp.solve(z, p, Bounds(lbz, ubz, b.lbg, b.ubg))
+        except ValueError:
+            return float("nan")
+        if cert.status is not Status.OPTIMAL:
+            return float("nan")
+        best = float(self.formulation.report_function(cert.z, p)[0])
+        return objective - best
 
 
 def certificate_gap(designer: "Designer", z: np.ndarray, p: np.ndarray, b: Bounds, solver: str, objective: float) -> float:
     """Objective minus the LP optimum at the geometry of ``z`` (kg); see the module docstring."""
-    from ..solvers.convex import ConvexBackend, affine_variables
-
-    if solver == "clarabel":
-        return 0.0
-    if designer._certificate is None:
-        linear = linear_slots(designer)
-        ok = bool(linear) and affine_variables(designer.nlp, linear)
-        designer._certificate = ConvexBackend(designer.nlp, linear) if ok else False
-    lp = designer._certificate
-    if lp is False or b.lbg.size != int(designer.nlp["g"].numel()):
-        return float("nan")
-    fixed = np.ones(z.size, dtype=bool)
-    fixed[lp.linear] = False
-    lbz, ubz = b.lbz.copy(), b.ubz.copy()
-    lbz[fixed] = ubz[fixed] = np.clip(z[fixed], b.lbz[fixed], b.ubz[fixed])
-    try:
-        cert = lp.solve(z, p, Bounds(lbz, ubz, b.lbg, b.ubg))
-    except ValueError:
-        return float("nan")
-    if cert.status is not Status.OPTIMAL:
-        return float("nan")
-    best = float(designer.formulation.report_function(cert.z, p)[0])
-    return objective - best
+    return designer.certificate.gap(z, p, b, solver, objective)
 
 
 def multistart(designer: "Designer", starts: int, seed: int, **solve_options: Any) -> "Solution":
-    """Solve from the file's initial design and ``starts - 1`` seeded random geometries.
+    """Solve from the file's initial design and ``starts - 1`` seeded random geometries
+    (:class:`counterpoise.designer.methods.MultiStart` around the designer)."""
+    from .methods import MultiStart, Plain
 
-    Only the variables that move a point are drawn (uniformly in their bounds); the others
-    keep their initial values (they enter linearly). The best optimal solution is returned
-    (the best of all when none is optimal), with ``starts = (reached, run)``: how many
-    starts ended within :data:`SAME_OBJECTIVE` (relative) of the best objective.
-    """
     if starts < 1:
         raise ValueError("starts must be at least 1")
-    d = designer.formulation.design
-    rng = np.random.default_rng(seed)
-    geometric = geometric_variables(designer.problem)
-    draw = [slot for slot in d.slots if slot.variable in geometric] or list(d.slots)
-    initial: Mapping[Any, float] = dict(solve_options.pop("initial", None) or {})
-    solutions = []
-    for k in range(starts):
-        guess = dict(initial)
-        if k:
-            for slot in draw:
-                i = d.index[slot]
-                guess[slot] = float(d.lower[i] + (d.upper[i] - d.lower[i]) * rng.random())
-        solutions.append(designer.solve(initial=guess, certify=False, **solve_options))
-    optimal = [s for s in solutions if s.status is Status.OPTIMAL] or solutions
-    best = min(optimal, key=lambda s: s.objective if np.isfinite(s.objective) else np.inf)
-    reached = sum(
-        1 for s in optimal if s.status is best.status and abs(s.objective - best.objective) <= SAME_OBJECTIVE * max(1.0, abs(best.objective))
-    )
-    designer.certify(best, solve_options.get("parameters"), solve_options.get("bounds"))
-    best.starts = (reached, starts)
-    best.solve_time = sum(s.solve_time for s in solutions)
-    return best
+    return MultiStart(Plain(designer), starts, seed).solve(**solve_options)

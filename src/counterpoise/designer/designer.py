@@ -17,7 +17,6 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import SolverError
 from ..formulation.conditions import BalanceConditions
 from ..formulation.formulation import Formulation
 from ..formulation.layout import Slot
@@ -26,7 +25,21 @@ from ..solvers.base import Bounds, SolverOutput, Status
 from ..solvers.ipopt import IPOPT_DEFAULTS, IpoptBackend
 from ..threads import limit_blas_threads
 from . import convex
-from .solution import Solution
+from .solution import Solution, build_solution
+
+#: The compressed balance equalities (each coordinate's rows scaled to order one) hold when
+#: every one is at most this (see :meth:`Designer.balances`).
+BALANCE_TOLERANCE = 1e-9
+#: Gauss-Newton on the balance equalities stops once every one is at most this (exact to rounding).
+EXACT_BALANCE = 1e-15
+#: A variable tried on a bound (:meth:`Designer.polish`) may raise the objective by this
+#: much (relative, at least absolute on objectives below 1): rounding, not a worse design.
+OBJECTIVE_ROUNDING = 1e-12
+#: Singular values below this share of the largest count as zero (rank of the conditions).
+RANK_TOLERANCE = 1e-8
+#: IPOPT tolerances of the least-squares closest-design solve (½|g|² needs the tight ones).
+CLOSEST_TOL = 1e-14
+CLOSEST_ACCEPTABLE_TOL = 1e-12
 
 #: Balance equalities below this are rounding noise: each coordinate's rows are scaled by its
 #: largest sampled residual (formulation.conditions), so the equalities are of order one and
@@ -66,7 +79,8 @@ class Designer:
         self.nlp = nlp
         #: the LP/QP backend when every variable enters linearly (see :mod:`.convex`)
         self.convex = convex.convex_backend(self, backend)
-        self._certificate: Any = None
+        #: the LP over the linear variables at a fixed geometry (built on first use)
+        self.certificate = convex.Certificate(self)
         self._feasibility: IpoptBackend | None = None
         self._residual_jacobian: Any = None
 
@@ -123,12 +137,13 @@ class Designer:
 
     def _certificate_gap(self, solution: Solution, p: np.ndarray, b: Bounds) -> float:
         d = self.formulation.design
-        return convex.certificate_gap(self, d.to_z(d.vector(solution.values)), p, b, solution.solver, solution.objective)
+        return self.certificate.gap(d.to_z(d.vector(solution.values)), p, b, solution.solver, solution.objective)
 
     def _solve(self, z0: np.ndarray, p: np.ndarray, b: Bounds, bounds: BoundsOverride | None) -> Solution:
         d = self.formulation.design
         if self.convex is not None:
-            return convex.solve_convex(self, z0, p, b, bounds)
+            z, out, message = convex.solve_convex(self, z0, p, b, bounds)
+            return self._solution(z, p, b, out, message)
         if self.n_equalities > len(d):
             return self._overdetermined(z0, p, b, bounds)
         out = self.backend.solve(z0, p, b)
@@ -154,7 +169,7 @@ class Designer:
             out = _with_time(out, elapsed)
         return self._solution(z, p, b, out, message)
 
-    def balances(self, z: np.ndarray, p: np.ndarray, tolerance: float = 1e-9) -> bool:
+    def balances(self, z: np.ndarray, p: np.ndarray, tolerance: float = BALANCE_TOLERANCE) -> bool:
         """Whether the compressed balance equalities hold at ``z`` (scaled as in the NLP)."""
         g = np.array(self.residual_jacobian()(z, p)[0]).reshape(-1)
         return bool(g.size == 0 or np.abs(g).max() <= tolerance)
@@ -198,7 +213,7 @@ class Designer:
             else:
                 on_hi[i] = True
             f0 = float(self.formulation.report_function(z, p)[0])
-            z = self._snap(z, p, bounds, on_lo, on_hi, iterations, f0 + 1e-12 * max(1.0, abs(f0)))
+            z = self._snap(z, p, bounds, on_lo, on_hi, iterations, f0 + OBJECTIVE_ROUNDING * max(1.0, abs(f0)))
         return z
 
     def _snap(
@@ -217,7 +232,7 @@ class Designer:
         for _ in range(iterations):
             g, jac, _ = (np.array(v) for v in gj(candidate, p))
             g = g.reshape(-1)
-            if not g.size or np.abs(g).max() <= 1e-15 or not free.any():
+            if not g.size or np.abs(g).max() <= EXACT_BALANCE or not free.any():
                 break
             step, *_ = np.linalg.lstsq(jac[:, free], -g, rcond=None)
             candidate[free] = np.clip(candidate[free] + step, lo[free], hi[free])
@@ -238,7 +253,7 @@ class Designer:
         f = self.formulation
         if self._feasibility is None:
             nlp = {"x": f.z, "p": f.p, "f": 0.5 * ca.sumsqr(self.conditions.equalities), "g": f.nonnegative}
-            self._feasibility = IpoptBackend(nlp, {**self.options, "tol": 1e-14, "acceptable_tol": 1e-12}, "closest")
+            self._feasibility = IpoptBackend(nlp, {**self.options, "tol": CLOSEST_TOL, "acceptable_tol": CLOSEST_ACCEPTABLE_TOL}, "closest")
         b = self.bounds(0, bounds)
         out = self._feasibility.solve(np.clip(z0, b.lbz, b.ubz), p, b)
         z = self.refine(out.z, p, b)
@@ -279,7 +294,7 @@ class Designer:
         best, best_norm = z, float(np.abs(g).max(initial=0.0))
         candidate = z.copy()
         for _ in range(iterations):
-            if best_norm <= 1e-15 or g.size == 0:
+            if best_norm <= EXACT_BALANCE or g.size == 0:
                 break
             step, *_ = np.linalg.lstsq(jac, -g.reshape(-1), rcond=None)
             candidate = np.clip(candidate + step, b.lbz, b.ubz)
@@ -308,7 +323,7 @@ class Designer:
             out = SolverOutput(closest.z, Status.INFEASIBLE, "overdetermined", closest.iterations, closest.solve_time, closest.solver)
             return self._solution(closest.z, p, b, out, message)
         u, s, _ = np.linalg.svd(jac, full_matrices=False)
-        r = int(np.sum(s > 1e-8 * s[0])) if s.size and s[0] > 0 else 0
+        r = int(np.sum(s > RANK_TOLERANCE * s[0])) if s.size and s[0] > 0 else 0
         reduced = ca.mtimes(ca.DM(u[:, :r].T), self.conditions.equalities)
         nlp = {"x": f.z, "p": f.p, "f": f.objective, "g": ca.vertcat(reduced, f.nonnegative)}
         backend = IpoptBackend(nlp, self.options, "design_reduced")
@@ -323,28 +338,7 @@ class Designer:
         return self._solution(z, p, b, out, message)
 
     def _solution(self, z: np.ndarray, parameters: np.ndarray, b: Bounds, out: SolverOutput, message: str) -> Solution:
-        f = self.formulation
-        z = np.clip(z, b.lbz, b.ubz)
-        x = f.design.to_x(z)
-        if not np.all(np.isfinite(x)):
-            raise SolverError(f"{self.problem.name}: the solver returned non-finite values")
-        objective, mass, inertia = (float(v) for v in f.report_function(z, parameters))
-        return Solution(
-            problem=self.problem,
-            status=out.status,
-            message=message,
-            values=f.design.values(x),
-            objective=objective,
-            added_mass=mass,
-            added_inertia=inertia,
-            iterations=out.iterations,
-            solve_time=out.solve_time,
-            solver=out.solver,
-            solver_status=out.solver_status,
-            conditions=self.n_equalities,
-            condition_summary=self.conditions.summary(),
-            scenario_parameters=f.parameters.scenario_values(parameters),
-        )
+        return build_solution(self.formulation, z, parameters, b.lbz, b.ubz, out, message, self.n_equalities, self.conditions.summary())
 
 
 def _with_time(out: SolverOutput, seconds: float) -> SolverOutput:

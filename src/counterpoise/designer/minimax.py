@@ -26,27 +26,17 @@ from ..formulation.formulation import Formulation
 from ..formulation.layout import Slot
 from ..mechanics import Mechanics, casadi_functions
 from ..mechanics.kinematics import dot, sub
+from ..mechanics.sampling import configurations
 from ..model.problem import Problem
-from ..solvers.base import Bounds, Status
+from ..solvers.base import Bounds, SolverOutput, Status
 from ..solvers.ipopt import IPOPT_DEFAULTS, IpoptBackend
 from ..threads import limit_blas_threads
-from .solution import Solution
+from .solution import Solution, build_solution
 
 #: sampled configurations per (subsystem, scenario): SAMPLES_PER_COORDINATE × n_q (+ corners)
 SAMPLES_PER_COORDINATE = 96
-
-
-def configurations(problem: Problem, subsystem: str, samples: int, rng: np.random.Generator) -> np.ndarray:
-    """Random configurations of a subsystem plus the corners of its box (as the verification samples)."""
-    import itertools
-
-    coords = problem.subsystem_coordinates(subsystem)
-    lo = np.array([c.lower for c in coords])
-    hi = np.array([c.upper for c in coords])
-    q = lo + (hi - lo) * rng.random((samples, len(coords)))
-    if len(coords) <= 12:
-        q = np.vstack([q, np.array(list(itertools.product(*zip(lo, hi))), dtype=float).reshape(-1, len(coords))])
-    return q
+#: start of the epigraph variable t (a worst residual ratio; any value above the optimum)
+INITIAL_RATIO = 10.0
 
 
 def has_direct_springs(problem: Problem) -> bool:
@@ -132,31 +122,14 @@ class MinimaxDesigner:
             np.zeros(self.n_rows + self.n_signs),
             np.full(self.n_rows + self.n_signs, np.inf),
         )
-        out = self.backend.solve(np.concatenate([z0, [10.0]]), p, b)
-        z = np.clip(out.z[:-1], lbz, ubz)
+        out = self.backend.solve(np.concatenate([z0, [INITIAL_RATIO]]), p, b)
         t = float(out.z[-1])
-        x = d.to_x(z)
-        objective, mass, inertia = (float(v) for v in f.report_function(z, p))
         ok = out.status is Status.OPTIMAL
         message = (
             f"smallest worst-case residual ratio on the sampled configurations: {t:.6g} (directly attached springs: exact balance is generally impossible)"
             if ok
             else f"minimax design: {out.solver.upper()} {out.solver_status}"
         )
-        return Solution(
-            problem=self.problem,
-            status=out.status,
-            message=message,
-            values=d.values(x),
-            objective=objective,
-            added_mass=mass,
-            added_inertia=inertia,
-            iterations=out.iterations,
-            solve_time=out.solve_time,
-            solver=out.solver,
-            solver_status=out.solver_status,
-            conditions=self.n_rows,
-            condition_summary="epigraph rows on sampled configurations",
-            scenario_parameters=f.parameters.scenario_values(p),
-            sampled_ratio=t,
-        )
+        design_out = SolverOutput(out.z[:-1], out.status, out.solver_status, out.iterations, out.solve_time, out.solver)
+        summary = "epigraph rows on sampled configurations"
+        return build_solution(f, out.z[:-1], p, lbz, ubz, design_out, message, self.n_rows, summary, sampled_ratio=t)

@@ -1,12 +1,21 @@
-"""What a solve returns before verification: the design, its objective, the solver's word."""
+"""What a solve returns before verification: the design, its objective, the solver's word.
+
+:func:`build_solution` is the one place a :class:`Solution` is made from a solver's point
+(the designer and the minimax designer both call it).
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
+import numpy as np
+
+from ..errors import SolverError
+from ..formulation.formulation import Formulation
 from ..formulation.layout import Gravity3, Slot
 from ..model.problem import Problem
-from ..solvers.base import Status
+from ..solvers.base import SolverOutput, Status
 
 
 @dataclass
@@ -35,8 +44,55 @@ class Solution:
     certificate_gap: float = float("nan")
     #: multi-start: (starts that reached the best objective, starts run); (1, 1) for one solve
     starts: tuple[int, int] = (1, 1)
+    #: an outer design method's own verdict (status, message), which goes beyond the dense
+    #: check (a payload schedule, the limits of catalogue parts); None: judge the verification
+    verdict: tuple[Status, str] | None = None
+    #: the dense verification, when a design method already ran it (None: not yet)
+    verification: Any = None
+    #: payload-range designs: the :class:`counterpoise.payload.PayloadDesign`
+    payload: Any = None
+    #: designs with spring slots: the :class:`counterpoise.selection.PartsReport`
+    parts: Any = None
 
     def variable_values(self, scenario: str) -> dict[str, float]:
         """Value of every variable as seen by ``scenario``."""
         setting = self.problem.setting(scenario)
         return {slot.variable: v for slot, v in self.values.items() if slot.scenario is None or slot.scenario == setting}
+
+
+def build_solution(
+    formulation: Formulation,
+    z: np.ndarray,
+    parameters: np.ndarray,
+    lbz: np.ndarray,
+    ubz: np.ndarray,
+    out: SolverOutput,
+    message: str,
+    conditions: int,
+    condition_summary: str,
+    sampled_ratio: float | None = None,
+) -> Solution:
+    """The :class:`Solution` at the scaled point ``z`` (clipped to [lbz, ubz]) with ``parameters``."""
+    f = formulation
+    z = np.clip(z, lbz, ubz)
+    x = f.design.to_x(z)
+    if not np.all(np.isfinite(x)):
+        raise SolverError(f"{f.problem.name}: the solver returned non-finite values")
+    objective, mass, inertia = (float(v) for v in f.report_function(z, parameters))
+    return Solution(
+        problem=f.problem,
+        status=out.status,
+        message=message,
+        values=f.design.values(x),
+        objective=objective,
+        added_mass=mass,
+        added_inertia=inertia,
+        iterations=out.iterations,
+        solve_time=out.solve_time,
+        solver=out.solver,
+        solver_status=out.solver_status,
+        conditions=conditions,
+        condition_summary=condition_summary,
+        scenario_parameters=f.parameters.scenario_values(parameters),
+        sampled_ratio=sampled_ratio,
+    )

@@ -20,9 +20,13 @@ a ``[payloads]`` range:
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, replace
+from typing import Any
 
 from ..designer.designer import Designer
+from ..designer.methods import DesignMethod, Plain
+from ..errors import ProblemFileError
 from ..designer.solution import Solution
 from ..model import expr as ex
 from ..model.payload import MAX_PAYLOAD_RANGE, Payload
@@ -32,7 +36,7 @@ from ..verify.check import verify
 from ..verify.checks import Verification
 from ..verify.judge import judge
 from ..formulation.layout import Slot
-from .scenarios import Sampled, design_bounds, is_pinned, payload_of, sampled_problem, setting_name
+from .scenarios import Sampled, design_bounds, is_pinned, modes, payload_of, sampled_problem, setting_name
 from .schedule import AdjustmentSolver, Schedule, Setting, schedule
 
 #: re-designs with an added failing payload before the schedule's failure is final
@@ -64,6 +68,8 @@ class PayloadDesign:
     schedule: Schedule | None
     checked: tuple[float, float]  # the payload range the schedule covers (kg)
     widest: WidestRange | None
+    #: the schedule's solver for this design (adjustments at any payload; not compared)
+    adjuster: "AdjustmentSolver | None" = field(default=None, compare=False, repr=False)
 
     def pinned(self, slot: Slot) -> bool:
         """Whether a design slot is an adjustment fixed to its nominal (not an active bound)."""
@@ -73,6 +79,36 @@ class PayloadDesign:
     def shared(self) -> dict[str, float]:
         """The design's shared (non-adjustable) variables, SI."""
         return {slot.variable: v for slot, v in self.solution.values.items() if slot.scenario is None}
+
+    def _scheduled(self) -> Sampled:
+        assert self.adjuster is not None and self.schedule is not None  # noqa: S101 (internal: only called on a schedule)
+        masses = [s.payload for s in self.schedule.rows + self.schedule.between if s.feasible]
+        return sampled_problem(self.adjuster.source, masses or self.samples)
+
+    def schedule_solution(self) -> Solution:
+        """The design on every feasible payload of its schedule (grid and between), one
+        scenario per working mode and payload, each with that payload's adjustments: what
+        a check that must hold at every payload (a part's limits) is run on."""
+        sampled = self._scheduled()
+        n_modes = len(modes(self.adjuster.source)) or 1  # type: ignore[union-attr]
+        first = list(self.solution.scenario_parameters.values())[:n_modes]
+        values: dict[Slot, float] = {slot: v for slot, v in self.solution.values.items() if slot.scenario is None}
+        by_mass = {s.payload: s for s in self.schedule.rows + self.schedule.between if s.feasible}  # type: ignore[union-attr]
+        scenario_parameters = {}
+        for i, scenario in enumerate(sampled.problem.scenarios):
+            mass = sampled.setting_mass[scenario.setting or ""]
+            gravity, base = first[i % n_modes]
+            scenario_parameters[scenario.name] = (gravity, {**base, self.payload.name: mass})
+            for name, v in by_mass[mass].values.items():
+                values[Slot(name, scenario.setting)] = v
+        return replace(self.solution, problem=sampled.problem, values=values, scenario_parameters=scenario_parameters)
+
+    def mass_of(self, scenario: str) -> float | None:
+        """The payload mass of a scenario of :meth:`schedule_solution` or of the design."""
+        for sampled in (self._scheduled(), sampled_problem(self.adjuster.source, self.samples)):  # type: ignore[union-attr]
+            if any(s.name == scenario for s in sampled.problem.scenarios):
+                return sampled.setting_mass[sampled.problem.setting(scenario) or ""]
+        return None
 
 
 @dataclass(frozen=True)
@@ -84,13 +120,14 @@ class OperatorSettings:
     balanceable: tuple[float, float] | None  # computed when the payload cannot be balanced
 
 
-def settings_for(problem: Problem, mass: float) -> OperatorSettings:
-    """Design ``problem`` for its range, then solve the adjustments for payload ``mass``;
-    when they do not balance, also find the range of payloads the design can balance."""
-    outcome = design_payloads(problem)
+def settings_for(problem: Problem, mass: float, outcome: PayloadDesign | None = None) -> OperatorSettings:
+    """Design ``problem`` for its range (or take its design ``outcome``), then solve the
+    adjustments for payload ``mass``; when they do not balance, also find the range of
+    payloads the design can balance."""
+    outcome = outcome or design_payloads(problem)
     if outcome.status is not Status.OPTIMAL or outcome.schedule is None:
         return OperatorSettings(outcome, None, None)
-    solver = AdjustmentSolver(problem, outcome.shared())
+    solver = outcome.adjuster or AdjustmentSolver(problem, outcome.shared())
     setting = solver.at(mass)
     if setting.feasible:
         return OperatorSettings(outcome, setting, None)
@@ -114,17 +151,30 @@ def _lowest(solver: AdjustmentSolver, first: Setting) -> float:
     return good
 
 
-def design_payloads(problem: Problem) -> PayloadDesign:
-    """Design ``problem`` for its payload range (see the module docstring)."""
+def design_payloads(
+    problem: Problem,
+    core: "Callable[[Problem], DesignMethod] | None" = None,
+    parameters: Mapping[str, float] | None = None,
+    bounds: Mapping[Any, tuple[float, float]] | None = None,
+    initial: Mapping[Slot, float] | None = None,
+) -> PayloadDesign:
+    """Design ``problem`` for its payload range (see the module docstring).
+
+    ``core`` builds the design method of a sampled problem (default: the plain designer);
+    ``parameters``, ``bounds`` (by variable name) and ``initial`` (by slot or variable of
+    ``problem``) act on every sample and on the schedule's adjustments."""
     payload = payload_of(problem)
+    check_options(problem, parameters, bounds)
+    core = core or (lambda p: Plain(Designer(p)))
     masses = {payload.lower, payload.nominal, payload.upper}
     for _ in range(REFINEMENTS + 1):
         sampled = sampled_problem(problem, masses)
-        solution = Designer(sampled.problem).solve(bounds=design_bounds(sampled))
+        method = core(sampled.problem)
+        solution = method.solve(parameters, merged_bounds(sampled, bounds), sampled_initial(sampled, initial))
         verification = verify(solution)
         status, message = judge(solution, verification)
         shared = {slot.variable: v for slot, v in solution.values.items() if slot.scenario is None}
-        solver = AdjustmentSolver(problem, shared)
+        solver = AdjustmentSolver(problem, shared, parameters, adjustment_bounds(problem, bounds))
         plan = schedule(solver, payload.lower, payload.upper)
         failure = plan.first_failure
         if status is not Status.OPTIMAL or failure is None or failure.payload in masses:
@@ -152,7 +202,59 @@ def design_payloads(problem: Problem) -> PayloadDesign:
             solved = replace(sampled.problem, report=sampled.problem.report + (quantity,))
             solution = replace(solution, problem=solved)
     checked = (plan.rows[0].payload, plan.rows[-1].payload)
-    return PayloadDesign(solution.problem, payload, status, message, solution, verification, sampled.masses, plan, checked, widest)
+    return PayloadDesign(solution.problem, payload, status, message, solution, verification, sampled.masses, plan, checked, widest, solver)
+
+
+def check_options(problem: Problem, parameters: Mapping[str, float] | None, bounds: Mapping[Any, tuple[float, float]] | None) -> None:
+    """The payload's own mass is set by the range, not by ``parameters``; bounds name variables."""
+    payload = payload_of(problem)
+    if parameters and payload.name in parameters:
+        raise ProblemFileError(problem.path, "parameters", f"'{payload.name}' is the payload of a payload range: change payloads.{payload.name}.range instead")
+    for key in bounds or {}:
+        name = key.variable if isinstance(key, Slot) else key
+        if name not in problem.variable:
+            raise ProblemFileError(problem.path, "bounds", f"no design variable '{name}'")
+
+
+def merged_bounds(sampled: Sampled, bounds: Mapping[Any, tuple[float, float]] | None) -> dict[Slot | str, tuple[float, float]]:
+    """The call's bounds (by variable, on every sample) with the adjustments' pins and travel
+    windows (:func:`.scenarios.design_bounds`) inside them."""
+    given = {(k.variable if isinstance(k, Slot) else k): v for k, v in (bounds or {}).items()}
+    out: dict[Slot | str, tuple[float, float]] = dict(given)
+    for slot, (lo, hi) in design_bounds(sampled).items():
+        if slot.variable in given:
+            a, b = given[slot.variable]
+            lo, hi = (lo, hi) if lo == hi else (max(lo, a), min(hi, b))
+        out[slot] = (lo, hi)
+    return out
+
+
+def adjustment_bounds(problem: Problem, bounds: Mapping[Any, tuple[float, float]] | None) -> dict[str, tuple[float, float]]:
+    """The call's bounds on adjustable variables, for the schedule's adjustment solves."""
+    out = {}
+    for key, (a, b) in (bounds or {}).items():
+        name = key.variable if isinstance(key, Slot) else key
+        v = problem.variable[name]
+        if v.adjustable:
+            lo, hi = v.adjusted_bounds()
+            out[name] = (max(lo, a), min(hi, b))
+    return out
+
+
+def sampled_initial(sampled: Sampled, initial: Mapping[Any, float] | None) -> dict[Slot, float] | None:
+    """Initial values given for ``problem``'s slots (or variable names), on every sample's slot."""
+    if not initial:
+        return None
+    by_name = {(k.variable if isinstance(k, Slot) else k): v for k, v in initial.items()}
+    out = {}
+    for v in sampled.problem.variables:
+        if v.name not in by_name:
+            continue
+        if v.adjustable:
+            out.update({Slot(v.name, setting): by_name[v.name] for setting in sampled.setting_mass})
+        else:
+            out[Slot(v.name, None)] = by_name[v.name]
+    return out
 
 
 def _infeasible_message(sampled: Sampled, solution: Solution, range_text: str, fallback: str) -> str:

@@ -15,6 +15,7 @@ its bound span) is reported as linear in the payload, with slope and intercept.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -76,17 +77,28 @@ class Schedule:
 class AdjustmentSolver:
     """One solver for the adjustments of a fixed design; :meth:`at` solves one payload."""
 
-    def __init__(self, problem: Problem, shared: dict[str, float]) -> None:
+    def __init__(
+        self,
+        problem: Problem,
+        shared: dict[str, float],
+        parameters: Mapping[str, float] | None = None,
+        bounds: Mapping[str, tuple[float, float]] | None = None,
+    ) -> None:
+        """``parameters``: base parameters (SI) that differ from the file's (a study point,
+        the chosen catalogue parts); ``bounds``: narrower bounds of adjustments (SI)."""
         self.source = problem
         self.payload = payload_of(problem)
         self.problem = adjustment_problem(problem, shared)
         self.designer = Designer(self.problem)
         self.samples = max(200, problem.settings.verify_samples // VERIFY_SHARE)
+        self.parameters = dict(parameters or {})
+        self.bounds = dict(bounds or {}) or None
         self._last: dict[Slot, float] = {}
 
     def at(self, mass: float) -> Setting:
         """Solve and verify the adjustments for payload ``mass`` (kg)."""
-        solution = self.designer.solve(initial=self._last or None, parameters={self.payload.name: mass}, certify=False)
+        parameters = {**self.parameters, self.payload.name: mass}
+        solution = self.designer.solve(initial=self._last or None, parameters=parameters, bounds=self.bounds, certify=False)
         verification = verify(solution, samples=self.samples)
         status, message = judge(solution, verification)
         values = {slot.variable: v for slot, v in solution.values.items()}

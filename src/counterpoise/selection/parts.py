@@ -46,6 +46,7 @@ class SpringUse:
     margin_slack: float  # d_min − F0/k  (≥ 0: the string never goes slack)
     margin_length: float  # L_max − length_max
     margin_load: float  # F_max − force_max
+    scenario: str = ""  # the scenario (payload sample) these extremes are taken in; "": every one
 
     @property
     def fits(self) -> bool:
@@ -82,10 +83,16 @@ class PartsReport:
     bill: tuple[BillLine, ...]
     tolerance: ToleranceBand | None
     corners: tuple[Corner, ...]
+    #: every spring in every checked scenario (a payload range: every payload of its schedule)
+    by_scenario: tuple[SpringUse, ...] = ()
 
     @property
     def fits(self) -> bool:
         return self.search.choice is not None and all(s.fits for s in self.springs)
+
+    def first_misfit(self) -> SpringUse | None:
+        """The first spring use (per scenario when known) outside its part's limits."""
+        return next((u for u in self.by_scenario or self.springs if not u.fits), None)
 
 
 def choose(problem: Problem) -> tuple[SearchResult, dict[str, int], dict[str, float]]:
@@ -119,37 +126,24 @@ def choose(problem: Problem) -> tuple[SearchResult, dict[str, int], dict[str, fl
     return result, rows, rates
 
 
-def report(problem: Problem, designer: Any, solution: Solution, search: SearchResult, rows: dict[str, int]) -> PartsReport:
-    """Dense limit check, bill of materials and tolerance report of the chosen parts."""
-    q = sample_configurations(problem, problem.settings.verify_samples, problem.settings.seed + 11)
+def report(
+    problem: Problem, designer: Any, solution: Solution, search: SearchResult, rows: dict[str, int], checked: Solution | None = None
+) -> PartsReport:
+    """Dense limit check, bill of materials and tolerance report of the chosen parts.
+
+    ``checked``: the design on every scenario whose limits must hold (a payload range: one
+    scenario per payload of its schedule); default ``solution``. The tolerance report and
+    the corners are taken on ``solution`` (solved by ``designer``)."""
+    checked = checked or solution
     slots = {s.name: s for s in problem.slots}
-    springs = [s for s in problem.springs if s.slot is not None]
-    d_min = {s.name: math.inf for s in springs}
-    d_max = {s.name: 0.0 for s in springs}
-    cable = {s.name: 0.0 for s in springs}  # directly attached springs: d − cable is the spring's length
-    for scenario in problem.scenarios:
-        values = solution.variable_values(scenario.name)
-        variables = {k: np.array([[v]]) for k, v in values.items()}
-        gravity, base = solution.scenario_parameters[scenario.name]
-        lengths = spring_lengths(problem, [s.name for s in springs], q, variables, base, gravity)
-        mech = Mechanics(problem, base, values, {c.name: c.home for c in problem.coordinates}, gravity)
-        for s in springs:
-            c = float(mech.value(s.direct.cable)) if s.direct is not None else 0.0
-            cable[s.name] = c
-            d_min[s.name] = min(d_min[s.name], float(lengths[s.name].min()) - c)
-            d_max[s.name] = max(d_max[s.name], float(lengths[s.name].max()) - c)
+    springs = [s for s in checked.problem.springs if s.slot is not None]
+    per_scenario, cable = spring_extremes(checked, springs)
+    by_scenario = [use(slots, rows, s, lo, hi, cable[s.name], name) for name, extremes in per_scenario.items() for s in springs for lo, hi in [extremes[s.name]]]
     uses = []
     for s in springs:
-        cat = slots[s.slot].catalogue  # type: ignore[index]
-        i = rows[s.slot]  # type: ignore[index]
-        k, l0, f0, fmax, lmax = cat.rate[i], cat.free_length[i], cat.initial_tension[i], cat.max_load[i], cat.max_length[i]
-        lo, hi = d_min[s.name], d_max[s.name]
-        if s.direct is None:  # behind a string: length d + L0 − F0/k, force k·d
-            m = margins(np.array(lo), np.array(hi), k, l0, f0, fmax, lmax)
-            use = (lo, hi, lo + l0 - f0 / k, hi + l0 - f0 / k, k * lo, k * hi, float(m.slack), float(m.length), float(m.load))
-        else:  # attached directly: length d − c, force F0 + k (d − c − L0)
-            use = (lo + cable[s.name], hi + cable[s.name], lo, hi, f0 + k * (lo - l0), f0 + k * (hi - l0), lo - l0, lmax - hi, fmax - (f0 + k * (hi - l0)))
-        uses.append(SpringUse(s.name, s.slot, cat.part_number[i], *use[:6], l0, lmax, f0, fmax, *use[6:]))  # type: ignore[arg-type]
+        lo = min(extremes[s.name][0] for extremes in per_scenario.values())
+        hi = max(extremes[s.name][1] for extremes in per_scenario.values())
+        uses.append(use(slots, rows, s, lo, hi, cable[s.name], ""))
     bill: dict[str, BillLine] = {}
     for u in uses:
         cat = slots[u.slot].catalogue
@@ -165,12 +159,47 @@ def report(problem: Problem, designer: Any, solution: Solution, search: SearchRe
             gravity, base = solution.scenario_parameters[scenario.name]
             values[scenario.name] = (solution.variable_values(scenario.name), base, gravity)
         tension = {u.spring: u.initial_tension for u in uses}
-        offsets = {s.name: cable[s.name] + rows_free_length(slots, rows, s) for s in springs if s.direct is not None}
+        offsets = {s.name: cable[s.name] + rows_free_length(slots, rows, s) for s in problem.springs if s.slot is not None and s.direct is not None}
         rate_tol = {u.spring: slots[u.slot].rate_tolerance for u in uses}
         tension_tol = {u.spring: slots[u.slot].initial_tension_tolerance for u in uses}
         tolerance = tolerance_band(problem, values, tension, rate_tol, tension_tol, tq, offsets)
         corners = adjust_corners(problem, designer, solution, rows)
-    return PartsReport(search, dict(rows), tuple(uses), tuple(bill.values()), tolerance, corners)
+    return PartsReport(search, dict(rows), tuple(uses), tuple(bill.values()), tolerance, corners, tuple(by_scenario))
+
+
+def spring_extremes(solution: Solution, springs: list[Any]) -> tuple[dict[str, dict[str, tuple[float, float]]], dict[str, float]]:
+    """Per scenario and spring: the smallest and largest distance between its ends over the
+    dense sample (minus the cable of a directly attached spring); and each spring's cable."""
+    problem = solution.problem
+    q = sample_configurations(problem, problem.settings.verify_samples, problem.settings.seed + 11)
+    cable = {s.name: 0.0 for s in springs}  # directly attached springs: d − cable is the spring's length
+    out: dict[str, dict[str, tuple[float, float]]] = {}
+    for scenario in problem.scenarios:
+        values = solution.variable_values(scenario.name)
+        variables = {k: np.array([[v]]) for k, v in values.items()}
+        gravity, base = solution.scenario_parameters[scenario.name]
+        lengths = spring_lengths(problem, [s.name for s in springs], q, variables, base, gravity)
+        mech = Mechanics(problem, base, values, {c.name: c.home for c in problem.coordinates}, gravity)
+        here = {}
+        for s in springs:
+            c = float(mech.value(s.direct.cable)) if s.direct is not None else 0.0
+            cable[s.name] = c
+            here[s.name] = (float(lengths[s.name].min()) - c, float(lengths[s.name].max()) - c)
+        out[scenario.name] = here
+    return out, cable
+
+
+def use(slots: dict[str, Any], rows: dict[str, int], s: Any, lo: float, hi: float, cable: float, scenario: str) -> SpringUse:
+    """How spring ``s`` uses its part when the distance of its ends spans [lo, hi] (SI)."""
+    cat = slots[s.slot].catalogue
+    i = rows[s.slot]
+    k, l0, f0, fmax, lmax = cat.rate[i], cat.free_length[i], cat.initial_tension[i], cat.max_load[i], cat.max_length[i]
+    if s.direct is None:  # behind a string: length d + L0 − F0/k, force k·d
+        m = margins(np.array(lo), np.array(hi), k, l0, f0, fmax, lmax)
+        v = (lo, hi, lo + l0 - f0 / k, hi + l0 - f0 / k, k * lo, k * hi, float(m.slack), float(m.length), float(m.load))
+    else:  # attached directly: length d − c, force F0 + k (d − c − L0)
+        v = (lo + cable, hi + cable, lo, hi, f0 + k * (lo - l0), f0 + k * (hi - l0), lo - l0, lmax - hi, fmax - (f0 + k * (hi - l0)))
+    return SpringUse(s.name, s.slot, cat.part_number[i], *v[:6], l0, lmax, f0, fmax, *v[6:], scenario=scenario)
 
 
 def rows_free_length(slots: dict, rows: dict[str, int], spring: Any) -> float:

@@ -12,7 +12,15 @@ if TYPE_CHECKING:
 
 
 def judge(solution: "Solution", verification: Verification) -> tuple[Status, str]:
-    """``optimal`` needs the solver's optimum *and* the dense check; otherwise say why not."""
+    """``optimal`` needs the solver's optimum *and* the dense check; otherwise say why not.
+
+    A design method's own verdict (``solution.verdict``: a payload schedule, catalogue
+    limits) stands as given; a minimax design (directly attached springs) is judged by
+    :func:`judge_minimax`."""
+    if solution.verdict is not None:
+        return solution.verdict
+    if solution.sampled_ratio is not None:
+        return judge_minimax(solution, verification)
     if solution.status is Status.OPTIMAL:
         if verification.balanced:
             return Status.OPTIMAL, solution.message
@@ -27,6 +35,16 @@ def judge(solution: "Solution", verification: Verification) -> tuple[Status, str
     if solution.status is Status.INFEASIBLE:
         return Status.INFEASIBLE, _unmet_message(solution, verification)
     return Status.FAILED, solution.message
+
+
+def judge_minimax(solution: "Solution", verification: Verification) -> tuple[Status, str]:
+    """A minimax design is optimal when IPOPT converged; its dense ratio is reported as is."""
+    if solution.status is not Status.OPTIMAL:
+        return Status.FAILED, solution.message
+    dense = verification.residual_ratio
+    if dense != dense:
+        return Status.FAILED, "verification failed: the residual could not be evaluated (NaN)"
+    return Status.OPTIMAL, f"{solution.message}; dense check: worst residual ratio {dense:.6g}"
 
 
 def _scenario_text(solution: "Solution", scenario: str) -> str:

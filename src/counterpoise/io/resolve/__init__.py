@@ -27,8 +27,6 @@ def resolve(spec: ProblemFile, label: str) -> Problem:
     for sub in spec.subsystems.values():
         for cname in sub.coordinates:
             ctx.declare("coordinates", cname)
-    if spec.payloads and spec.slots:
-        raise ctx.fail("slots", "spring slots and payload ranges cannot be combined yet: choose the parts for one payload first")
     parameters = quantities.parameters(ctx) + payloads.parameters(ctx)
     catalogues = parts.catalogues(ctx)
     parameters += parts.slot_parameters(ctx, catalogues)

@@ -1,0 +1,176 @@
+"""Design methods: one interface, built once per problem, nested by the problem's content.
+
+A design method answers ``solve(parameters=None, bounds=None, initial=None) -> Solution``
+(SI values; ``bounds`` maps a variable name or a :class:`Slot` to (lower, upper);
+``initial`` maps slots to start values), and may be called many times: whatever it builds
+(solvers, samples) is built once. The innermost methods live here:
+
+- :class:`Plain`: the :class:`~counterpoise.designer.designer.Designer` (IPOPT, or the LP
+  path through Clarabel when every variable enters linearly);
+- :class:`Minimax`: the :class:`~counterpoise.designer.minimax.MinimaxDesigner`
+  (directly attached springs: smallest worst residual on sampled configurations);
+- :class:`MultiStart`: seeded random starts of the free geometry around either of them.
+
+Outer methods wrap an inner one and live in the layer that owns their job:
+:class:`counterpoise.payload.method.PayloadMethod` (a payload range) and
+:class:`counterpoise.selection.method.PartsMethod` (catalogue parts).
+:func:`counterpoise.pipeline.build_method` nests them; :func:`counterpoise.pipeline.run`
+verifies and judges what the outermost returns. Compare cvxpy's solving chain (each
+reduction wraps the next) and rockit's method objects (a method attached to a problem).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from ..formulation.formulation import Formulation
+from ..formulation.layout import Slot
+from ..model.problem import Problem
+from ..solvers.base import Status
+from .solution import Solution
+
+#: two objectives agree (multi-start) when within this relative distance
+SAME_OBJECTIVE = 1e-7
+
+Parameters = Mapping[str, float]
+BoundsOverride = Mapping["Slot | str", tuple[float, float]]
+Initial = Mapping[Slot, float]
+
+
+@runtime_checkable
+class DesignMethod(Protocol):
+    """A way to design one problem; built once, solved many times."""
+
+    #: the problem whose design :meth:`solve` returns (an outer method may solve a derived one)
+    problem: Problem
+
+    def solve(
+        self, parameters: Parameters | None = None, bounds: BoundsOverride | None = None, initial: Initial | None = None, *, certify: bool = True
+    ) -> Solution:
+        """Design with these base parameters, bounds and initial values (all SI, optional).
+
+        ``certify=False``: skip the certificate gap (callers that solve many times and
+        report one design)."""
+        ...
+
+
+class Core:
+    """Shared by the innermost methods: a designer with a formulation and ``solve``."""
+
+    designer: Any
+
+    @property
+    def problem(self) -> Problem:
+        return self.designer.problem  # type: ignore[no-any-return]
+
+    @property
+    def formulation(self) -> Formulation:
+        return self.designer.formulation  # type: ignore[no-any-return]
+
+    def certify(self, solution: Solution, parameters: Parameters | None = None, bounds: BoundsOverride | None = None) -> Solution:
+        return solution
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self.problem.name})"
+
+
+class Plain(Core):
+    """Balance conditions solved by IPOPT, or as an LP by Clarabel (see :class:`Designer`)."""
+
+    def __init__(self, designer: Any) -> None:
+        self.designer = designer
+
+    def solve(
+        self, parameters: Parameters | None = None, bounds: BoundsOverride | None = None, initial: Initial | None = None, *, certify: bool = True
+    ) -> Solution:
+        return self.designer.solve(initial=initial, parameters=parameters, bounds=bounds, certify=certify)  # type: ignore[no-any-return]
+
+    def certify(self, solution: Solution, parameters: Parameters | None = None, bounds: BoundsOverride | None = None) -> Solution:
+        return self.designer.certify(solution, parameters, bounds)  # type: ignore[no-any-return]
+
+
+class Minimax(Core):
+    """The smallest worst residual on sampled configurations (directly attached springs)."""
+
+    def __init__(self, designer: Any) -> None:
+        self.designer = designer
+
+    def solve(
+        self, parameters: Parameters | None = None, bounds: BoundsOverride | None = None, initial: Initial | None = None, *, certify: bool = True
+    ) -> Solution:
+        return self.designer.solve(initial=initial, parameters=parameters, bounds=bounds)  # type: ignore[no-any-return]
+
+
+class MultiStart(Core):
+    """``starts`` solves of ``inner``: from the given initial design, then from seeded random
+    geometries; the best optimal design wins.
+
+    Only the variables that move a point are drawn (uniformly in their bounds, the call's
+    ``bounds`` included); the others keep their initial values (they enter linearly). The
+    best optimal solution is returned (the best of all when none is optimal), with
+    ``starts = (reached, run)``: how many starts ended within :data:`SAME_OBJECTIVE`
+    (relative) of the best objective. Seeded: the same starts on every call.
+    """
+
+    def __init__(self, inner: Plain | Minimax, starts: int, seed: int) -> None:
+        if starts < 1:
+            raise ValueError("starts must be at least 1")
+        self.inner = inner
+        self.designer = inner.designer
+        self.starts = starts
+        self.seed = seed
+
+    def solve(
+        self, parameters: Parameters | None = None, bounds: BoundsOverride | None = None, initial: Initial | None = None, *, certify: bool = True
+    ) -> Solution:
+        from .convex import geometric_variables
+
+        d = self.formulation.design
+        if bounds:
+            lbz, ubz = d.bounds(bounds)
+            lower, upper = lbz * d.scale, ubz * d.scale
+        else:
+            lower, upper = d.lower, d.upper
+        rng = np.random.default_rng(self.seed)
+        geometric = geometric_variables(self.problem)
+        draw = [slot for slot in d.slots if slot.variable in geometric] or list(d.slots)
+        solutions = []
+        for k in range(self.starts):
+            guess = dict(initial or {})
+            if k:
+                for slot in draw:
+                    i = d.index[slot]
+                    guess[slot] = float(lower[i] + (upper[i] - lower[i]) * rng.random())
+            solutions.append(self.inner.solve(parameters, bounds, guess, certify=False))
+        optimal = [s for s in solutions if s.status is Status.OPTIMAL] or solutions
+        best = min(optimal, key=lambda s: s.objective if np.isfinite(s.objective) else np.inf)
+        scale = SAME_OBJECTIVE * max(1.0, abs(best.objective))
+        reached = sum(1 for s in optimal if s.status is best.status and abs(s.objective - best.objective) <= scale)
+        if certify:
+            self.inner.certify(best, parameters, bounds)
+        best.starts = (reached, self.starts)
+        best.solve_time = sum(s.solve_time for s in solutions)
+        return best
+
+    def certify(self, solution: Solution, parameters: Parameters | None = None, bounds: BoundsOverride | None = None) -> Solution:
+        return self.inner.certify(solution, parameters, bounds)
+
+
+def core_method(problem: Problem, starts: int = 1, backend: str = "auto", designer: Any = None) -> Plain | Minimax | MultiStart:
+    """The innermost method of ``problem``: minimax when a spring is attached directly, else
+    the designer (IPOPT or LP); wrapped in :class:`MultiStart` when ``starts`` > 1.
+    ``designer``: a prebuilt designer of ``problem`` to use (it must be of the right kind)."""
+    from .designer import Designer
+    from .minimax import MinimaxDesigner, has_direct_springs
+
+    inner: Plain | Minimax
+    if has_direct_springs(problem):
+        if backend not in ("auto", "ipopt"):
+            raise ValueError(f"backend {backend!r}: directly attached springs are designed by IPOPT (minimax)")
+        inner = Minimax(designer if isinstance(designer, MinimaxDesigner) else MinimaxDesigner(problem))
+    else:
+        inner = Plain(designer if isinstance(designer, Designer) else Designer(problem, backend=backend))
+    return MultiStart(inner, starts, problem.settings.seed) if starts > 1 else inner

@@ -1,0 +1,63 @@
+"""The payload-range design method: an inner method solved on sampled payloads, then a schedule.
+
+:class:`PayloadMethod` wraps the method of each sampled problem (one scenario per working
+mode and payload sample, :mod:`.scenarios`) and returns the shared design with its
+schedule (:func:`.design.design_payloads`): ``solution.payload`` is the
+:class:`~.design.PayloadDesign`, ``solution.verdict`` its status and message. Options act
+on the whole range: ``parameters`` on every sample and on every schedule payload,
+``bounds`` on every sample (adjustments within their travel), ``initial`` on every sample.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import replace
+from typing import Any
+
+from ..designer.methods import DesignMethod
+from ..designer.solution import Solution
+from ..formulation.layout import Slot
+from ..model.problem import Problem
+from .design import PayloadDesign, design_payloads
+from .scenarios import payload_of, sampled_problem
+
+
+class PayloadMethod:
+    """Design for a payload range around ``core(sampled problem)``, built once per sample set."""
+
+    def __init__(self, problem: Problem, core: Callable[[Problem], DesignMethod]) -> None:
+        self.problem = problem
+        self._core = core
+        self._built: dict[tuple[str, ...], DesignMethod] = {}
+
+    def core(self, sampled: Problem) -> DesignMethod:
+        """The inner method of a sampled problem (built once per set of samples)."""
+        key = tuple(s.name for s in sampled.scenarios)
+        if key not in self._built:
+            self._built[key] = self._core(sampled)
+        return self._built[key]
+
+    def search_problem_with(self, extra: tuple[float, ...] = ()) -> Problem:
+        """What a part search sees: the problem on the range's end points, its nominal and
+        the ``extra`` payloads (kg) where a part was found outside its limits."""
+        p = payload_of(self.problem)
+        return sampled_problem(self.problem, (p.lower, p.nominal, p.upper, *extra)).problem
+
+    def design(
+        self, parameters: Mapping[str, float] | None = None, bounds: Mapping[Any, tuple[float, float]] | None = None, initial: Mapping[Slot, float] | None = None
+    ) -> PayloadDesign:
+        return design_payloads(self.problem, self.core, parameters, bounds, initial)
+
+    def solve(
+        self,
+        parameters: Mapping[str, float] | None = None,
+        bounds: Mapping[Any, tuple[float, float]] | None = None,
+        initial: Mapping[Slot, float] | None = None,
+        *,
+        certify: bool = True,
+    ) -> Solution:
+        outcome = self.design(parameters, bounds, initial)
+        return replace(outcome.solution, verdict=(outcome.status, outcome.message), verification=outcome.verification, payload=outcome)
+
+    def __repr__(self) -> str:
+        return f"PayloadMethod({self.problem.name})"

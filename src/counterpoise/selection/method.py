@@ -1,0 +1,134 @@
+"""The catalogue-part design method: choose a part per slot, then the inner method for it.
+
+:class:`PartsMethod` wraps any inner design method (plain, convex, minimax, multi-start,
+or a payload-range design around one of them). Each :meth:`~PartsMethod.solve`:
+
+1. searches the parts (:func:`.parts.choose`, or :func:`.direct.search_direct` for
+   directly attached springs) on the problem the inner method exposes as its
+   ``search_problem`` (a payload range: its samples, so a part is chosen for the range),
+   with the call's parameters and bounds applied;
+2. solves the inner method with the parts' parameters;
+3. checks every spring against its part's limits in every scenario of the design (a
+   payload range: at every payload of its schedule, ``PayloadDesign.schedule_solution``);
+   a payload where a part leaves its limits joins the search's samples and the search
+   runs again (at most :data:`REFINEMENTS` times).
+
+``solution.parts`` is the :class:`.parts.PartsReport`; ``solution.verdict`` the status.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import replace
+from typing import Any
+
+from ..designer.methods import DesignMethod
+from ..designer.solution import Solution
+from ..errors import ProblemFileError
+from ..formulation.layout import Slot
+from ..model.problem import Problem
+from ..solvers.base import Status
+from ..verify.check import verify
+from ..verify.judge import judge
+from . import parts
+from .direct import part_parameters, search_direct
+
+#: searches re-run with a payload added where a part left its limits
+REFINEMENTS = 2
+
+
+def with_options(problem: Problem, parameters: Mapping[str, float] | None, bounds: Mapping[Any, tuple[float, float]] | None) -> Problem:
+    """``problem`` with these base-parameter values (in every scenario) and variable bounds,
+    so that a part search sees the same problem as the solve after it."""
+    if not parameters and not bounds:
+        return problem
+    values = dict(parameters or {})
+    given = {(k.variable if isinstance(k, Slot) else k): v for k, v in (bounds or {}).items()}
+    params = tuple(replace(p, value=values[p.name]) if p.name in values else p for p in problem.parameters)
+    scenarios = tuple(replace(s, parameters={k: v for k, v in s.parameters.items() if k not in values}) for s in problem.scenarios)
+    variables = tuple(replace(v, lower=given[v.name][0], upper=given[v.name][1]) if v.name in given else v for v in problem.variables)
+    return replace(problem, parameters=params, scenarios=scenarios, variables=variables)
+
+
+class _Given:
+    """A designer seen through the call's parameters and bounds (for :func:`search_direct`)."""
+
+    def __init__(self, designer: Any, parameters: Mapping[str, float] | None, bounds: Mapping[Any, tuple[float, float]] | None) -> None:
+        self.designer = designer
+        self.parameters = dict(parameters or {})
+        self.bounds = bounds
+
+    def solve(self, initial: Any = None, parameters: Mapping[str, float] | None = None, bounds: Any = None) -> Solution:
+        merged = {**self.parameters, **(parameters or {})}
+        return self.designer.solve(initial=initial, parameters=merged, bounds=bounds or self.bounds)  # type: ignore[no-any-return]
+
+
+class PartsMethod:
+    """Choose catalogue parts for the slots of ``problem``, then design with ``inner``."""
+
+    def __init__(self, problem: Problem, inner: DesignMethod, direct: bool) -> None:
+        self.problem = problem
+        self.inner = inner
+        self.direct = direct
+
+    def _search_problem(self, extra: tuple[float, ...]) -> Problem:
+        make = getattr(self.inner, "search_problem_with", None)
+        return make(extra) if make is not None else self.problem
+
+    def _designer_of(self, solution: Solution) -> Any:
+        core = getattr(self.inner, "core", None)
+        method = core(solution.problem) if callable(core) else self.inner
+        return method.designer  # type: ignore[attr-defined]
+
+    def solve(
+        self,
+        parameters: Mapping[str, float] | None = None,
+        bounds: Mapping[Any, tuple[float, float]] | None = None,
+        initial: Mapping[Slot, float] | None = None,
+        *,
+        certify: bool = True,
+    ) -> Solution:
+        given = dict(parameters or {})
+        taken = sorted(set(given) & set(part_parameters(self.problem, {s.name: 0 for s in self.problem.slots})))
+        if taken:
+            raise ProblemFileError(self.problem.path, "parameters", f"'{taken[0]}' is set by the catalogue part chosen for its slot")
+        extra: tuple[float, ...] = ()
+        for _ in range(REFINEMENTS + 1):
+            searched = self._search_problem(extra)
+            if self.direct:
+                inner = getattr(self.inner, "core", None)
+                method = inner(searched) if callable(inner) else self.inner
+                search = search_direct(searched, _Given(method.designer, given, bounds))  # type: ignore[attr-defined, arg-type]
+                rows = dict(search.choice.parts) if search.choice else {s.name: 0 for s in self.problem.slots}
+            else:
+                search, rows, _rates = parts.choose(with_options(searched, given, bounds))  # rows carry the rates
+            solution = self.inner.solve({**given, **part_parameters(self.problem, rows)}, bounds, initial, certify=certify)
+            outcome = solution.payload
+            checked = outcome.schedule_solution() if outcome is not None and outcome.schedule is not None else None
+            chosen = parts.report(solution.problem, self._designer_of(solution), solution, search, rows, checked)
+            misfit = chosen.first_misfit()
+            if outcome is None or misfit is None or search.choice is None or checked is None:
+                break
+            mass = outcome.mass_of(misfit.scenario)
+            if mass is None or mass in extra:
+                break
+            extra = (*extra, mass)
+        verification = solution.verification or verify(solution)
+        status, message = judge(solution, verification)
+        if search.choice is None:
+            near = "; ".join(m.text() for m in search.nearest) or "none could be evaluated"
+            status, message = Status.INFEASIBLE, f"{search.message}. Nearest candidates: {near}"
+        elif status is Status.OPTIMAL and misfit is not None:
+            status = Status.INFEASIBLE
+            where = f" at {misfit.scenario}" if misfit.scenario and len(checked.problem.scenarios if checked else solution.problem.scenarios) > 1 else ""
+            message = (
+                f"part {misfit.part_number} of spring {misfit.spring} leaves its limits on the dense check{where} (margins: slack "
+                f"{misfit.margin_slack:.3g} m, length {misfit.margin_length:.3g} m, load {misfit.margin_load:.3g} N)"
+            )
+        elif status is Status.OPTIMAL:
+            picked = ", ".join(f"{s.name}: {s.catalogue.part_number[rows[s.name]]}" for s in self.problem.slots)
+            message = f"{message}; parts {picked}"
+        return replace(solution, verdict=(status, message), verification=verification, parts=chosen)
+
+    def __repr__(self) -> str:
+        return f"PartsMethod({self.inner!r})"
