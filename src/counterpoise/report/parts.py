@@ -1,9 +1,10 @@
 """Reports of catalogue parts: ``springs.csv``, ``tolerance.csv``, design rows and status lines.
 
-``springs.csv`` has one row per spring (``kind = spring``): its part, the distance
-between its attachment points, its own length (d + L0 − F0/k behind the string) and its
-force (k·d) over every checked configuration and scenario, the part's limits and the three
-margins (≥ 0: the limit holds). It ends with the bill of materials (``kind = bom``): per
+``springs.csv`` has one row per spring and scenario (``kind = spring``; a payload range:
+one scenario per payload of its schedule, named after its working mode and payload): its
+part, the distance between its attachment points, its own length (d + L0 − F0/k behind
+the string) and its force (k·d) over every checked configuration of that scenario, the
+part's limits and the three margins (≥ 0: the limit holds). It ends with the bill of materials (``kind = bom``): per
 part the quantity and, where the catalogue gives one, the unit and total price.
 Lengths in mm, forces in N.
 """
@@ -21,6 +22,7 @@ SPRINGS_COLUMNS = [
     "slot",
     "part_number",
     "count",
+    "scenario",
     "min_distance_mm",
     "max_distance_mm",
     "min_length_mm",
@@ -46,7 +48,7 @@ def springs_rows(result: DesignResult) -> list[Row]:
         return []
     mm = 1e3
     rows: list[Row] = []
-    for u in parts.springs:
+    for u in parts.by_scenario or parts.springs:
         rows.append(
             {
                 "kind": "spring",
@@ -54,6 +56,7 @@ def springs_rows(result: DesignResult) -> list[Row]:
                 "slot": u.slot,
                 "part_number": u.part_number,
                 "count": 1,
+                "scenario": u.scenario,
                 "min_distance_mm": u.distance_min * mm,
                 "max_distance_mm": u.distance_max * mm,
                 "min_length_mm": u.length_min * mm,
