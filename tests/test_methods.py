@@ -1,0 +1,159 @@
+"""Design methods compose: every option acts on every kind of problem (issue 13)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from counterpoise.designer.methods import DesignMethod, Minimax, MultiStart, Plain
+from counterpoise.errors import ProblemFileError
+from counterpoise.formulation.layout import Slot
+from counterpoise.io.loader import load_problem, load_problem_text
+from counterpoise.pipeline import build_method, design, run
+from counterpoise.solvers.base import Status
+
+ROOT = Path(__file__).resolve().parent.parent
+
+PAYLOAD_PENDULUM = """
+[problem]
+name = "pendulum_payload_lever"
+[gravity]
+acceleration = "9.81 m/s^2"
+direction = [0, -1, 0]
+[parameters]
+m = "1 kg"
+r = "0.3 m"
+[subsystems.arm]
+coordinates.q = { range = ["-180 deg", "180 deg"] }
+[frames.link]
+transforms = [{ rotate = "z", angle = "q" }]
+[bodies.tip]
+frame = "link"
+mass = "m"
+com = ["r", 0, 0]
+[payloads.tool]
+frame = "link"
+position = ["r", 0, 0]
+range = ["0 kg", "1 kg"]
+[variables.M]
+lower = "0 kg"
+upper = "20 kg"
+[variables.b]
+description = "the counter-mass lever, set per payload: b(p) = (m + p) r / M"
+lower = "0.05 m"
+upper = "0.3 m"
+adjustable = true
+[counter_masses.cm]
+frame = "link"
+mass = "M"
+position = ["-b", 0, 0]
+"""
+
+
+def payload_pendulum():
+    return load_problem_text(PAYLOAD_PENDULUM, "pendulum_payload_lever.toml")
+
+
+def _value(result, name):
+    return next(v for s, v in result.solution.values.items() if s.variable == name and s.scenario is None)
+
+
+def test_methods_nest_by_content(tmp_path):
+    """The problem decides the nesting: plain, multi-start, payload around them."""
+    from builders import pendulum
+
+    plain = build_method(pendulum(0.8, 0.3, (0.02, 1.0), 25.0).build())
+    assert isinstance(plain, Plain) and isinstance(plain, DesignMethod)
+    assert isinstance(build_method(pendulum(0.8, 0.3, (0.02, 1.0), 25.0).build(), starts=3), MultiStart)
+    payload = build_method(payload_pendulum(), starts=2)
+    assert type(payload).__name__ == "PayloadMethod"
+    assert isinstance(payload.core(payload.search_problem_with()), MultiStart)
+
+
+def test_starts_act_on_a_payload_range():
+    """Before: starts was dropped for payload ranges (starts_reaching_best 1/1)."""
+    result = design(payload_pendulum(), starts=3)
+    assert result.status is Status.OPTIMAL, result.message
+    assert result.solution.starts[1] == 3
+    assert result.payload is not None and result.payload.schedule.feasible
+
+
+def test_solve_options_design_a_payload_range_over_its_range():
+    """Before: any solve option designed a payload problem at its nominal payload only.
+    With m = 1.5 kg the lever reaches 0.3 m at 1 kg: M = (1.5 + 1)·0.3/0.3 = 2.5 kg."""
+    result = design(payload_pendulum(), parameters={"m": 1.5})
+    assert result.status is Status.OPTIMAL, result.message
+    assert result.payload is not None
+    assert result.payload.checked == (0.0, 1.0)
+    assert _value(result, "M") == pytest.approx(2.5, rel=1e-7)
+    rows = result.payload.schedule.rows
+    assert rows[0].values["b"] == pytest.approx(1.5 * 0.3 / 2.5, rel=1e-7)  # the schedule saw m = 1.5 kg too
+    # bounds act on every sample and on the schedule: the lever at most 0.25 m needs
+    # M = (1 + 1)·0.3/0.25 = 2.4 kg, and the schedule keeps b ≤ 0.25 m
+    narrowed = design(payload_pendulum(), bounds={"b": (0.05, 0.25)}, initial={Slot("M", None): 2.9})
+    assert narrowed.status is Status.OPTIMAL, narrowed.message
+    assert _value(narrowed, "M") == pytest.approx(2.4, rel=1e-7)
+    assert max(s.values["b"] for s in narrowed.payload.schedule.rows) == pytest.approx(0.25, rel=1e-9)
+    with pytest.raises(ProblemFileError, match="parameters: 'tool' is the payload"):
+        design(payload_pendulum(), parameters={"tool": 0.5})
+
+
+def test_a_method_is_built_once_and_solved_many_times():
+    method = build_method(payload_pendulum())
+    first = run(method, parameters={"m": 1.5})
+    second = run(method, parameters={"m": 0.5})
+    assert _value(first, "M") == pytest.approx(2.5, rel=1e-7)
+    assert _value(second, "M") == pytest.approx(1.5, rel=1e-7)
+    assert len(method._built) == 1  # one sampled problem, one inner method
+
+
+def test_starts_act_on_directly_attached_springs(tmp_path):
+    from test_direct_springs import arm
+
+    problem = arm(tmp_path, 'stiffness = "k"\nfree_length = "50 mm"\ninitial_tension = "2 N"\nmax_length = "0.6 m"')
+    method = build_method(problem, starts=2)
+    assert isinstance(method, MultiStart) and isinstance(method.inner, Minimax)
+    result = run(method)
+    assert result.status is Status.OPTIMAL, result.message
+    assert result.solution.starts[1] == 2
+
+
+def test_starts_and_parameters_act_on_slots(tmp_path):
+    """Before: starts was dropped for problems with slots, and a parameter given to a slot
+    problem did not reach its part search."""
+    from test_catalogue import pendulum
+
+    good = "GOOD,200,0.05,1,50,0.3,0.01,0.001,x"
+    problem = pendulum(tmp_path, [good], 2.0 / (9.81 * 0.2))
+    result = design(problem, starts=2)
+    assert result.status is Status.OPTIMAL, result.message
+    assert result.solution.starts[1] == 2
+    # m g r = k b h: a 10 % heavier m moves h to 1.1 × (2 N·m / (200 N/m · 0.1 m))
+    heavier = design(problem, parameters={"m": 1.1 * 2.0 / (9.81 * 0.2)})
+    assert heavier.status is Status.OPTIMAL, heavier.message
+    assert _value(heavier, "h") == pytest.approx(1.1 * 0.1, rel=1e-7)
+    with pytest.raises(ProblemFileError, match="parameters: 's' is set by the catalogue part"):
+        design(problem, parameters={"s": 150.0})
+
+
+def test_woo2019_hybrid_catalogue_part_holds_over_the_payload_range(tmp_path):
+    """Acceptance: slots and a payload range compose. One shipped part for the spring, the
+    schedule feasible from 0 to 122 g, and springs.csv shows the part within its limits
+    at every payload of the schedule."""
+    import csv
+    import io
+
+    from counterpoise.report.files import report_texts
+
+    result = design(load_problem(ROOT / "problems" / "woo2019_hybrid_catalogue.toml"))
+    assert result.status is Status.OPTIMAL, result.message
+    assert result.payload.schedule.feasible and result.payload.checked == pytest.approx((0.0, 0.122))
+    assert result.parts.fits
+    rows = list(csv.DictReader(io.StringIO(report_texts(result)["springs.csv"])))
+    springs = [r for r in rows if r["kind"] == "spring"]
+    plan = result.payload.schedule
+    assert len(springs) == len(plan.rows) + len(plan.between)
+    assert {r["scenario"] for r in springs} >= {"added_0g", "added_61g", "added_122g"}
+    for r in springs:
+        assert min(float(r["margin_slack_mm"]), float(r["margin_length_mm"]), float(r["margin_load_N"])) >= 0, r
