@@ -157,3 +157,65 @@ def test_woo2019_hybrid_catalogue_part_holds_over_the_payload_range(tmp_path):
     assert {r["scenario"] for r in springs} >= {"added_0g", "added_61g", "added_122g"}
     for r in springs:
         assert min(float(r["margin_slack_mm"]), float(r["margin_length_mm"]), float(r["margin_load_N"])) >= 0, r
+
+
+TWO_TOOLS = """
+[problem]
+name = "two_tools"
+[gravity]
+acceleration = "9.81 m/s^2"
+direction = [0, -1, 0]
+[parameters]
+m_tool = "1 kg"
+r = "0.2 m"
+b = "0.1 m"
+e = "0.1 m"
+k = "1000 N/m"
+[subsystems.arm]
+coordinates.q = { range = ["-90 deg", "90 deg"] }
+[frames.link]
+transforms = [{ rotate = "z", angle = "q" }]
+[bodies.tool]
+frame = "link"
+mass = "m_tool"
+com = ["r", 0, 0]
+[variables.M]
+lower = "0 kg"
+upper = "0.5 kg"
+description = "counter-mass shared by both tools"
+[variables.a]
+lower = "10 mm"
+upper = "60 mm"
+initial = "30 mm"
+adjustable = true
+description = "spring base height, set per tool"
+[counter_masses.cm]
+frame = "link"
+mass = "M"
+position = ["-b", 0, 0]
+[springs.s]
+stiffness = "k"
+from = { frame = "ground", point = [0, "a", 0] }
+to = { frame = "link", point = ["e", 0, 0] }
+[scenarios.light]
+parameters = { m_tool = "1 kg" }
+[scenarios.heavy]
+parameters = { m_tool = "5 kg" }
+[objective]
+mass_weight = 1
+"""
+
+
+def test_infeasible_modes_polish_the_modes_that_can_be_met():
+    """Balance needs (m r − M b) g = k a e. heavy (5 kg) needs a ≥ 93 mm > 60 mm: unmet.
+    light (1 kg) is met by its own a = (0.2 − 0.1 M)·9.81/100 for every M ≤ 0.5 kg. Before:
+    the closest design left a@light 0.2 mm off and the message named both modes."""
+    result = design(load_problem_text(TWO_TOOLS, "two_tools.toml"))
+    assert result.status is Status.INFEASIBLE
+    assert "'heavy'" in result.message and "'light'" not in result.message
+    assert "a@heavy at its upper bound 60 mm" in result.message
+    values = {(s.variable, s.scenario): v for s, v in result.solution.values.items()}
+    m = values[("M", None)]
+    assert values[("a", "light")] == pytest.approx((0.2 - 0.1 * m) * 9.81 / 100, rel=1e-9)
+    light = [c for c in result.verification.checks if c.scenario == "light"]
+    assert light and all(result.verification.ratio(c) <= 1e-9 for c in light)

@@ -89,8 +89,9 @@ def solve_convex(designer: "Designer", z0: np.ndarray, p: np.ndarray, b: Bounds,
         return z, out, "balanced design found (LP, Clarabel)"
     if out.status is Status.INFEASIBLE:
         closest = designer.closest_design(z0, p, bounds)
-        out = SolverOutput(closest.z, Status.INFEASIBLE, out.solver_status, out.iterations, out.solve_time + closest.solve_time, out.solver)
-        return closest.z, out, "CLARABEL: infeasible"
+        z = designer.polish_settings(closest.z, p, b)
+        out = SolverOutput(z, Status.INFEASIBLE, out.solver_status, out.iterations, out.solve_time + closest.solve_time, out.solver)
+        return z, out, "CLARABEL: infeasible"
     return out.z, out, f"CLARABEL: {out.solver_status}"
 
 

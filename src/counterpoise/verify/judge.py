@@ -67,9 +67,12 @@ def _unmet_message(solution: "Solution", verification: Verification) -> str:
     ]
     at_bounds = []
     for slot, value in solution.values.items():
-        side = problem.variable[slot.variable].bound_side(value)
+        v = problem.variable[slot.variable]
+        side = v.bound_side(value)
         if side:
-            at_bounds.append(f"{slot.variable} at its {side} bound")
+            name = slot.variable if slot.scenario is None else f"{slot.variable}@{slot.scenario}"
+            bound = v.lower if side == "lower" else v.upper
+            at_bounds.append(f"{name} at its {side} bound {v.unit.from_si(bound):.6g} {v.unit.label}")
     text = "balance cannot be met within the bounds: " + ("; ".join(parts) or solution.message)
     if at_bounds:
         text += "; at the closest design " + ", ".join(at_bounds)
