@@ -210,6 +210,8 @@ def schedule(
     if result.setting is None:
         out_console.print(f"{problem.name}: the design is {result.design.status.value}: {result.design.message}", markup=False)
         raise typer.Exit(1)
+    if result.note:
+        out_console.print(f"{problem.name}: {result.note}", markup=False, soft_wrap=True)
     if result.balanceable is not None:
         lo, hi = result.balanceable
         out_console.print(

@@ -13,9 +13,16 @@ a ``[payloads]`` range:
    needs an interior payload to be feasible gets it. Adjustments linear in the payload
    need only the end points (the values between are convex combinations of feasible
    ones); the schedule confirms it and states their formulas.
-3. **Widest range** (``objective = "max_payload_range"``): with the design fixed, the
-   upper end is pushed until an adjustment reaches a limit (doubling steps, a scan for
-   holes, then bisection), and the schedule is re-solved on the range found.
+3. **Widest range** (``objective = "max_payload_range"``): with the design fixed, both
+   ends are pushed out until an adjustment reaches a limit (:func:`widest_range`: the
+   upper end by doubling steps, a scan for holes and bisection, the lower end down toward
+   0), and the schedule is re-solved on the range found. ``counterpoise schedule`` reports
+   the same range for a payload it cannot balance.
+4. **A declared range too wide.** The message names the limiting adjustments of the
+   least-squares closest design, and the design reported is the one that balances the
+   widest sub-range around the nominal (:func:`_narrowed`): it is balanced at least at
+   the nominal, and the message says what it balances ("balanceable from 0 g to 100 g;
+   dL_c1 reaches its upper limit 50 mm at 100 g").
 """
 
 from __future__ import annotations
@@ -45,13 +52,33 @@ REFINEMENTS = 3
 MAX_DOUBLINGS = 30
 #: payloads scanned between the last feasible and the first infeasible one (holes)
 SCAN = 16
+#: bisection steps on each end of a declared range too wide to balance (1/65536 of its span)
+NARROW_STEPS = 16
+#: two payloads closer than this share of the display unit are the same (bisection ends)
+PAYLOAD_RESOLUTION = 1e-9
 
 
 @dataclass(frozen=True)
 class WidestRange:
+    """The payloads a fixed design balances, from the nominal outwards both ways."""
+
     lower: float  # kg
     upper: float  # kg
-    limit: str  # what stops it, for the report
+    limit: str  # what stops it at the upper end, for the report
+    lower_limit: str = ""  # what stops it at the lower end ("" at 0)
+    #: (adjustment, 'lower'|'upper', bound SI) at a limit at each end; None: no adjustment at one
+    upper_at: tuple[str, str, float] | None = None
+    lower_at: tuple[str, str, float] | None = None
+
+    def text(self, payload: Payload, problem: Problem) -> str:
+        """'balanceable from 0 g to 100 g; dL_c1 reaches its upper limit 50 mm at 100 g'."""
+        out = f"balanceable from {payload.label(self.lower)} to {payload.label(self.upper)}"
+        for at, mass in ((self.upper_at, self.upper), (self.lower_at, self.lower)):
+            if at is not None:
+                name, side, bound = at
+                v = problem.variable[name]
+                out += f"; {name} reaches its {side} limit {v.unit.from_si(bound):.6g} {v.unit.label} at {payload.label(mass)}"
+        return out
 
 
 @dataclass(frozen=True)
@@ -118,6 +145,8 @@ class OperatorSettings:
     design: PayloadDesign
     setting: Setting | None  # None when the design itself is not optimal
     balanceable: tuple[float, float] | None  # computed when the payload cannot be balanced
+    #: said when the payload lies outside the declared range ("" inside it)
+    note: str = ""
 
 
 def settings_for(problem: Problem, mass: float, outcome: PayloadDesign | None = None) -> OperatorSettings:
@@ -128,27 +157,15 @@ def settings_for(problem: Problem, mass: float, outcome: PayloadDesign | None = 
     if outcome.status is not Status.OPTIMAL or outcome.schedule is None:
         return OperatorSettings(outcome, None, None)
     solver = outcome.adjuster or AdjustmentSolver(problem, outcome.shared())
+    payload = outcome.payload
+    note = ""
+    if not payload.lower <= mass <= payload.upper:
+        note = f"payload {payload.label(mass)} lies outside the declared range {payload.label(payload.lower)} to {payload.label(payload.upper)}"
     setting = solver.at(mass)
     if setting.feasible:
-        return OperatorSettings(outcome, setting, None)
-    upper = outcome.widest.upper if outcome.widest is not None else widest_range(solver, outcome.schedule)[0].upper
-    lower = _lowest(solver, outcome.schedule.rows[0])
-    return OperatorSettings(outcome, setting, (lower, upper))
-
-
-def _lowest(solver: AdjustmentSolver, first: Setting) -> float:
-    """The smallest payload (≥ 0) down to which the design balances, from a feasible one."""
-    good = first.payload
-    if good <= 0 or solver.at(0.0).feasible:
-        return 0.0
-    bad = 0.0
-    while good - bad > 1e-9 * max(good, solver.payload.unit.to_si):
-        mid = 0.5 * (good + bad)
-        if solver.at(mid).feasible:
-            good = mid
-        else:
-            bad = mid
-    return good
+        return OperatorSettings(outcome, setting, None, note)
+    widest = outcome.widest or widest_range(solver, outcome.schedule)[0]
+    return OperatorSettings(outcome, setting, (widest.lower, widest.upper), note)
 
 
 def design_payloads(
@@ -168,13 +185,8 @@ def design_payloads(
     core = core or (lambda p: Plain(Designer(p)))
     masses = {payload.lower, payload.nominal, payload.upper}
     for _ in range(REFINEMENTS + 1):
-        sampled = sampled_problem(problem, masses)
-        method = core(sampled.problem)
-        solution = method.solve(parameters, merged_bounds(sampled, bounds), sampled_initial(sampled, initial))
-        verification = verify(solution)
-        status, message = judge(solution, verification)
-        shared = {slot.variable: v for slot, v in solution.values.items() if slot.scenario is None}
-        solver = AdjustmentSolver(problem, shared, parameters, adjustment_bounds(problem, bounds))
+        sampled, solution, verification, status, message = _solve_samples(problem, core, masses, parameters, bounds, initial)
+        solver = AdjustmentSolver(problem, _shared(solution), parameters, adjustment_bounds(problem, bounds))
         plan = schedule(solver, payload.lower, payload.upper)
         failure = plan.first_failure
         if status is not Status.OPTIMAL or failure is None or failure.payload in masses:
@@ -184,6 +196,12 @@ def design_payloads(
     widest = None
     if status is Status.INFEASIBLE:
         message = _infeasible_message(sampled, solution, range_text, message)
+        narrowed = _narrowed(problem, core, parameters, bounds, initial)
+        if narrowed is not None:  # report the design that balances the most of the range
+            sampled, solution, verification = narrowed
+            solver = AdjustmentSolver(problem, _shared(solution), parameters, adjustment_bounds(problem, bounds))
+            widest, plan = widest_range(solver, schedule(solver, min(sampled.masses), max(sampled.masses)))
+            message += f"; {widest.text(payload, solver.problem)} (the design reported)"
     elif status is Status.OPTIMAL and failure is not None:
         status = Status.FAILED
         message = (
@@ -195,6 +213,8 @@ def design_payloads(
         if problem.objective.goal == MAX_PAYLOAD_RANGE:
             widest, plan = widest_range(solver, plan)
             message += f"; widest range {payload.label(widest.lower)} to {payload.label(widest.upper)}, {widest.limit}"
+            if widest.lower_limit:
+                message += f"; below {payload.label(widest.lower)} {widest.lower_limit}"
             width = widest.upper - widest.lower
             quantity = ReportQuantity(
                 "max_payload_range", ex.Num(width), payload.unit, f"widest payload range the design balances ({widest.limit})"
@@ -203,6 +223,68 @@ def design_payloads(
             solution = replace(solution, problem=solved)
     checked = (plan.rows[0].payload, plan.rows[-1].payload)
     return PayloadDesign(solution.problem, payload, status, message, solution, verification, sampled.masses, plan, checked, widest, solver)
+
+
+def _shared(solution: Solution) -> dict[str, float]:
+    return {slot.variable: v for slot, v in solution.values.items() if slot.scenario is None}
+
+
+def _solve_samples(
+    problem: Problem,
+    core: "Callable[[Problem], DesignMethod]",
+    masses: set[float],
+    parameters: Mapping[str, float] | None,
+    bounds: Mapping[Any, tuple[float, float]] | None,
+    initial: Mapping[Slot, float] | None,
+    certify: bool = True,
+) -> tuple[Sampled, Solution, Verification, Status, str]:
+    """The shared design on the payload samples ``masses``, verified and judged."""
+    sampled = sampled_problem(problem, masses)
+    solution = core(sampled.problem).solve(parameters, merged_bounds(sampled, bounds), sampled_initial(sampled, initial), certify=certify)
+    verification = verify(solution)
+    status, message = judge(solution, verification)
+    return sampled, solution, verification, status, message
+
+
+def _narrowed(
+    problem: Problem,
+    core: "Callable[[Problem], DesignMethod]",
+    parameters: Mapping[str, float] | None,
+    bounds: Mapping[Any, tuple[float, float]] | None,
+    initial: Mapping[Slot, float] | None,
+) -> tuple[Sampled, Solution, Verification] | None:
+    """A declared range too wide to balance: the design of the widest sub-range around the
+    nominal that can be (the upper end bisected toward the nominal, the lower end kept;
+    if even that fails, the lower end bisected first). None when not even the nominal can."""
+    payload = payload_of(problem)
+    nominal = payload.nominal
+
+    def attempt(lo: float, hi: float) -> tuple[Sampled, Solution, Verification] | None:
+        sampled, solution, verification, status, _ = _solve_samples(problem, core, {lo, nominal, hi}, parameters, bounds, initial, False)
+        return (sampled, solution, verification) if status is Status.OPTIMAL else None
+
+    def bisect(good: float, bad: float, found: tuple[Sampled, Solution, Verification], make: Callable[[float], tuple[float, float]]) -> tuple[float, tuple[Sampled, Solution, Verification]]:
+        for _ in range(NARROW_STEPS):
+            if abs(bad - good) <= PAYLOAD_RESOLUTION * payload.unit.to_si:
+                break
+            mid = 0.5 * (good + bad)
+            tried = attempt(*make(mid))
+            if tried is not None:
+                good, found = mid, tried
+            else:
+                bad = mid
+        return good, found
+
+    lower = payload.lower
+    found = attempt(lower, nominal)
+    if found is None:
+        found = attempt(nominal, nominal)
+        if found is None:
+            return None
+        lower, found = bisect(nominal, payload.lower, found, lambda m: (m, nominal))
+    if payload.upper > nominal:
+        _, found = bisect(nominal, payload.upper, found, lambda m: (lower, m))
+    return found
 
 
 def check_options(problem: Problem, parameters: Mapping[str, float] | None, bounds: Mapping[Any, tuple[float, float]] | None) -> None:
@@ -289,7 +371,10 @@ def _infeasible_message(sampled: Sampled, solution: Solution, range_text: str, f
 
 
 def widest_range(solver: AdjustmentSolver, plan: Schedule) -> tuple[WidestRange, Schedule]:
-    """Push the upper end of a feasible schedule until the adjustments cannot follow."""
+    """The balanceable range of a fixed design: both ends of a feasible schedule pushed out
+    (the upper one by doubling steps, a scan for holes and bisection; the lower one down
+    toward 0 by bisection) until the adjustments cannot follow. ``max_payload_range``,
+    ``counterpoise schedule`` and a declared range too wide all use this one definition."""
     payload = solver.payload
     lower, a = plan.rows[0].payload, plan.rows[-1].payload
     step = max(a - lower, 1e-3 * payload.unit.to_si, 1e-6)
@@ -302,7 +387,7 @@ def widest_range(solver: AdjustmentSolver, plan: Schedule) -> tuple[WidestRange,
             break
         a, last, step = s.payload, s, 2 * step
     if upper_bad is None:
-        return WidestRange(lower, a, f"no limit found up to {payload.label(a)}"), schedule(solver, lower, a)
+        return _with_lower_end(solver, lower, a, schedule(solver, lower, a), f"no limit found up to {payload.label(a)}", None)
     for _ in range(REFINEMENTS + 1):
         a, last = _bisect(solver, a, last, upper_bad.payload)
         full = schedule(solver, lower, a)
@@ -314,13 +399,37 @@ def widest_range(solver: AdjustmentSolver, plan: Schedule) -> tuple[WidestRange,
         last = max(below, key=lambda s: s.payload) if below else plan.rows[0]
         a = last.payload
     limit = solver.limit(last)
+    return _with_lower_end(solver, lower, a, full, _limit_text(solver, limit, upper_bad.message), limit)
+
+
+def _with_lower_end(
+    solver: AdjustmentSolver, lower: float, a: float, full: Schedule, text: str, limit: tuple[str, str, float] | None
+) -> tuple[WidestRange, Schedule]:
+    """The range [lower, a] pushed down toward 0 as far as the adjustments follow."""
+    low, low_setting = _lowest(solver, full.rows[0])
+    low_limit, low_at = "", None
+    if low_setting is not None:
+        low_at = solver.limit(low_setting)
+        low_limit = _limit_text(solver, low_at, "")
+    if low < lower:
+        full = schedule(solver, low, a)
+    return WidestRange(low, a, text, low_limit, limit, low_at), full
+
+
+def _limit_text(solver: AdjustmentSolver, limit: tuple[str, str, float] | None, message: str) -> str:
     if limit is None:
-        text = f"beyond it the adjustments do not balance ({upper_bad.message})"
-    else:
-        name, side, bound = limit
-        v = solver.problem.variable[name]
-        text = f"limited by {name} at its {side} limit {v.unit.from_si(bound):.6g} {v.unit.label}"
-    return WidestRange(lower, a, text), full
+        return f"beyond it the adjustments do not balance ({message})" if message else "beyond it the adjustments do not balance"
+    name, side, bound = limit
+    v = solver.problem.variable[name]
+    return f"limited by {name} at its {side} limit {v.unit.from_si(bound):.6g} {v.unit.label}"
+
+
+def _lowest(solver: AdjustmentSolver, first: Setting) -> tuple[float, Setting | None]:
+    """The smallest payload (≥ 0) down to which the design balances, from a feasible one,
+    and its setting when a limit stops it above 0 (None: it reaches 0)."""
+    if first.payload <= 0 or solver.at(0.0).feasible:
+        return min(first.payload, 0.0), None
+    return _bisect(solver, first.payload, first, 0.0)
 
 
 def _bisect(solver: AdjustmentSolver, good: float, good_setting: Setting, bad: float) -> tuple[float, Setting]:
@@ -332,7 +441,7 @@ def _bisect(solver: AdjustmentSolver, good: float, good_setting: Setting, bad: f
             bad = t
             break
         good, good_setting = t, s
-    while bad - good > 1e-9 * max(bad, solver.payload.unit.to_si):
+    while abs(bad - good) > PAYLOAD_RESOLUTION * max(abs(bad), solver.payload.unit.to_si):
         mid = 0.5 * (good + bad)
         s = solver.at(mid)
         if s.feasible:

@@ -74,6 +74,8 @@ def payload_status_lines(result: DesignResult) -> str:
     if outcome.widest is not None:
         w = outcome.widest
         lines.append(f"widest payload range: {payload.label(w.lower)} to {payload.label(w.upper)} ({payload.label(w.upper - w.lower)}), {w.limit}")
+        if w.lower_limit:
+            lines.append(f"widest payload range: below {payload.label(w.lower)} {w.lower_limit}")
     return "\n".join(lines) + "\n"
 
 
