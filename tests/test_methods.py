@@ -219,3 +219,38 @@ def test_infeasible_modes_polish_the_modes_that_can_be_met():
     assert values[("a", "light")] == pytest.approx((0.2 - 0.1 * m) * 9.81 / 100, rel=1e-9)
     light = [c for c in result.verification.checks if c.scenario == "light"]
     assert light and all(result.verification.ratio(c) <= 1e-9 for c in light)
+
+
+def _pendulum_with(old: str, new: str):
+    assert old in PAYLOAD_PENDULUM
+    return load_problem_text(PAYLOAD_PENDULUM.replace(old, new), "pendulum_payload_lever.toml")
+
+
+def test_max_payload_range_and_schedule_report_the_same_two_ends():
+    """Declared 0.5-1 kg: M = 2 kg puts b = (1 + p)·0.3/2 in [0.05, 0.3] m for p in [0, 1] kg
+    (b = 0.15 m at 0 kg, inside its bounds). Before: max_payload_range widened upward only
+    (0.5 kg to 1 kg) while schedule answered 0 kg to 1 kg."""
+    from counterpoise.pipeline import operator_settings
+
+    problem = _pendulum_with('range = ["0 kg", "1 kg"]', 'range = ["0.5 kg", "1 kg"]')
+    text = 'objective = "max_payload_range"\n' + PAYLOAD_PENDULUM.replace('range = ["0 kg", "1 kg"]', 'range = ["0.5 kg", "1 kg"]')
+    widest = design(load_problem_text(text, "widest.toml"))
+    assert widest.status is Status.OPTIMAL, widest.message
+    w = widest.payload.widest
+    assert (w.lower, w.upper) == pytest.approx((0.0, _value(widest, "M") - 1.0), abs=1e-6)
+    heavy = operator_settings(problem, 1.5)
+    assert heavy.balanceable == pytest.approx((0.0, 1.0), abs=1e-6)
+    light = operator_settings(problem, 0.2)
+    assert light.setting.feasible and "0.2 kg lies outside the declared range 0.5 kg to 1 kg" in light.note
+
+
+def test_range_too_wide_says_what_is_balanceable_and_reports_a_design_balanced_at_the_nominal():
+    """M ≤ 2 kg and b ≤ 0.3 m balance (1 + p)·0.3 ≤ 2·0.3 only up to p = 1 kg of the 3 kg declared."""
+    text = PAYLOAD_PENDULUM.replace('range = ["0 kg", "1 kg"]', 'range = ["0 kg", "3 kg"]').replace('upper = "20 kg"', 'upper = "2 kg"')
+    result = design(load_problem_text(text, "wide.toml"))
+    assert result.status is Status.INFEASIBLE
+    assert "balanceable from 0 kg to" in result.message and "b reaches its upper limit 0.3 m at" in result.message
+    w = result.payload.widest
+    assert (w.lower, w.upper) == pytest.approx((0.0, 1.0), abs=1e-3)
+    nominal = next(c for c in result.verification.checks if c.scenario == "tool_0kg")
+    assert result.verification.ratio(nominal) <= 1e-9  # the design reported is balanced at the nominal

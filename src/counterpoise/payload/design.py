@@ -52,8 +52,8 @@ REFINEMENTS = 3
 MAX_DOUBLINGS = 30
 #: payloads scanned between the last feasible and the first infeasible one (holes)
 SCAN = 16
-#: bisection steps on each end of a declared range too wide to balance (1/65536 of its span)
-NARROW_STEPS = 16
+#: bisection steps on each end of a declared range too wide to balance (1/4096 of its span)
+NARROW_STEPS = 12
 #: two payloads closer than this share of the display unit are the same (bisection ends)
 PAYLOAD_RESOLUTION = 1e-9
 
