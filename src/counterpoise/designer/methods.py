@@ -170,7 +170,10 @@ def core_method(problem: Problem, starts: int = 1, backend: str = "auto", design
     if has_direct_springs(problem):
         if backend not in ("auto", "ipopt"):
             raise ValueError(f"backend {backend!r}: directly attached springs are designed by IPOPT (minimax)")
-        inner = Minimax(designer if isinstance(designer, MinimaxDesigner) else MinimaxDesigner(problem))
+        usable = designer is not None and not isinstance(designer, Designer)
+        inner = Minimax(designer if usable else MinimaxDesigner(problem))
     else:
-        inner = Plain(designer if isinstance(designer, Designer) else Designer(problem, backend=backend))
+        # any object with the designer's solve() is used as given (a study may wrap one)
+        usable = designer is not None and not isinstance(designer, MinimaxDesigner)
+        inner = Plain(designer if usable else Designer(problem, backend=backend))
     return MultiStart(inner, starts, problem.settings.seed) if starts > 1 else inner
