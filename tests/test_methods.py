@@ -254,3 +254,22 @@ def test_range_too_wide_says_what_is_balanceable_and_reports_a_design_balanced_a
     assert (w.lower, w.upper) == pytest.approx((0.0, 1.0), abs=1e-3)
     nominal = next(c for c in result.verification.checks if c.scenario == "tool_0kg")
     assert result.verification.ratio(nominal) <= 1e-9  # the design reported is balanced at the nominal
+
+
+def test_directly_attached_spring_with_a_payload_range_and_starts(tmp_path):
+    """Minimax inside a payload design inside... all composed: the spring base height y set
+    per payload, two starts on every sample design; before, the schedule's adjustment
+    solver demanded exact balance conditions and the design stopped with an error."""
+    from test_direct_springs import ARM
+
+    spring = 'stiffness = "k"\nfree_length = "50 mm"\ninitial_tension = "2 N"\nmax_length = "0.6 m"'
+    extra = '[payloads.tool]\nframe = "link"\nposition = ["r", 0, 0]\nrange = ["0 kg", "0.2 kg"]\n'
+    text = ARM.format(spring=spring, extra=extra, stiffness_parameter='k = "200 N/m"')
+    text = text.replace('initial = "0.2 m"\n', 'initial = "0.2 m"\nadjustable = true\n', 1)
+    result = design(load_problem_text(text, "direct_payload.toml"), starts=2)
+    assert result.status is Status.OPTIMAL, result.message
+    assert result.solution.starts[1] == 2 and result.solution.sampled_ratio is not None
+    plan = result.payload.schedule
+    assert plan.feasible and plan.rows[-1].payload == pytest.approx(0.2)
+    heights = [s.values["y"] for s in plan.rows]
+    assert heights[-1] > heights[0]  # a heavier payload needs a higher spring base

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..designer.designer import Designer
+from ..designer.methods import core_method
 from ..formulation.layout import Slot
 from ..model.problem import Problem, bound_side
 from ..solvers.base import Status
@@ -89,7 +89,10 @@ class AdjustmentSolver:
         self.source = problem
         self.payload = payload_of(problem)
         self.problem = adjustment_problem(problem, shared)
-        self.designer = Designer(self.problem)
+        #: the adjustments' design method: the plain designer, or the minimax one when a
+        #: spring is attached directly (then "feasible" means its minimax solve converged)
+        self.method = core_method(self.problem)
+        self.designer = self.method.designer
         self.samples = max(200, problem.settings.verify_samples // VERIFY_SHARE)
         self.parameters = dict(parameters or {})
         self.bounds = dict(bounds or {}) or None
@@ -98,7 +101,7 @@ class AdjustmentSolver:
     def at(self, mass: float) -> Setting:
         """Solve and verify the adjustments for payload ``mass`` (kg)."""
         parameters = {**self.parameters, self.payload.name: mass}
-        solution = self.designer.solve(initial=self._last or None, parameters=parameters, bounds=self.bounds, certify=False)
+        solution = self.method.solve(parameters, self.bounds, self._last or None, certify=False)
         verification = verify(solution, samples=self.samples)
         status, message = judge(solution, verification)
         values = {slot.variable: v for slot, v in solution.values.items()}
