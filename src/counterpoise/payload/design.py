@@ -33,7 +33,6 @@ from typing import Any
 
 from ..designer.designer import Designer
 from ..designer.methods import DesignMethod, Plain
-from ..errors import ProblemFileError
 from ..designer.solution import Solution
 from ..model import expr as ex
 from ..model.payload import MAX_PAYLOAD_RANGE, Payload
@@ -43,42 +42,16 @@ from ..verify.check import verify
 from ..verify.checks import Verification
 from ..verify.judge import judge
 from ..formulation.layout import Slot
-from .scenarios import Sampled, design_bounds, is_pinned, modes, payload_of, sampled_problem, setting_name
+from .options import adjustment_bounds, check_options, merged_bounds, sampled_initial
+from .scenarios import Sampled, is_pinned, modes, payload_of, sampled_problem, setting_name
 from .schedule import AdjustmentSolver, Schedule, Setting, schedule
+from .widest import PAYLOAD_RESOLUTION, WidestRange, widest_range
 
 #: re-designs with an added failing payload before the schedule's failure is final
 REFINEMENTS = 3
-#: the widest-range search stops doubling after this many steps (reports "no limit found")
-MAX_DOUBLINGS = 30
-#: payloads scanned between the last feasible and the first infeasible one (holes)
-SCAN = 16
 #: bisection steps on each end of a declared range too wide to balance (1/4096 of its span)
 NARROW_STEPS = 12
-#: two payloads closer than this share of the display unit are the same (bisection ends)
-PAYLOAD_RESOLUTION = 1e-9
 
-
-@dataclass(frozen=True)
-class WidestRange:
-    """The payloads a fixed design balances, from the nominal outwards both ways."""
-
-    lower: float  # kg
-    upper: float  # kg
-    limit: str  # what stops it at the upper end, for the report
-    lower_limit: str = ""  # what stops it at the lower end ("" at 0)
-    #: (adjustment, 'lower'|'upper', bound SI) at a limit at each end; None: no adjustment at one
-    upper_at: tuple[str, str, float] | None = None
-    lower_at: tuple[str, str, float] | None = None
-
-    def text(self, payload: Payload, problem: Problem) -> str:
-        """'balanceable from 0 g to 100 g; dL_c1 reaches its upper limit 50 mm at 100 g'."""
-        out = f"balanceable from {payload.label(self.lower)} to {payload.label(self.upper)}"
-        for at, mass in ((self.upper_at, self.upper), (self.lower_at, self.lower)):
-            if at is not None:
-                name, side, bound = at
-                v = problem.variable[name]
-                out += f"; {name} reaches its {side} limit {v.unit.from_si(bound):.6g} {v.unit.label} at {payload.label(mass)}"
-        return out
 
 
 @dataclass(frozen=True)
@@ -287,58 +260,6 @@ def _narrowed(
     return found
 
 
-def check_options(problem: Problem, parameters: Mapping[str, float] | None, bounds: Mapping[Any, tuple[float, float]] | None) -> None:
-    """The payload's own mass is set by the range, not by ``parameters``; bounds name variables."""
-    payload = payload_of(problem)
-    if parameters and payload.name in parameters:
-        raise ProblemFileError(problem.path, "parameters", f"'{payload.name}' is the payload of a payload range: change payloads.{payload.name}.range instead")
-    for key in bounds or {}:
-        name = key.variable if isinstance(key, Slot) else key
-        if name not in problem.variable:
-            raise ProblemFileError(problem.path, "bounds", f"no design variable '{name}'")
-
-
-def merged_bounds(sampled: Sampled, bounds: Mapping[Any, tuple[float, float]] | None) -> dict[Slot | str, tuple[float, float]]:
-    """The call's bounds (by variable, on every sample) with the adjustments' pins and travel
-    windows (:func:`.scenarios.design_bounds`) inside them."""
-    given = {(k.variable if isinstance(k, Slot) else k): v for k, v in (bounds or {}).items()}
-    out: dict[Slot | str, tuple[float, float]] = dict(given)
-    for slot, (lo, hi) in design_bounds(sampled).items():
-        if slot.variable in given:
-            a, b = given[slot.variable]
-            lo, hi = (lo, hi) if lo == hi else (max(lo, a), min(hi, b))
-        out[slot] = (lo, hi)
-    return out
-
-
-def adjustment_bounds(problem: Problem, bounds: Mapping[Any, tuple[float, float]] | None) -> dict[str, tuple[float, float]]:
-    """The call's bounds on adjustable variables, for the schedule's adjustment solves."""
-    out = {}
-    for key, (a, b) in (bounds or {}).items():
-        name = key.variable if isinstance(key, Slot) else key
-        v = problem.variable[name]
-        if v.adjustable:
-            lo, hi = v.adjusted_bounds()
-            out[name] = (max(lo, a), min(hi, b))
-    return out
-
-
-def sampled_initial(sampled: Sampled, initial: Mapping[Any, float] | None) -> dict[Slot, float] | None:
-    """Initial values given for ``problem``'s slots (or variable names), on every sample's slot."""
-    if not initial:
-        return None
-    by_name = {(k.variable if isinstance(k, Slot) else k): v for k, v in initial.items()}
-    out = {}
-    for v in sampled.problem.variables:
-        if v.name not in by_name:
-            continue
-        if v.adjustable:
-            out.update({Slot(v.name, setting): by_name[v.name] for setting in sampled.setting_mass})
-        else:
-            out[Slot(v.name, None)] = by_name[v.name]
-    return out
-
-
 def _infeasible_message(sampled: Sampled, solution: Solution, range_text: str, fallback: str) -> str:
     """Name the adjustments at a limit in the closest design, and shared variables on a
     bound; an adjustment pinned to its nominal is not a limit (it is fixed by the file)."""
@@ -370,82 +291,4 @@ def _infeasible_message(sampled: Sampled, solution: Solution, range_text: str, f
     return f"{text} (closest design: {unmet})"
 
 
-def widest_range(solver: AdjustmentSolver, plan: Schedule) -> tuple[WidestRange, Schedule]:
-    """The balanceable range of a fixed design: both ends of a feasible schedule pushed out
-    (the upper one by doubling steps, a scan for holes and bisection; the lower one down
-    toward 0 by bisection) until the adjustments cannot follow. ``max_payload_range``,
-    ``counterpoise schedule`` and a declared range too wide all use this one definition."""
-    payload = solver.payload
-    lower, a = plan.rows[0].payload, plan.rows[-1].payload
-    step = max(a - lower, 1e-3 * payload.unit.to_si, 1e-6)
-    last = plan.rows[-1]
-    upper_bad: Setting | None = None
-    for _ in range(MAX_DOUBLINGS):
-        s = solver.at(a + step)
-        if not s.feasible:
-            upper_bad = s
-            break
-        a, last, step = s.payload, s, 2 * step
-    if upper_bad is None:
-        return _with_lower_end(solver, lower, a, schedule(solver, lower, a), f"no limit found up to {payload.label(a)}", None)
-    for _ in range(REFINEMENTS + 1):
-        a, last = _bisect(solver, a, last, upper_bad.payload)
-        full = schedule(solver, lower, a)
-        failure = full.first_failure
-        if failure is None:
-            break
-        upper_bad = failure  # a hole below the end found: the range stops before it
-        below = [s for s in full.rows + full.between if s.feasible and s.payload < failure.payload]
-        last = max(below, key=lambda s: s.payload) if below else plan.rows[0]
-        a = last.payload
-    limit = solver.limit(last)
-    return _with_lower_end(solver, lower, a, full, _limit_text(solver, limit, upper_bad.message), limit)
-
-
-def _with_lower_end(
-    solver: AdjustmentSolver, lower: float, a: float, full: Schedule, text: str, limit: tuple[str, str, float] | None
-) -> tuple[WidestRange, Schedule]:
-    """The range [lower, a] pushed down toward 0 as far as the adjustments follow."""
-    low, low_setting = _lowest(solver, full.rows[0])
-    low_limit, low_at = "", None
-    if low_setting is not None:
-        low_at = solver.limit(low_setting)
-        low_limit = _limit_text(solver, low_at, "")
-    if low < lower:
-        full = schedule(solver, low, a)
-    return WidestRange(low, a, text, low_limit, limit, low_at), full
-
-
-def _limit_text(solver: AdjustmentSolver, limit: tuple[str, str, float] | None, message: str) -> str:
-    if limit is None:
-        return f"beyond it the adjustments do not balance ({message})" if message else "beyond it the adjustments do not balance"
-    name, side, bound = limit
-    v = solver.problem.variable[name]
-    return f"limited by {name} at its {side} limit {v.unit.from_si(bound):.6g} {v.unit.label}"
-
-
-def _lowest(solver: AdjustmentSolver, first: Setting) -> tuple[float, Setting | None]:
-    """The smallest payload (≥ 0) down to which the design balances, from a feasible one,
-    and its setting when a limit stops it above 0 (None: it reaches 0)."""
-    if first.payload <= 0 or solver.at(0.0).feasible:
-        return min(first.payload, 0.0), None
-    return _bisect(solver, first.payload, first, 0.0)
-
-
-def _bisect(solver: AdjustmentSolver, good: float, good_setting: Setting, bad: float) -> tuple[float, Setting]:
-    """Largest feasible payload between ``good`` and ``bad``: scan for holes, then bisect."""
-    for i in range(1, SCAN):
-        t = good + (bad - good) * i / SCAN
-        s = solver.at(t)
-        if not s.feasible:
-            bad = t
-            break
-        good, good_setting = t, s
-    while abs(bad - good) > PAYLOAD_RESOLUTION * max(abs(bad), solver.payload.unit.to_si):
-        mid = 0.5 * (good + bad)
-        s = solver.at(mid)
-        if s.feasible:
-            good, good_setting = mid, s
-        else:
-            bad = mid
-    return good, good_setting
+__all__ = ["OperatorSettings", "PayloadDesign", "WidestRange", "design_payloads", "settings_for", "widest_range"]

@@ -1,0 +1,68 @@
+"""Solve options of a payload-range design, mapped onto its sampled and adjustment problems.
+
+``parameters`` act on every sample and every schedule payload, ``bounds`` (by variable
+name) on every sample (inside the adjustments' pins and travel) and on the schedule's
+adjustments, ``initial`` (by slot or variable name) on every sample's slots.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from ..errors import ProblemFileError
+from ..formulation.layout import Slot
+from ..model.problem import Problem
+from .scenarios import Sampled, design_bounds, payload_of
+
+
+def check_options(problem: Problem, parameters: Mapping[str, float] | None, bounds: Mapping[Any, tuple[float, float]] | None) -> None:
+    """The payload's own mass is set by the range, not by ``parameters``; bounds name variables."""
+    payload = payload_of(problem)
+    if parameters and payload.name in parameters:
+        raise ProblemFileError(problem.path, "parameters", f"'{payload.name}' is the payload of a payload range: change payloads.{payload.name}.range instead")
+    for key in bounds or {}:
+        name = key.variable if isinstance(key, Slot) else key
+        if name not in problem.variable:
+            raise ProblemFileError(problem.path, "bounds", f"no design variable '{name}'")
+
+
+def merged_bounds(sampled: Sampled, bounds: Mapping[Any, tuple[float, float]] | None) -> dict[Slot | str, tuple[float, float]]:
+    """The call's bounds (by variable, on every sample) with the adjustments' pins and travel
+    windows (:func:`.scenarios.design_bounds`) inside them."""
+    given = {(k.variable if isinstance(k, Slot) else k): v for k, v in (bounds or {}).items()}
+    out: dict[Slot | str, tuple[float, float]] = dict(given)
+    for slot, (lo, hi) in design_bounds(sampled).items():
+        if slot.variable in given:
+            a, b = given[slot.variable]
+            lo, hi = (lo, hi) if lo == hi else (max(lo, a), min(hi, b))
+        out[slot] = (lo, hi)
+    return out
+
+
+def adjustment_bounds(problem: Problem, bounds: Mapping[Any, tuple[float, float]] | None) -> dict[str, tuple[float, float]]:
+    """The call's bounds on adjustable variables, for the schedule's adjustment solves."""
+    out = {}
+    for key, (a, b) in (bounds or {}).items():
+        name = key.variable if isinstance(key, Slot) else key
+        v = problem.variable[name]
+        if v.adjustable:
+            lo, hi = v.adjusted_bounds()
+            out[name] = (max(lo, a), min(hi, b))
+    return out
+
+
+def sampled_initial(sampled: Sampled, initial: Mapping[Any, float] | None) -> dict[Slot, float] | None:
+    """Initial values given for ``problem``'s slots (or variable names), on every sample's slot."""
+    if not initial:
+        return None
+    by_name = {(k.variable if isinstance(k, Slot) else k): v for k, v in initial.items()}
+    out = {}
+    for v in sampled.problem.variables:
+        if v.name not in by_name:
+            continue
+        if v.adjustable:
+            out.update({Slot(v.name, setting): by_name[v.name] for setting in sampled.setting_mass})
+        else:
+            out[Slot(v.name, None)] = by_name[v.name]
+    return out
