@@ -44,17 +44,21 @@ from ..verify.residuals import STEP, frame_names
 #: geometry grid points of one spring's screening (all axes together), at most
 GRID_POINTS = 1728
 #: per-spring grid points when pairs of geometries are screened (pairs grow as its square)
-PAIR_GRID_POINTS = 216
+PAIR_GRID_POINTS = 125
 #: configurations per subsystem on which parts are screened (a uniform grid for one coordinate)
 SCREEN_CONFIGURATIONS = 25
-#: zoom rounds around each part's best grid point (3^n points at half the spacing each)
-ZOOM_ROUNDS = 5
+#: compass-search rounds from each part's best grid design (each: ± a step along every
+#: geometry variable; the step halves when no move improves)
+COMPASS_ROUNDS = 14
 #: bisection steps of the exact one-dimensional offset (interval shrinks by 2**-steps)
 BISECTION_STEPS = 30
 #: (part, geometry) pairs evaluated at once (memory bound)
 CHUNK_PAIRS = 20000
-#: a spring's lengths on the grid must meet the part's limits within this (m)
-LENGTH_SLACK = 0.0
+#: after each compass round, parts whose screened ratio exceeds this multiple of the best
+#: part's stop moving (they keep the ratio reached)
+COMPASS_KEEP = 4.0
+#: Gram determinants below this are singular (the two springs' offset directions coincide)
+SINGULAR = 1e-300
 
 
 @dataclass
@@ -77,8 +81,9 @@ def _names_of(problem: Problem, point: Any, frames: Mapping[str, frozenset[str]]
     return set().union(*(ex.names(t) for t in point.position)) | set(frames[point.frame])
 
 
-def _structure(problem: Problem) -> tuple[str, list[Any], dict[str, str], list[str], list[set[str]]] | str:
-    """(slot, its springs, spring -> cable variable, grid variables, per-spring geometry variables),
+def _structure(problem: Problem) -> tuple[str, list[Any], dict[str, str], list[str], list[set[str]], set[str]] | str:
+    """(slot, its springs, spring -> cable variable, grid variables, per-spring geometry
+    variables, variables the rest of the mechanism depends on),
     or the reason screening does not apply."""
     if len(problem.slots) != 1:
         return "screening needs exactly one slot"
@@ -116,7 +121,7 @@ def _structure(problem: Problem) -> tuple[str, list[Any], dict[str, str], list[s
         if used[v] > 1 or v in other or any(v in g for g in geometry):
             return f"cable variable {v} also sets other lengths"
     grid = sorted((variables - set(cables.values())))
-    return slot.name, springs, cables, grid, geometry
+    return slot.name, springs, cables, grid, geometry, other
 
 
 def _grid(problem: Problem, names: Sequence[str], points: int) -> tuple[dict[str, np.ndarray], list[np.ndarray]]:
@@ -140,8 +145,9 @@ def _screen_configurations(problem: Problem, subsystem: str, seed: int) -> np.nd
     return configurations(problem, subsystem, SCREEN_CONFIGURATIONS * len(coords), np.random.default_rng(seed))
 
 
-def _arrays(problem: Problem, subsystem: str, q: np.ndarray, variables: Mapping[str, np.ndarray], base: Mapping[str, float], gravity: Sequence[float], springs: Sequence[Any]) -> tuple[np.ndarray, dict[str, tuple[np.ndarray, np.ndarray]]]:
-    """G (n_g, N, n_q) with the slot's springs removed, and per spring (d (n_g, N), ∂d/∂q (n_g, N, n_q))."""
+def _arrays(problem: Problem, subsystem: str, q: np.ndarray, variables: Mapping[str, np.ndarray], base: Mapping[str, float], gravity: Sequence[float], springs: Sequence[Any], rest: bool = True) -> tuple[np.ndarray | None, dict[str, tuple[np.ndarray, np.ndarray]]]:
+    """G (n_g, N, n_q): ∂V/∂q of everything but ``springs`` (None unless ``rest``), and per
+    spring of ``springs`` (d (n_g, N), ∂d/∂q (n_g, N, n_q)), by complex step."""
     names = [c.name for c in problem.subsystem_coordinates(subsystem)]
     n, n_q = q.shape
     stacked = np.tile(q.astype(complex), (n_q, 1))
@@ -152,9 +158,14 @@ def _arrays(problem: Problem, subsystem: str, q: np.ndarray, variables: Mapping[
     var = {k: np.asarray(v, dtype=float)[:, None] for k, v in variables.items()}
     n_g = max((len(v) for v in variables.values()), default=1)
     mech = Mechanics(problem, base, var, coords, gravity, NUMPY_FUNCTIONS)
-    bodies, balancers = mech.energy_terms(subsystem)
-    energy = np.broadcast_to(np.asarray(bodies + balancers, dtype=complex), (n_g, n * n_q))
-    g = (energy.imag / STEP).reshape(n_g, n_q, n).transpose(0, 2, 1)
+    g = None
+    if rest:
+        mine = {s.name for s in springs}
+        terms = [mech.gravity_energy(mech.value(b.mass), b.com) for b in problem.bodies if b.subsystem == subsystem]
+        terms += [mech.gravity_energy(mech.value(c.mass), c.position) for c in problem.counter_masses if c.subsystem == subsystem]
+        terms += [mech.spring_energy(s) for s in problem.springs if s.subsystem == subsystem and s.name not in mine]
+        energy = np.broadcast_to(np.asarray(sum(terms), dtype=complex), (n_g, n * n_q))
+        g = (energy.imag / STEP).reshape(n_g, n_q, n).transpose(0, 2, 1)
     out = {}
     for s in springs:
         d = sub(mech.position(s.ends[0]), mech.position(s.ends[1]))
@@ -221,6 +232,124 @@ def _lipschitz_gain(values: np.ndarray, shape: Sequence[int]) -> np.ndarray:
     return gain
 
 
+@dataclass
+class _Context:
+    problem: Problem
+    springs: list[Any]
+    q: np.ndarray
+    base: dict[str, float]
+    gravity: Sequence[float]
+    home: dict[str, float]
+    cables: dict[str, str]
+    boxes: list[tuple[float, float]]
+    parts: dict[str, np.ndarray]
+    reference: float
+    subsystem: str
+    names: list[str]  # geometry variables searched
+    rest_fixed: bool  # G does not depend on the geometry variables (computed once)
+    _rest: np.ndarray | None = None
+
+    def arrays(self, designs: Mapping[str, np.ndarray], springs: Sequence[Any] | None = None) -> tuple[np.ndarray, list[tuple[np.ndarray, np.ndarray, np.ndarray]]]:
+        """G (n, M) and per spring (d (n, N), A = d ∂d/∂q (n, M), B = ∂d/∂q (n, M)), scaled by the reference."""
+        n = len(next(iter(designs.values()))) if designs else 1
+        variables = {**{k: np.full(n, v) for k, v in self.home.items()}, **designs}
+        springs = self.springs if springs is None else springs
+        if self.rest_fixed and self._rest is None:
+            g, _ = _arrays(self.problem, self.subsystem, self.q, {k: np.array([v]) for k, v in self.home.items()}, self.base, self.gravity, self.springs)
+            self._rest = g.reshape(1, -1) / self.reference  # type: ignore[union-attr]
+        g, arr = _arrays(self.problem, self.subsystem, self.q, variables, self.base, self.gravity, springs, rest=not self.rest_fixed)
+        if self.rest_fixed:
+            gflat = np.broadcast_to(self._rest, (n, self._rest.shape[1]))  # type: ignore[union-attr]
+        else:
+            gflat = np.broadcast_to(g.reshape(g.shape[0], -1), (n, g.shape[1] * g.shape[2])) / self.reference  # type: ignore[union-attr]
+        out = []
+        for s in springs:
+            d, grad = arr[s.name]
+            out.append((d, (d[:, :, None] * grad).reshape(n, -1) / self.reference, grad.reshape(n, -1) / self.reference))
+        return gflat, out
+
+    def evaluate(self, rows: np.ndarray, designs: Mapping[str, np.ndarray], exact: bool = False) -> tuple[np.ndarray, list[np.ndarray]]:
+        """Worst screened residual ratio of part ``rows[i]`` at design i, and each spring's offset.
+
+        One spring: the offset is exact (bisection) when ``exact``, else least squares clipped
+        into its interval; two springs: least squares clipped. inf: outside the part's lengths."""
+        gflat, arr = self.arrays(designs)
+        k = self.parts["k"][rows]
+        a = gflat + k[:, None] * sum(x[1] for x in arr)
+        bounds = [_offset_pairs(self.parts, rows, d.min(axis=1), d.max(axis=1), box) for (d, _, _), box in zip(arr, self.boxes)]
+        ok = np.all([lo <= hi for lo, hi in bounds], axis=0)
+        bs = [x[2] for x in arr]
+        if len(bs) == 1:
+            lo, hi = bounds[0]
+            hi = np.maximum(lo, hi)
+            if exact:
+                t, value = best_offset(a, bs[0], lo, hi)
+            else:
+                t = np.clip(np.einsum("nm,nm->n", a, bs[0]) / np.maximum(np.einsum("nm,nm->n", bs[0], bs[0]), SINGULAR), lo, hi)
+                value = np.abs(a - t[:, None] * bs[0]).max(axis=1)
+            offsets = [t]
+        else:
+            gram = {(i, j): np.einsum("nm,nm->n", bs[i], bs[j]) for i in range(2) for j in range(i, 2)}
+            rhs = [np.einsum("nm,nm->n", a, b) for b in bs]
+            t1, t2 = _two_offsets(gram[(0, 0)], gram[(1, 1)], gram[(0, 1)], rhs[0], rhs[1], bounds)
+            value = np.abs(a - t1[:, None] * bs[0] - t2[:, None] * bs[1]).max(axis=1)
+            offsets = [t1, t2]
+        return np.where(ok, value, np.inf), offsets
+
+    def compass(self, rows: np.ndarray, centre: np.ndarray, value: np.ndarray, step: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+        """Compass search of each part's design from ``centre`` (n, n_vars); returns (centre, value, evaluations)."""
+        n_v = len(self.names)
+        lower = np.array([self.problem.variable[v].lower for v in self.names])
+        upper = np.array([self.problem.variable[v].upper for v in self.names])
+        moves = np.vstack([np.eye(n_v), -np.eye(n_v)])
+        step = np.tile(step, (len(rows), 1))
+        count = 0
+        for _ in range(COMPASS_ROUNDS):
+            moving = np.flatnonzero(value <= COMPASS_KEEP * value.min(initial=np.inf))
+            trial = np.clip(centre[moving, None, :] + moves[None, :, :] * step[moving, None, :], lower, upper)  # (n, 2 n_v, n_v)
+            flat = trial.reshape(-1, n_v)
+            owner = np.repeat(rows[moving], 2 * n_v)
+            v, _ = self.evaluate(owner, {name: flat[:, c] for c, name in enumerate(self.names)})
+            count += len(v)
+            v = v.reshape(len(moving), -1)
+            pick = np.argmin(v, axis=1)
+            best = v[np.arange(len(moving)), pick]
+            better = best < value[moving]
+            centre[moving[better]] = trial[np.arange(len(moving)), pick][better]
+            value[moving[better]] = best[better]
+            step[moving[~better]] /= 2
+        return centre, value, count
+
+    def finish(self, rows: np.ndarray, centre: np.ndarray, n_parts: int) -> tuple[np.ndarray, list[dict[str, float]]]:
+        """Screened ratio (exact offset for one spring) and the design (cables included) of each part."""
+        ratio = np.full(n_parts, np.inf)
+        start: list[dict[str, float]] = [{} for _ in range(n_parts)]
+        if not rows.size:
+            return ratio, start
+        designs = {name: centre[:, c] for c, name in enumerate(self.names)}
+        value, offsets = self.evaluate(rows, designs, exact=True)
+        ratio[rows] = value
+        k, f0, l0 = (self.parts[x][rows] for x in ("k", "f0", "l0"))
+        for n, i in enumerate(rows):
+            design = {name: float(centre[n, c]) for c, name in enumerate(self.names)}
+            for s, t in zip(self.springs, offsets):
+                if s.name in self.cables and np.isfinite(t[n]):
+                    design[self.cables[s.name]] = float((t[n] + f0[n]) / k[n] - l0[n])
+            start[i] = design
+        return ratio, start
+
+
+def _two_offsets(s11, s22, s12, r1, r2, bounds) -> tuple[np.ndarray, np.ndarray]:
+    """Least-squares offsets of two springs, clipped into their intervals (the second
+    re-solved for the clipped first)."""
+    (lo1, hi1), (lo2, hi2) = bounds
+    det = s11 * s22 - s12 * s12
+    det = np.where(np.abs(det) > SINGULAR, det, SINGULAR)
+    t1 = np.clip((r1 * s22 - r2 * s12) / det, lo1, np.maximum(lo1, hi1))
+    t2 = np.clip((r2 - s12 * t1) / np.maximum(s22, SINGULAR), lo2, np.maximum(lo2, hi2))
+    return t1, t2
+
+
 def screen(problem: Problem, designer: Any, parameters: Mapping[str, float]) -> Screen:
     """Screen every part of the problem's single directly attached slot (see the module docstring).
 
@@ -229,35 +358,41 @@ def screen(problem: Problem, designer: Any, parameters: Mapping[str, float]) -> 
     structure = _structure(problem)
     if isinstance(structure, str):
         return Screen(False, structure)
-    slot_name, springs, cables, grid_names, geometry = structure
+    slot_name, springs, cables, grid_names, geometry, other = structure
     slot = problem.slots[0]
     if len(springs) > 2:
         return Screen(False, "screening covers one or two springs per slot")
+    subsystem = springs[0].subsystem
+    if any(s.subsystem != subsystem for s in springs):
+        return Screen(False, "screening needs the slot's springs in one subsystem")
+    kinds = {problem.coordinate[c.name].unit.dimension == "" for c in problem.subsystem_coordinates(subsystem)}
+    if len(kinds) != 1:
+        return Screen(False, "screening needs coordinates of one kind (all revolute or all prismatic)")
     f = designer.formulation
     p = f.parameters.values(parameters)
     gravity, base = f.parameters.scenario_values(p)[problem.scenarios[0].name]
     base = dict(base)
-    base[slot_name] = 0.0
+    base[slot_name] = 0.0  # the slot's springs are added per part: G is the rest
     base[f"{slot_name}:initial_tension"] = 0.0
-    subsystem = springs[0].subsystem
-    if any(s.subsystem != subsystem for s in springs):
-        return Screen(False, "screening needs the slot's springs in one subsystem")
-    reference = designer.reference[True] or designer.reference[False] or 1.0
-    if any(problem.coordinate[c.name].unit.dimension != "" for c in problem.subsystem_coordinates(subsystem)) and any(
-        problem.coordinate[c.name].unit.dimension == "" for c in problem.subsystem_coordinates(subsystem)
-    ):
-        return Screen(False, "screening needs coordinates of one kind (all revolute or all prismatic)")
-    q = _screen_configurations(problem, subsystem, problem.settings.seed + 17)
-    parts = _part_arrays(slot)
-    n_parts = len(slot.catalogue)
+    reference = designer.reference[next(iter(kinds))] or 1.0
     home = {v.name: v.initial for v in problem.variables}
-    cable_box = {s.name: ((problem.variable[cables[s.name]].lower, problem.variable[cables[s.name]].upper) if s.name in cables else None) for s in springs}
+    boxes = []
+    for s in springs:
+        if s.name in cables:
+            v = problem.variable[cables[s.name]]
+            boxes.append((v.lower, v.upper))
+        else:
+            c = _fixed_cable(problem, s, base, gravity, home)
+            boxes.append((c, c))
+    q = _screen_configurations(problem, subsystem, problem.settings.seed + 17)
+    ctx = _Context(problem, springs, q, base, gravity, home, cables, boxes, _part_arrays(slot), reference, subsystem, grid_names, not other)
+    n_parts = len(slot.catalogue)
     if len(springs) == 1:
-        return _screen_one(problem, springs[0], q, grid_names, base, gravity, home, cables, cable_box, parts, n_parts, reference, subsystem)
+        return _screen_one(ctx, n_parts)
     own = [sorted(g - set(cables.values())) for g in geometry]
-    if set(own[0]) & set(own[1]) or set(grid_names) - set(own[0]) - set(own[1]) or len(own[0]) != len(own[1]):
+    if set(own[0]) & set(own[1]) or set(grid_names) - set(own[0]) - set(own[1]) or other:
         return Screen(False, "pair screening needs each spring's geometry variables of its own")
-    return _screen_pairs(problem, springs, q, own, base, gravity, home, cables, cable_box, parts, n_parts, reference, subsystem)
+    return _screen_pairs(ctx, own, n_parts)
 
 
 def _fixed_cable(problem: Problem, spring: Any, base: Mapping[str, float], gravity: Sequence[float], home: Mapping[str, float]) -> float:
@@ -265,156 +400,86 @@ def _fixed_cable(problem: Problem, spring: Any, base: Mapping[str, float], gravi
     return float(mech.value(spring.direct.cable))
 
 
-def _ls_values(gflat, aflat, bflat, bb, ab, gb, k, t_lo, t_hi, i, j) -> tuple[np.ndarray, np.ndarray]:
-    """Worst residual with the least-squares offset clipped into its interval (a feasible
-    offset: an upper estimate of the pair's best), for parts ``i`` at geometries ``j``."""
-    t = np.clip((gb[j] + k[i] * ab[j]) / np.maximum(bb[j], 1e-300), t_lo, t_hi)
-    r = gflat[j] + k[i, None] * aflat[j] - t[:, None] * bflat[j]
-    return t, np.abs(r).max(axis=1)
-
-
-def _one_spring_arrays(problem, spring, q, variables, base, gravity, reference, subsystem):
-    g, springs = _arrays(problem, subsystem, q, variables, base, gravity, [spring])
-    d, grad = springs[spring.name]
-    n_g = d.shape[0]
-    gflat = np.broadcast_to(g.reshape(g.shape[0], -1), (n_g, g.shape[1] * g.shape[2])) / reference
-    aflat = (d[:, :, None] * grad).reshape(n_g, -1) / reference
-    bflat = grad.reshape(n_g, -1) / reference
-    dots = (np.einsum("gm,gm->g", bflat, bflat), np.einsum("gm,gm->g", aflat, bflat), np.einsum("gm,gm->g", gflat, bflat))
-    return d, gflat, aflat, bflat, dots
-
-
-def _screen_one(problem, spring, q, grid_names, base, gravity, home, cables, cable_box, parts, n_parts, reference, subsystem) -> Screen:
-    values, axes = _grid(problem, grid_names, GRID_POINTS)
+def _screen_one(ctx: _Context, n_parts: int) -> Screen:
+    values, axes = _grid(ctx.problem, ctx.names, GRID_POINTS)
     n_g = len(next(iter(values.values()))) if values else 1
-    variables = {**{k: np.full(n_g, v) for k, v in home.items()}, **values}
-    d, gflat, aflat, bflat, (bb, ab, gb) = _one_spring_arrays(problem, spring, q, variables, base, gravity, reference, subsystem)
-    box = cable_box[spring.name] or (_fixed_cable(problem, spring, base, gravity, home),) * 2
+    gflat, [(d, aflat, bflat)] = ctx.arrays(values)
+    bb, ab, gb = (np.einsum("gm,gm->g", x, bflat) for x in (bflat, aflat, gflat))
     rows = np.arange(n_parts)
-    k = parts["k"]
-    t_lo, t_hi = _offset_interval(parts, rows, d.min(axis=1), d.max(axis=1), box)
-    feasible = t_lo <= t_hi
+    k = ctx.parts["k"]
+    t_lo, t_hi = _offset_interval(ctx.parts, rows, d.min(axis=1), d.max(axis=1), ctx.boxes[0])
     value = np.full((n_parts, n_g), np.inf)
-    pr, gr = np.nonzero(feasible)
+    pr, gr = np.nonzero(t_lo <= t_hi)
     for s in range(0, len(pr), CHUNK_PAIRS):
         i, j = pr[s : s + CHUNK_PAIRS], gr[s : s + CHUNK_PAIRS]
-        _, value[i, j] = _ls_values(gflat, aflat, bflat, bb, ab, gb, k, t_lo[i, j], t_hi[i, j], i, j)
+        t = np.clip((gb[j] + k[i] * ab[j]) / np.maximum(bb[j], SINGULAR), t_lo[i, j], t_hi[i, j])
+        value[i, j] = np.abs(gflat[j] + k[i, None] * aflat[j] - t[:, None] * bflat[j]).max(axis=1)
     best = np.argmin(value, axis=1)
-    ratio = value[rows, best]
-    evaluated = len(pr)
-    # zoom: around each part's best point, a 3^n grid at half the spacing, repeatedly
-    centre = np.array([[variables[v][b] for v in grid_names] for b in best]) if grid_names else np.zeros((n_parts, 0))
+    live = np.flatnonzero(np.isfinite(value[rows, best]))
+    centre = np.array([[values[v][b] for v in ctx.names] for b in best[live]]).reshape(len(live), len(ctx.names))
     step = np.array([(a[1] - a[0]) / 2 if len(a) > 1 else 0.0 for a in axes])
-    lower = np.array([problem.variable[v].lower for v in grid_names])
-    upper = np.array([problem.variable[v].upper for v in grid_names])
-    live = np.flatnonzero(np.isfinite(ratio))
-    offsets = np.array(list(np.ndindex(*([3] * len(grid_names))))) - 1 if grid_names else np.zeros((1, 0))
-    best_t = np.full(n_parts, np.nan)
-    for _ in range(ZOOM_ROUNDS):
-        if not live.size or not grid_names:
-            break
-        pts = np.clip(centre[live][:, None, :] + offsets[None, :, :] * step, lower, upper)  # (L, 3^n, n)
-        flat = pts.reshape(-1, len(grid_names))
-        n_z = flat.shape[0]
-        zv = {**{v: np.full(n_z, x) for v, x in home.items()}, **{v: flat[:, c] for c, v in enumerate(grid_names)}}
-        dz, gz, az, bz, (bbz, abz, gbz) = _one_spring_arrays(problem, spring, q, zv, base, gravity, reference, subsystem)
-        owner = np.repeat(live, offsets.shape[0])
-        lo_z, hi_z = _offset_pairs(parts, owner, dz.min(axis=1), dz.max(axis=1), box)
-        ok = lo_z <= hi_z
-        vz = np.full(n_z, np.inf)
-        jj = np.flatnonzero(ok)
-        _, vz[jj] = _ls_values(gz, az, bz, bbz, abz, gbz, k, lo_z[jj], hi_z[jj], owner[jj], jj)
-        evaluated += len(jj)
-        vz = vz.reshape(len(live), -1)
-        pick = np.argmin(vz, axis=1)
-        better = vz[np.arange(len(live)), pick] < ratio[live]
-        ratio[live[better]] = vz[np.arange(len(live)), pick][better]
-        centre[live[better]] = pts[np.arange(len(live)), pick][better]
-        step = step / 2
-    # the exact offset (bisection) at each part's best point
-    if live.size:
-        cv = {**{v: np.full(len(live), x) for v, x in home.items()}, **{v: centre[live, c] for c, v in enumerate(grid_names)}}
-        dz, gz, az, bz, _ = _one_spring_arrays(problem, spring, q, cv, base, gravity, reference, subsystem)
-        idx = np.arange(len(live))
-        lo_z, hi_z = _offset_pairs(parts, live, dz.min(axis=1), dz.max(axis=1), box)
-        t, v = best_offset(gz + k[live, None] * az, bz, lo_z, np.maximum(lo_z, hi_z))
-        ratio[live] = np.minimum(ratio[live], v)
-        best_t[live] = t
-    start = []
-    for i in range(n_parts):
-        design = {v: float(centre[i, c]) for c, v in enumerate(grid_names)}
-        if spring.name in cables and np.isfinite(best_t[i]):
-            design[cables[spring.name]] = float((best_t[i] + parts["f0"][i]) / k[i] - parts["l0"][i])
-        start.append(design)
-    return Screen(True, "", ratio, np.full(n_parts, -np.inf), start, n_g, q.shape[0], False, int(evaluated), int((~np.isfinite(ratio)).sum()))
+    centre, _, count = ctx.compass(live, centre, value[live, best[live]], step)
+    ratio, start = ctx.finish(live, centre, n_parts)
+    return Screen(True, "", ratio, np.full(n_parts, -np.inf), start, n_g, ctx.q.shape[0], False, int(len(pr)) + count, n_parts - len(live))
 
 
-def _screen_pairs(problem, springs, q, own, base, gravity, home, cables, cable_box, parts, n_parts, reference, subsystem) -> Screen:
-    """Two springs of one part, each with its own geometry variables: all unordered pairs of grid geometries."""
-    per = []
-    for s, names in zip(springs, own):
-        values, axes = _grid(problem, names, PAIR_GRID_POINTS)
-        n_g = len(next(iter(values.values()))) if values else 1
-        variables = {**{k: np.full(n_g, v) for k, v in home.items()}, **values}
-        g, arr = _arrays(problem, subsystem, q, variables, base, gravity, [s])
-        d, grad = arr[s.name]
-        per.append((values, n_g, d, grad, g))
-    # G does not depend on the springs' own variables: take it from the first grid's first point
-    gflat = per[0][4][0].reshape(-1) / reference
-    same = all(np.array_equal(per[0][0][a], per[1][0][b]) for a, b in zip(own[0], own[1])) and per[0][2].shape == per[1][2].shape
-    n_g = per[0][1]
-    if same:
-        i1, i2 = np.triu_indices(n_g)
-    else:
-        i1, i2 = (x.ravel() for x in np.meshgrid(np.arange(per[0][1]), np.arange(per[1][1]), indexing="ij"))
-    a1 = (per[0][2][:, :, None] * per[0][3]).reshape(per[0][1], -1) / reference
-    a2 = (per[1][2][:, :, None] * per[1][3]).reshape(per[1][1], -1) / reference
-    b1 = per[0][3].reshape(per[0][1], -1) / reference
-    b2 = per[1][3].reshape(per[1][1], -1) / reference
-    boxes = [cable_box[s.name] or (_fixed_cable(problem, s, base, gravity, home),) * 2 for s in springs]
+def _screen_pairs(ctx: _Context, own: list[list[str]], n_parts: int) -> Screen:
+    """Two springs of one part, each with its own geometry variables: every unordered pair
+    of grid geometries, per part, by the 2-norm of the residual with least-squares offsets
+    (closed form from Gram matrices: one product per pair, O(1) per part and pair)."""
+    grids = []
+    for s, names in zip(ctx.springs, own):
+        values, axes = _grid(ctx.problem, names, PAIR_GRID_POINTS)
+        gflat, [(d, a, b)] = ctx.arrays(values, [s])
+        grids.append((values, axes, d, a, b))
+    g = gflat[0]  # the rest does not depend on the springs' own variables
+    (v1, axes1, d1, a1, b1), (v2, axes2, d2, a2, b2) = grids
+    same = len(own[0]) == len(own[1]) and all(np.array_equal(v1[x], v2[y]) for x, y in zip(own[0], own[1]))
+    n1, n2 = len(d1), len(d2)
+    i1, i2 = np.triu_indices(n1) if same else (x.ravel() for x in np.meshgrid(np.arange(n1), np.arange(n2), indexing="ij"))
+    A = a1[i1] + a2[i2]
+    B1, B2 = b1[i1], b2[i2]
+    dot = lambda x, y: np.einsum("pm,pm->p", x, y)  # noqa: E731
+    gg, ga, aa = float(g @ g), A @ g, dot(A, A)
+    gb1, gb2, ab1, ab2 = B1 @ g, B2 @ g, dot(A, B1), dot(A, B2)
+    s11, s22, s12 = dot(B1, B1), dot(B2, B2), dot(B1, B2)
     rows = np.arange(n_parts)
-    lo1, hi1 = _offset_interval(parts, rows, per[0][2].min(axis=1), per[0][2].max(axis=1), boxes[0])
-    lo2, hi2 = _offset_interval(parts, rows, per[1][2].min(axis=1), per[1][2].max(axis=1), boxes[1])
-    ok1, ok2 = lo1 <= hi1, lo2 <= hi2
-    ratio = np.full(n_parts, np.inf)
-    gain = np.zeros(n_parts)
-    start: list[dict[str, float]] = [{} for _ in range(n_parts)]
+    lo1, hi1 = _offset_interval(ctx.parts, rows, d1.min(axis=1), d1.max(axis=1), ctx.boxes[0])
+    lo2, hi2 = _offset_interval(ctx.parts, rows, d2.min(axis=1), d2.max(axis=1), ctx.boxes[1])
+    pid = np.full((n1, n2), -1)
+    pid[i1, i2] = np.arange(len(i1))
+    best_pair = np.full(n_parts, -1)
     evaluated = 0
-    # per part: the pairs both of whose geometries are feasible
-    b11 = np.einsum("gm,gm->g", b1, b1)
-    b22 = np.einsum("gm,gm->g", b2, b2)
-    for i in range(n_parts):
-        mask = ok1[i, i1] & ok2[i, i2]
-        if not mask.any():
+    ok1, ok2 = lo1 <= hi1, lo2 <= hi2
+    for i in rows:
+        f1, f2 = np.flatnonzero(ok1[i]), np.flatnonzero(ok2[i])
+        if not f1.size or not f2.size:
             continue
-        j1, j2 = i1[mask], i2[mask]
-        k = parts["k"][i]
-        a = gflat[None, :] + k * (a1[j1] + a2[j2])
-        # least squares for (T1, T2): minimise |a − T1 b1 − T2 b2|², then clipped into the boxes
-        s11, s22 = b11[j1], b22[j2]
-        s12 = np.einsum("pm,pm->p", b1[j1], b2[j2])
-        r1 = np.einsum("pm,pm->p", a, b1[j1])
-        r2 = np.einsum("pm,pm->p", a, b2[j2])
-        det = s11 * s22 - s12 * s12
-        det = np.where(np.abs(det) > 1e-300, det, 1e-300)
-        t1 = np.clip((r1 * s22 - r2 * s12) / det, lo1[i, j1], hi1[i, j1])
-        t2 = np.clip((r2 - s12 * t1) / np.maximum(s22, 1e-300), lo2[i, j2], hi2[i, j2])
-        v = np.abs(a - t1[:, None] * b1[j1] - t2[:, None] * b2[j2]).max(axis=1)
-        evaluated += len(v)
-        best = int(np.argmin(v))
-        ratio[i] = v[best]
-        design = {n: float(per[0][0][n][j1[best]]) for n in own[0]}
-        design.update({n: float(per[1][0][n][j2[best]]) for n in own[1]})
-        for s, t in zip(springs, (t1[best], t2[best])):
-            if s.name in cables:
-                design[cables[s.name]] = float((t + parts["f0"][i]) / k - parts["l0"][i])
-        start[i] = design
-    return Screen(True, "", ratio, np.full(n_parts, -np.inf), start, n_g, q.shape[0], True, evaluated, int((~np.isfinite(ratio)).sum()))
+        sel = pid[np.ix_(f1, f2)].ravel()
+        sel = sel[sel >= 0]  # unordered pairs only, when the springs are alike
+        if not sel.size:
+            continue
+        k = ctx.parts["k"][i]
+        j1, j2 = i1[sel], i2[sel]
+        r1, r2 = gb1[sel] + k * ab1[sel], gb2[sel] + k * ab2[sel]
+        bounds = ((lo1[i, j1], hi1[i, j1]), (lo2[i, j2], hi2[i, j2]))
+        t1, t2 = _two_offsets(s11[sel], s22[sel], s12[sel], r1, r2, bounds)
+        norm = gg + 2 * k * ga[sel] + k * k * aa[sel] - 2 * t1 * r1 - 2 * t2 * r2 + t1 * t1 * s11[sel] + t2 * t2 * s22[sel] + 2 * t1 * t2 * s12[sel]
+        evaluated += len(sel)
+        best_pair[i] = sel[int(np.argmin(norm))]
+    live = np.flatnonzero(best_pair >= 0)
+    pairs = best_pair[live]
+    centre = np.hstack([np.array([[v1[x][j] for x in own[0]] for j in i1[pairs]]).reshape(len(live), -1), np.array([[v2[x][j] for x in own[1]] for j in i2[pairs]]).reshape(len(live), -1)])
+    names = own[0] + own[1]
+    ctx.names = names
+    value, _ = ctx.evaluate(live, {n: centre[:, c] for c, n in enumerate(names)})
+    step = np.array([(a[1] - a[0]) / 2 if len(a) > 1 else 0.0 for a in (*axes1, *axes2)])
+    centre, _, count = ctx.compass(live, centre, value, step)
+    ratio, start = ctx.finish(live, centre, n_parts)
+    return Screen(True, "", ratio, np.full(n_parts, -np.inf), start, len(i1), ctx.q.shape[0], True, evaluated + count, n_parts - len(live))
 
 
 def screened_order(screen: Screen) -> np.ndarray:
-    """Parts with a feasible grid design, most promising (smallest screened ratio) first."""
+    """Parts with a feasible screened design, most promising (smallest screened ratio) first."""
     finite = np.flatnonzero(np.isfinite(screen.ratio))
     return finite[np.argsort(screen.ratio[finite], kind="stable")]
-
-
