@@ -155,6 +155,7 @@ def parts_status(result: DesignResult) -> str:
             f"{c.window[0] / 1e3:.6g}-{c.window[1] / 1e3:.6g} N/mm), {c.rates_solved} rates solved, "
             f"{c.failed_limits} failing a limit, {c.fitting} fitting"
         )
+    lines += [f"  {line}" for line in s.evidence]
     if s.choice is None and s.nearest:
         lines.append("nearest candidates:")
         lines += [f"  {m.text()}" for m in s.nearest]

@@ -154,10 +154,11 @@ def _search_screened(problem: Problem, designer: MinimaxDesigner, screened: Scre
     found.sort(key=_order)
     unrefined = order[solves:]
     next_screened = float(screened.ratio[unrefined].min()) if unrefined.size else math.inf
-    kind = "pairs of grid geometries (symmetric: unordered pairs)" if screened.pairs else "grid geometries, zoomed around each part's best"
+    kind = "unordered pairs of grid geometries (the springs are alike)" if screened.pairs else "grid geometries"
     evidence = (
         f"screening: {len(slot.catalogue)} parts on {screened.geometries} {kind} × {screened.configurations} configurations "
-        f"({screened.evaluated} part-geometry evaluations); {screened.infeasible} parts pruned: no grid geometry keeps them within their lengths",
+        f"then a compass search from each part's best ({screened.evaluated} part-geometry evaluations); {screened.infeasible} parts pruned, no grid geometry keeping them within their lengths"
+        + "".join(f"; {n} by {limit}" for limit, n in sorted(screened.pruned_by.items())),
         f"refinement: {solves} parts designed by the minimax NLP, most promising first; {len(found)} within their lengths; stopped: {stopped}",
         f"coverage: every part not designed has a screened ratio of at least {next_screened:.4g} on the grid "
         f"(the best design's is {incumbent:.4g}); the screened ratio is that of a grid design, not a bound, so the search is a screened search, not a certificate",

@@ -75,6 +75,7 @@ class Screen:
     pairs: bool = False
     evaluated: int = 0  # (part, geometry) combinations screened
     infeasible: int = 0  # parts with no grid geometry within their lengths
+    pruned_by: dict[str, int] = field(default_factory=dict)  # limit -> parts pruned by it (screening)
 
 
 def _names_of(problem: Problem, point: Any, frames: Mapping[str, frozenset[str]]) -> set[str]:
@@ -197,7 +198,7 @@ def _part_arrays(slot: Any) -> dict[str, np.ndarray]:
     a = slot.catalogue.arrays
     k, l0, f0 = a["rate"], a["free_length"], a["initial_tension"]
     lmax = np.minimum(a["max_length"], l0 + (a["max_load"] - f0) / k)
-    return {"k": k, "l0": l0, "f0": f0, "lmax": lmax}
+    return {"k": k, "l0": l0, "f0": f0, "lmax": lmax, "max_load": a["max_load"], "max_length": a["max_length"]}
 
 
 def _offset_interval(p: Mapping[str, np.ndarray], rows: np.ndarray, d_min: np.ndarray, d_max: np.ndarray, cable: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
@@ -215,6 +216,28 @@ def _offset_pairs(p: Mapping[str, np.ndarray], rows: np.ndarray, d_min: np.ndarr
     c_lo = np.maximum(cable[0], d_max - lmax)
     c_hi = np.minimum(cable[1], d_min - l0)
     return k * (c_lo + l0) - f0, k * (c_hi + l0) - f0
+
+
+def _prune_reasons(p: Mapping[str, np.ndarray], rows: np.ndarray, d_min: np.ndarray, d_max: np.ndarray, cable: tuple[float, float]) -> dict[str, int]:
+    """Why each part of ``rows`` fits no grid geometry: at its least infeasible geometry, the
+    spring cannot reach its free length with the shortest cable (``free length``), or its
+    stroke / the longest cable stretches it beyond the longest admissible length, set by its
+    ``max length`` or by its ``max load``."""
+    out: dict[str, int] = {}
+    if not rows.size:
+        return out
+    k, l0, f0, lmax = (p[x][rows, None] for x in ("k", "l0", "f0", "lmax"))
+    c_lo = np.maximum(cable[0], d_max[None, :] - lmax)
+    c_hi = np.minimum(cable[1], d_min[None, :] - l0)
+    g = np.argmin(c_lo - c_hi, axis=1)
+    i = np.arange(len(rows))
+    short = (d_min[g] - l0[:, 0]) < cable[0]
+    stroke = (d_max[g] - lmax[:, 0]) > (d_min[g] - l0[:, 0])
+    by_load = (l0 + (p["max_load"][rows, None] - f0) / k)[:, 0] < p["max_length"][rows]
+    label = np.where(short & ~stroke, "free length", np.where(by_load, "max load", "max length"))
+    for name in label[i]:
+        out[str(name)] = out.get(str(name), 0) + 1
+    return out
 
 
 def _lipschitz_gain(values: np.ndarray, shape: Sequence[int]) -> np.ndarray:
@@ -420,7 +443,9 @@ def _screen_one(ctx: _Context, n_parts: int) -> Screen:
     step = np.array([(a[1] - a[0]) / 2 if len(a) > 1 else 0.0 for a in axes])
     centre, _, count = ctx.compass(live, centre, value[live, best[live]], step)
     ratio, start = ctx.finish(live, centre, n_parts)
-    return Screen(True, "", ratio, np.full(n_parts, -np.inf), start, n_g, ctx.q.shape[0], False, int(len(pr)) + count, n_parts - len(live))
+    dead = np.setdiff1d(rows, live)
+    reasons = _prune_reasons(ctx.parts, dead, d.min(axis=1), d.max(axis=1), ctx.boxes[0])
+    return Screen(True, "", ratio, np.full(n_parts, -np.inf), start, n_g, ctx.q.shape[0], False, int(len(pr)) + count, n_parts - len(live), reasons)
 
 
 def _screen_pairs(ctx: _Context, own: list[list[str]], n_parts: int) -> Screen:
@@ -476,7 +501,9 @@ def _screen_pairs(ctx: _Context, own: list[list[str]], n_parts: int) -> Screen:
     step = np.array([(a[1] - a[0]) / 2 if len(a) > 1 else 0.0 for a in (*axes1, *axes2)])
     centre, _, count = ctx.compass(live, centre, value, step)
     ratio, start = ctx.finish(live, centre, n_parts)
-    return Screen(True, "", ratio, np.full(n_parts, -np.inf), start, len(i1), ctx.q.shape[0], True, evaluated + count, n_parts - len(live))
+    dead = np.setdiff1d(rows, live)
+    reasons = _prune_reasons(ctx.parts, dead, d1.min(axis=1), d1.max(axis=1), ctx.boxes[0])
+    return Screen(True, "", ratio, np.full(n_parts, -np.inf), start, len(i1), ctx.q.shape[0], True, evaluated + count, n_parts - len(live), reasons)
 
 
 def screened_order(screen: Screen) -> np.ndarray:
