@@ -51,6 +51,7 @@ def fitting_parts(
     misses: list[NearMiss] = []
     fitting: dict[str, set[int]] = {n: set() for n in group}
     failing: dict[str, set[int]] = {n: set() for n in group}
+    limit_of: dict[str, dict[int, str]] = {n: {} for n in group}
     for n in group:
         cat = slots[n].catalogue
         a = cat.arrays
@@ -71,8 +72,12 @@ def fitting_parts(
             amount, which = violation(m, **part)
             worst_spring = slots[n].springs[0]
             for i in np.flatnonzero(~ok):
+                limit_of[n].setdefault(int(mine[i]), LIMITS[int(which[i])])
                 misses.append(NearMiss(n, cat.part_number[int(mine[i])], LIMITS[int(which[i])], worst_spring, float(amount[i]), tuple(evaluated[e][0].items())))
     for n in group:  # a part fits when it fits in some solved design
         counts[n].fitting += len(fitting[n])
         counts[n].failed_limits += len(failing[n] - fitting[n])
+        for row in failing[n] - fitting[n]:
+            limit = limit_of[n][row]
+            counts[n].failed_by[limit] = counts[n].failed_by.get(limit, 0) + 1
     return fits, misses

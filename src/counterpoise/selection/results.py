@@ -39,6 +39,7 @@ class SlotCount:
     rates_solved: int = 0  # distinct rates whose design was solved
     failed_limits: int = 0  # solved, but a limit does not hold
     fitting: int = 0
+    failed_by: dict[str, int] = field(default_factory=dict)  # limit -> parts failing it (and no other design fits them)
 
 
 @dataclass
