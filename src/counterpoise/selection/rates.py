@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from ..catalogue.limits import LIMITS, margins, violation
+from ..verify.residuals import MAX_CORNERS
 from .geometry import spring_lengths
 from .screening import _arrays
 
@@ -37,7 +38,7 @@ PREDICTION_MARGIN = 0.05
 #: at most this many distinct rates are solved exactly after the screening
 EXACT_RATES = 24
 #: configurations per subsystem of the screening (the limit check's sample is cut to this)
-SCREEN_SAMPLES = 256
+SCREEN_SAMPLES = 128
 
 
 @dataclass
@@ -52,7 +53,13 @@ class RateScreen:
 
 
 def _cut(q: Mapping[str, np.ndarray], n: int) -> dict[str, np.ndarray]:
-    return {k: v[:n] if len(v) > n else v for k, v in q.items()}
+    """The first ``n`` random configurations of each subsystem, and the box's corners (the
+    sample ends with them: :func:`counterpoise.verify.residuals.configurations`)."""
+    out = {}
+    for k, v in q.items():
+        corners = 2 ** v.shape[1] if 2 ** v.shape[1] <= MAX_CORNERS else 0
+        out[k] = np.vstack([v[:n], v[len(v) - corners :]]) if len(v) > n + corners else v
+    return out
 
 
 def screen_rates(search: Any, name: str, rates: np.ndarray, kept: np.ndarray, others: Mapping[str, tuple[float, float]]) -> RateScreen:
@@ -78,26 +85,17 @@ def screen_rates(search: Any, name: str, rates: np.ndarray, kept: np.ndarray, ot
     q = _cut(search.q, SCREEN_SAMPLES)
     d_min = np.full(len(rates), np.inf)
     d_max = np.zeros(len(rates))
-    sens_k = np.zeros((len(rates), 0))
-    sens_f = np.zeros((len(rates), 0))
     springs = [s for s in relaxed.springs if s.name in slot.springs]
     names = [v.name for v in relaxed.variables]
+    designs = {}
     for scenario in relaxed.scenarios:
         values = {v: np.interp(rates, node_k, [sol.variable_values(scenario.name)[v] for _, sol in nodes]) for v in names}
+        designs[scenario.name] = values
         gravity, base = nodes[0][1].scenario_parameters[scenario.name]
         lengths = spring_lengths(relaxed, [s.name for s in springs], q, {v: x[:, None] for v, x in values.items()}, base, gravity)
         for s in springs:
             d_min = np.minimum(d_min, lengths[s.name].min(axis=1))
             d_max = np.maximum(d_max, lengths[s.name].max(axis=1))
-        for sub in relaxed.subsystems:
-            mine = [s for s in springs if s.subsystem == sub.name]
-            if not mine:
-                continue
-            _, arr = _arrays(relaxed, sub.name, q[sub.name], values, base, gravity, mine, rest=False)
-            rate_term = sum(np.abs(d[:, :, None] * grad) for d, grad in arr.values())  # (n, N, n_q)
-            tension_term = sum(np.abs(grad) for _, grad in arr.values())
-            sens_k = np.hstack([sens_k, rate_term.reshape(len(rates), -1)])
-            sens_f = np.hstack([sens_f, tension_term.reshape(len(rates), -1)])
     part = {f: a[f][kept] for f in ("rate", "free_length", "initial_tension", "max_load", "max_length")}
     m = margins(d_min[at], d_max[at], **part)
     amount, which = violation(m, **part)
@@ -106,9 +104,25 @@ def screen_rates(search: Any, name: str, rates: np.ndarray, kept: np.ndarray, ot
     for w in which[fail]:
         predicted_fail[LIMITS[int(w)]] = predicted_fail.get(LIMITS[int(w)], 0) + 1
     ok = np.flatnonzero(~fail)
+    # tolerance sensitivity, only at the rates of parts predicted to fit
+    used, local = np.unique(at[ok], return_inverse=True)
+    sens_k = np.zeros((len(used), 0))
+    sens_f = np.zeros((len(used), 0))
+    for scenario in relaxed.scenarios:
+        gravity, base = nodes[0][1].scenario_parameters[scenario.name]
+        values = {v: x[used] for v, x in designs[scenario.name].items()}
+        for sub in relaxed.subsystems:
+            mine = [s for s in springs if s.subsystem == sub.name]
+            if not mine or not len(used):
+                continue
+            _, arr = _arrays(relaxed, sub.name, q[sub.name], values, base, gravity, mine, rest=False)
+            rate_term = sum(np.abs(d[:, :, None] * grad) for d, grad in arr.values())  # (n, N, n_q)
+            tension_term = sum(np.abs(grad) for _, grad in arr.values())
+            sens_k = np.hstack([sens_k, rate_term.reshape(len(used), -1)])
+            sens_f = np.hstack([sens_f, tension_term.reshape(len(used), -1)])
     tk = np.nan_to_num(slot.rate_tolerance)
     tf = np.nan_to_num(slot.initial_tension_tolerance)
-    sensitivity = np.array([float(np.max(tk * part["rate"][i] * sens_k[at[i]] + tf * part["initial_tension"][i] * sens_f[at[i]], initial=0.0)) for i in ok])
+    sensitivity = (tk * part["rate"][ok, None] * sens_k[local] + tf * part["initial_tension"][ok, None] * sens_f[local]).max(axis=1, initial=0.0)
     price = np.nan_to_num(a["price"][kept][ok], nan=np.inf)
     ranked = ok[np.lexsort((price, sensitivity, np.round(objective[at[ok]], 9)))]
     order: list[int] = []
