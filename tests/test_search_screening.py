@@ -189,3 +189,48 @@ def test_reduced_echelon_rows_are_circuits_in_original_columns():
     supports = sorted(tuple(np.flatnonzero(np.abs(r) > 1e-12)) for r in rows)
     assert supports == [(0, 1), (2, 3)]
     assert math.isclose(abs(rows[0][0]), 1.0)
+
+
+TWO = ARM.replace(
+    """[springs.s1]""",
+    """[variables.r2]
+lower = "15 mm"
+upper = "90 mm"
+initial = "50 mm"
+[variables.x2]
+lower = "-130 mm"
+upper = "130 mm"
+initial = "0 mm"
+[variables.y2]
+lower = "110 mm"
+upper = "270 mm"
+initial = "200 mm"
+[variables.c2]
+lower = "0 mm"
+upper = "300 mm"
+initial = "0 mm"
+
+[springs.s2]
+slot = "s"
+mount = "direct"
+cable = "c2"
+from = {{ frame = "ground", point = ["x2", "y2", 0] }}
+to = {{ frame = "arm", point = ["r2", 0, 0] }}
+
+[springs.s1]""",
+)
+
+
+def test_direct_pair_screening_finds_the_brute_force_best(tmp_path):
+    """Two springs of one part, each with its own geometry: the pair screening (unordered
+    pairs of grid geometries, then a compass search) and designing every part agree."""
+    rng = np.random.default_rng(21)
+    catalogue(tmp_path / "parts.csv", rng, 8, (100.0, 1500.0), (0.02, 0.06), (0.05, 0.2))
+    (tmp_path / "two.toml").write_text(TWO.format(mass=0.8, length=0.3, lo=-40, hi=45), encoding="utf-8")
+    problem = load_problem(tmp_path / "two.toml")
+    designer = MinimaxDesigner(problem)
+    brute = _enumerate(problem, designer, lambda done, total: None, 0.0, "test")
+    screened = search_direct(problem, designer, lambda done, total: None)
+    assert screened.methods == ["screening"] and "unordered pairs" in screened.evidence[0]
+    assert brute.choice is not None and screened.choice is not None
+    assert screened.choice.robust <= brute.choice.robust * (1 + 1e-3) + 1e-9

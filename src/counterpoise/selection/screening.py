@@ -19,11 +19,10 @@ separate geometry variables: each spring's arrays are computed once on its own g
 all unordered pairs of grid geometries are screened per part (symmetry), the two offsets
 by box-constrained least squares (a feasible point: an upper estimate of that pair's best).
 
-The *bound* of a part is its best grid value minus what a finer geometry could gain,
-estimated from the grid itself: half the largest change of the part's value between
-neighbouring grid points along each axis, summed over the axes (a Lipschitz estimate of
-the value function over one grid cell). It is an estimate, not a certificate: a steeper
-value function between grid points, or a part feasible only between grid points, escapes it.
+From each part's best grid design a compass search (vectorised over parts) improves its
+geometry. A part's *screened ratio* is that of a real design (its lengths within limits on
+the screening configurations), not a lower bound: the search built on it is a screened
+search, not a certificate (docs/catalogues.md says what it guarantees).
 """
 
 from __future__ import annotations
@@ -63,12 +62,11 @@ SINGULAR = 1e-300
 
 @dataclass
 class Screen:
-    """Per part (catalogue row): screened ratio, estimated bound and the best grid design."""
+    """Per part (catalogue row): screened ratio and its screened design."""
 
     supported: bool
     reason: str = ""
     ratio: np.ndarray = field(default_factory=lambda: np.zeros(0))  # inf: no feasible grid design
-    bound: np.ndarray = field(default_factory=lambda: np.zeros(0))
     start: list[dict[str, float]] = field(default_factory=list)  # variable -> value of the best grid design
     geometries: int = 0
     configurations: int = 0
@@ -238,21 +236,6 @@ def _prune_reasons(p: Mapping[str, np.ndarray], rows: np.ndarray, d_min: np.ndar
     for name in label[i]:
         out[str(name)] = out.get(str(name), 0) + 1
     return out
-
-
-def _lipschitz_gain(values: np.ndarray, shape: Sequence[int]) -> np.ndarray:
-    """Per part (rows of ``values`` (P, n_g) on a grid of ``shape``): Σ over axes of half
-    the largest change between neighbouring feasible grid points."""
-    grid = values.reshape((values.shape[0], *shape))
-    gain = np.zeros(values.shape[0])
-    for axis in range(1, grid.ndim):
-        if grid.shape[axis] < 2:
-            continue
-        a = np.take(grid, range(grid.shape[axis] - 1), axis=axis)
-        b = np.take(grid, range(1, grid.shape[axis]), axis=axis)
-        diff = np.where(np.isfinite(a) & np.isfinite(b), np.abs(a - b), 0.0)
-        gain += 0.5 * diff.reshape(values.shape[0], -1).max(axis=1, initial=0.0)
-    return gain
 
 
 @dataclass
@@ -445,7 +428,7 @@ def _screen_one(ctx: _Context, n_parts: int) -> Screen:
     ratio, start = ctx.finish(live, centre, n_parts)
     dead = np.setdiff1d(rows, live)
     reasons = _prune_reasons(ctx.parts, dead, d.min(axis=1), d.max(axis=1), ctx.boxes[0])
-    return Screen(True, "", ratio, np.full(n_parts, -np.inf), start, n_g, ctx.q.shape[0], False, int(len(pr)) + count, n_parts - len(live), reasons)
+    return Screen(True, "", ratio, start, n_g, ctx.q.shape[0], False, int(len(pr)) + count, n_parts - len(live), reasons)
 
 
 def _screen_pairs(ctx: _Context, own: list[list[str]], n_parts: int) -> Screen:
@@ -503,7 +486,7 @@ def _screen_pairs(ctx: _Context, own: list[list[str]], n_parts: int) -> Screen:
     ratio, start = ctx.finish(live, centre, n_parts)
     dead = np.setdiff1d(rows, live)
     reasons = _prune_reasons(ctx.parts, dead, d1.min(axis=1), d1.max(axis=1), ctx.boxes[0])
-    return Screen(True, "", ratio, np.full(n_parts, -np.inf), start, len(i1), ctx.q.shape[0], True, evaluated + count, n_parts - len(live), reasons)
+    return Screen(True, "", ratio, start, len(i1), ctx.q.shape[0], True, evaluated + count, n_parts - len(live), reasons)
 
 
 def screened_order(screen: Screen) -> np.ndarray:
