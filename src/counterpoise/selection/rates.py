@@ -29,7 +29,7 @@ import numpy as np
 from ..catalogue.limits import LIMITS, margins, violation
 from ..verify.residuals import MAX_CORNERS
 from .geometry import spring_lengths
-from .screening import _arrays
+from .screening import energy_arrays
 
 #: node rates at which the design is solved exactly (spread over the window's distinct rates)
 NODES = 9
@@ -115,7 +115,7 @@ def screen_rates(search: Any, name: str, rates: np.ndarray, kept: np.ndarray, ot
             mine = [s for s in springs if s.subsystem == sub.name]
             if not mine or not len(used):
                 continue
-            _, arr = _arrays(relaxed, sub.name, q[sub.name], values, base, gravity, mine, rest=False)
+            _, arr = energy_arrays(relaxed, sub.name, q[sub.name], values, base, gravity, mine, rest=False)
             rate_term = sum(np.abs(d[:, :, None] * grad) for d, grad in arr.values())  # (n, N, n_q)
             tension_term = sum(np.abs(grad) for _, grad in arr.values())
             sens_k = np.hstack([sens_k, rate_term.reshape(len(used), -1)])

@@ -144,7 +144,7 @@ def _screen_configurations(problem: Problem, subsystem: str, seed: int) -> np.nd
     return configurations(problem, subsystem, SCREEN_CONFIGURATIONS * len(coords), np.random.default_rng(seed))
 
 
-def _arrays(problem: Problem, subsystem: str, q: np.ndarray, variables: Mapping[str, np.ndarray], base: Mapping[str, float], gravity: Sequence[float], springs: Sequence[Any], rest: bool = True) -> tuple[np.ndarray | None, dict[str, tuple[np.ndarray, np.ndarray]]]:
+def energy_arrays(problem: Problem, subsystem: str, q: np.ndarray, variables: Mapping[str, np.ndarray], base: Mapping[str, float], gravity: Sequence[float], springs: Sequence[Any], rest: bool = True) -> tuple[np.ndarray | None, dict[str, tuple[np.ndarray, np.ndarray]]]:
     """G (n_g, N, n_q): ∂V/∂q of everything but ``springs`` (None unless ``rest``), and per
     spring of ``springs`` (d (n_g, N), ∂d/∂q (n_g, N, n_q)), by complex step."""
     names = [c.name for c in problem.subsystem_coordinates(subsystem)]
@@ -261,9 +261,9 @@ class _Context:
         variables = {**{k: np.full(n, v) for k, v in self.home.items()}, **designs}
         springs = self.springs if springs is None else springs
         if self.rest_fixed and self._rest is None:
-            g, _ = _arrays(self.problem, self.subsystem, self.q, {k: np.array([v]) for k, v in self.home.items()}, self.base, self.gravity, self.springs)
+            g, _ = energy_arrays(self.problem, self.subsystem, self.q, {k: np.array([v]) for k, v in self.home.items()}, self.base, self.gravity, self.springs)
             self._rest = g.reshape(1, -1) / self.reference  # type: ignore[union-attr]
-        g, arr = _arrays(self.problem, self.subsystem, self.q, variables, self.base, self.gravity, springs, rest=not self.rest_fixed)
+        g, arr = energy_arrays(self.problem, self.subsystem, self.q, variables, self.base, self.gravity, springs, rest=not self.rest_fixed)
         if self.rest_fixed:
             gflat = np.broadcast_to(self._rest, (n, self._rest.shape[1]))  # type: ignore[union-attr]
         else:
