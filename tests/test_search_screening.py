@@ -234,3 +234,20 @@ def test_direct_pair_screening_finds_the_brute_force_best(tmp_path):
     assert screened.methods == ["screening"] and "unordered pairs" in screened.evidence[0]
     assert brute.choice is not None and screened.choice is not None
     assert screened.choice.robust <= brute.choice.robust * (1 + 1e-3) + 1e-9
+
+
+def test_search_evidence_reaches_status_and_summary(tmp_path):
+    """The search's evidence (pruned per limit, method and guarantee) is in status.txt's
+    part-search lines and the lower bound of the ratio in summary.csv (0: exact balance)."""
+    from counterpoise import design
+    from counterpoise.report.parts import parts_status
+    from counterpoise.report.rows import summary_row
+
+    rng = np.random.default_rng(4)
+    catalogue(tmp_path / "parts.csv", rng, 20, (100.0, 3000.0), (0.02, 0.08), (0.05, 0.4))
+    (tmp_path / "p.toml").write_text(PENDULUM.format(mass=1.0, r=0.2, b=0.1, lo=-60, hi=60), encoding="utf-8")
+    result = design(load_problem(tmp_path / "p.toml"))
+    text = parts_status(result)
+    assert "group s: enumeration; every rate in the window solved" in text
+    assert "pruned by the rate window" in text
+    assert summary_row(result)["lower_bound_ratio"] == 0.0

@@ -12,7 +12,8 @@ these designs evaluates in one numpy pass per scenario, for every part of the wi
   objective the way ``selection.prefer`` does.
 
 Parts predicted to break a limit by more than :data:`PREDICTION_MARGIN` (relative) are
-pruned; the others are ranked by (interpolated objective, sensitivity, price) and their
+pruned; the others are ranked by (interpolated objective, sensitivity, price), in the
+order ``selection.prefer`` gives these three, and their
 rates solved exactly in that order, at most :data:`EXACT_RATES` distinct rates. The exact
 solves, limits and tolerance bands then decide as in the enumeration. The prediction is
 not a certificate: the evidence says how many parts each step set aside.
@@ -124,7 +125,10 @@ def screen_rates(search: Any, name: str, rates: np.ndarray, kept: np.ndarray, ot
     tf = np.nan_to_num(slot.initial_tension_tolerance)
     sensitivity = (tk * part["rate"][ok, None] * sens_k[local] + tf * part["initial_tension"][ok, None] * sens_f[local]).max(axis=1, initial=0.0)
     price = np.nan_to_num(a["price"][kept][ok], nan=np.inf)
-    ranked = ok[np.lexsort((price, sensitivity, np.round(objective[at[ok]], 9)))]
+    keys = {"objective": np.round(objective[at[ok]], 9), "robust": sensitivity, "price": price}
+    order_of = {"objective": ("objective", "robust", "price"), "robust": ("robust", "objective", "price"), "price": ("price", "objective", "robust")}
+    first, second, third = order_of.get(search.problem.selection.prefer, order_of["objective"])
+    ranked = ok[np.lexsort((keys[third], keys[second], keys[first]))]  # the last key sorts first
     order: list[int] = []
     for i in ranked:
         if at[i] not in order:
