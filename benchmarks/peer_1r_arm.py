@@ -68,8 +68,6 @@ R_LO, R_HI = 0.015, 0.090
 X_LO, X_HI = -0.130, 0.130
 Y_LO, Y_HI = 0.110, 0.270
 C_MAX = 0.300
-LO = np.array([R_LO, X_LO, Y_LO])
-HI = np.array([R_HI, X_HI, Y_HI])
 
 ROOT = Path(__file__).resolve().parent.parent
 DEFAULT_CATALOGUE = Path("..") / "shared" / "catalogues" / "mcmaster-extension-springs.csv"  # from the repository root
