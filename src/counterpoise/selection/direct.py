@@ -22,6 +22,8 @@ import sys
 import time
 from collections.abc import Callable
 
+import numpy as np
+
 from ..designer.minimax import MinimaxDesigner
 from ..formulation.layout import Slot
 from ..model.problem import Problem
@@ -80,9 +82,10 @@ def search_direct(problem: Problem, designer: MinimaxDesigner, progress: Progres
     slots = list(problem.slots)
     if len(slots) == 1 and len(slots[0].catalogue) > MIN_REFINED:
         screened = screen(problem, designer, part_parameters(problem, {slots[0].name: 0}))
-        if screened.supported:
+        if screened.supported and np.isfinite(screened.ratio).any():
             return _search_screened(problem, designer, screened, progress, t0)
-        note = f"every part designed ({screened.reason})"
+        reason = screened.reason or "no part within its lengths at any grid geometry"
+        note = f"every part designed ({reason})"
     else:
         note = "every combination of parts designed"
     return _enumerate(problem, designer, progress, t0, note)
