@@ -11,6 +11,7 @@ Usage::
     python scripts/make_spring_catalogue.py            # (re)write the CSV
     python scripts/make_spring_catalogue.py --check    # exit 1 if the CSV is stale
     python scripts/make_spring_catalogue.py --out other.csv
+    python scripts/make_spring_catalogue.py --parts 6000 --out big.csv   # large synthetic catalogue
 
 The output is deterministic: a fixed design grid, a fixed iteration order and
 values written with 6 significant digits.  Part numbers are assigned in grid
@@ -136,6 +137,66 @@ def initial_stress_mid(C: np.ndarray) -> np.ndarray:
     return 231.0e6 * np.exp(-0.105 * C)
 
 
+def _rows_for(mat: Material, d: np.ndarray, C: np.ndarray, Nb: np.ndarray) -> tuple[list[dict[str, object]], int]:
+    """Rows (without part numbers) for wire diameters d (m), spring indices C and body coil
+    counts Nb of one material, and the number of rejected candidates."""
+    rows: list[dict[str, object]] = []
+    rejected = 0
+    D = C * d  # mean coil diameter, m
+
+    # Active coils: body coils plus the hook contribution G/E (Shigley eq. 10-40).
+    Na = Nb + mat.G / mat.E
+    # Rate (Shigley eq. 10-9).
+    k = mat.G * d**4 / (8.0 * D**3 * Na)
+
+    # Maximum load from the allowable body shear stress (K_B corrected).
+    Sut = ultimate_tensile_strength(mat, d)
+    tau_allow = mat.body_shear_fraction * Sut
+    F_max = tau_allow * math.pi * d**3 / (8.0 * bergstrasser_factor(C) * D)
+
+    # Initial tension from the middle of the preferred initial-stress band.
+    F0 = math.pi * d**3 * initial_stress_mid(C) / (8.0 * D)
+
+    # Free length inside the hooks, two full machine hooks (Shigley eq. 10-39).
+    L0 = (Nb + 1.0) * d + 2.0 * (D - d)
+    L_max = L0 + (F_max - F0) / k
+
+    # Mass: body coils plus each hook counted as one coil of mean diameter D.
+    wire_length = math.pi * D * (Nb + 2.0)
+    mass = mat.density * math.pi * d**2 / 4.0 * wire_length
+
+    price = PRICE_BASE_EUR + PRICE_PER_COIL_EUR * (Nb + 2.0) + mat.price_per_kg * mass
+
+    for i in range(d.size):
+        values = (k[i], L0[i], F0[i], F_max[i], L_max[i], D[i] + d[i], d[i], mass[i], price[i])
+        ok = (
+            all(math.isfinite(float(v)) and v > 0 for v in values)
+            and C_MIN <= C[i] <= C_MAX
+            and F_max[i] > F0[i]
+            and L_max[i] > L0[i]
+        )
+        if not ok:
+            rejected += 1
+            continue
+        rows.append(
+            {
+                "rate_N_per_m": k[i],
+                "free_length_m": L0[i],
+                "initial_tension_N": F0[i],
+                "max_load_N": F_max[i],
+                "max_length_m": L_max[i],
+                "outer_diameter_m": D[i] + d[i],
+                "wire_diameter_m": d[i],
+                "material": mat.name,
+                "mass_kg": mass[i],
+                "price_eur": round(float(price[i]), 2),
+                "rate_tolerance": RATE_TOLERANCE,
+                "initial_tension_tolerance": INITIAL_TENSION_TOLERANCE,
+            }
+        )
+    return rows, rejected
+
+
 def design_rows() -> tuple[list[dict[str, object]], int]:
     """Return (accepted rows without part numbers, number of rejected candidates)."""
     rows: list[dict[str, object]] = []
@@ -147,62 +208,37 @@ def design_rows() -> tuple[list[dict[str, object]], int]:
             np.asarray(body_coils, dtype=float),
             indexing="ij",
         )
-        d = d_mm.ravel() * 1e-3  # wire diameter, m
-        C = C.ravel()
-        Nb = Nb.ravel()
-        D = C * d  # mean coil diameter, m
-
-        # Active coils: body coils plus the hook contribution G/E (Shigley eq. 10-40).
-        Na = Nb + mat.G / mat.E
-        # Rate (Shigley eq. 10-9).
-        k = mat.G * d**4 / (8.0 * D**3 * Na)
-
-        # Maximum load from the allowable body shear stress (K_B corrected).
-        Sut = ultimate_tensile_strength(mat, d)
-        tau_allow = mat.body_shear_fraction * Sut
-        F_max = tau_allow * math.pi * d**3 / (8.0 * bergstrasser_factor(C) * D)
-
-        # Initial tension from the middle of the preferred initial-stress band.
-        F0 = math.pi * d**3 * initial_stress_mid(C) / (8.0 * D)
-
-        # Free length inside the hooks, two full machine hooks (Shigley eq. 10-39).
-        L0 = (Nb + 1.0) * d + 2.0 * (D - d)
-        L_max = L0 + (F_max - F0) / k
-
-        # Mass: body coils plus each hook counted as one coil of mean diameter D.
-        wire_length = math.pi * D * (Nb + 2.0)
-        mass = mat.density * math.pi * d**2 / 4.0 * wire_length
-
-        price = PRICE_BASE_EUR + PRICE_PER_COIL_EUR * (Nb + 2.0) + mat.price_per_kg * mass
-
-        for i in range(d.size):
-            values = (k[i], L0[i], F0[i], F_max[i], L_max[i], D[i] + d[i], d[i], mass[i], price[i])
-            ok = (
-                all(math.isfinite(float(v)) and v > 0 for v in values)
-                and C_MIN <= C[i] <= C_MAX
-                and F_max[i] > F0[i]
-                and L_max[i] > L0[i]
-            )
-            if not ok:
-                rejected += 1
-                continue
-            rows.append(
-                {
-                    "rate_N_per_m": k[i],
-                    "free_length_m": L0[i],
-                    "initial_tension_N": F0[i],
-                    "max_load_N": F_max[i],
-                    "max_length_m": L_max[i],
-                    "outer_diameter_m": D[i] + d[i],
-                    "wire_diameter_m": d[i],
-                    "material": mat.name,
-                    "mass_kg": mass[i],
-                    "price_eur": round(float(price[i]), 2),
-                    "rate_tolerance": RATE_TOLERANCE,
-                    "initial_tension_tolerance": INITIAL_TENSION_TOLERANCE,
-                }
-            )
+        more, bad = _rows_for(mat, d_mm.ravel() * 1e-3, C.ravel(), Nb.ravel())
+        rows += more
+        rejected += bad
     return rows, rejected
+
+
+#: the large synthetic catalogue (benchmarks): wire diameters (mm), spring indices and
+#: body coil counts drawn uniformly (log-uniform for the wire) within these ranges
+LARGE_WIRE_MM = (0.3, 3.0)
+LARGE_INDEX = (C_MIN, C_MAX)
+LARGE_COILS = (4, 120)
+
+
+def large_rows(parts: int, seed: int) -> tuple[list[dict[str, object]], int]:
+    """``parts`` rows of random designs (both materials), deterministic for a seed."""
+    rng = np.random.default_rng(seed)
+    rows: list[dict[str, object]] = []
+    rejected = 0
+    materials = (MUSIC_WIRE, STAINLESS_302)
+    while len(rows) < parts:
+        n = parts - len(rows)
+        which = rng.integers(0, len(materials), n)
+        d = np.exp(rng.uniform(math.log(LARGE_WIRE_MM[0]), math.log(LARGE_WIRE_MM[1]), n)) * 1e-3
+        C = rng.uniform(*LARGE_INDEX, n)
+        Nb = rng.integers(LARGE_COILS[0], LARGE_COILS[1] + 1, n).astype(float)
+        for m, mat in enumerate(materials):
+            pick = which == m
+            more, bad = _rows_for(mat, d[pick], C[pick], Nb[pick])
+            rows += more
+            rejected += bad
+    return rows[:parts], rejected
 
 
 def _fmt(value: object) -> str:
@@ -211,14 +247,16 @@ def _fmt(value: object) -> str:
     return f"{float(value):.{SIG_DIGITS}g}"
 
 
-def render_csv() -> tuple[str, int, int]:
-    """Return (CSV text, number of items, number of rejected candidates)."""
-    rows, rejected = design_rows()
+def render_csv(parts: int = 0, seed: int = 0) -> tuple[str, int, int]:
+    """Return (CSV text, number of items, number of rejected candidates): the shipped
+    catalogue, or with ``parts`` > 0 the large synthetic one of that many parts."""
+    rows, rejected = large_rows(parts, seed) if parts else design_rows()
+    prefix = "CP-LRG-" if parts else "CP-EXT-"
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
     writer.writerow(COLUMNS)
     for n, row in enumerate(rows, start=1):
-        row = {"part_number": f"CP-EXT-{n:04d}", **row}
+        row = {"part_number": f"{prefix}{n:0{5 if parts else 4}d}", **row}
         writer.writerow([_fmt(row[c]) if c != "price_eur" else f"{row[c]:.2f}" for c in COLUMNS])
     return buf.getvalue(), len(rows), rejected
 
@@ -236,9 +274,13 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="do not write; exit 1 if the file at --out differs from what would be generated",
     )
+    parser.add_argument("--parts", type=int, default=0, help="write a large synthetic catalogue of this many random designs instead (needs --out)")
+    parser.add_argument("--seed", type=int, default=16, help="seed of the large catalogue's designs (default 16)")
     args = parser.parse_args(argv)
+    if args.parts and args.out == DEFAULT_OUT:
+        parser.error("--parts needs --out (the shipped catalogue is not replaced)")
 
-    text, count, rejected = render_csv()
+    text, count, rejected = render_csv(args.parts, args.seed)
 
     if args.check:
         try:

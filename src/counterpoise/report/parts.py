@@ -154,10 +154,12 @@ def parts_status(result: DesignResult) -> str:
         lines.append(f"  group {' '.join(group)}: {method}")
     for c in s.counts:
         lines.append(
-            f"  slot {c.slot}: {c.parts} parts, {c.pruned} pruned before any per-part solve (balanceable rates "
-            f"{c.window[0] / 1e3:.6g}-{c.window[1] / 1e3:.6g} N/mm), {c.rates_solved} rates solved, "
+            f"  slot {c.slot}: {c.parts} parts, {c.pruned} pruned before any per-part solve ("
+            + (f"balanceable rates {c.window[0] / 1e3:.6g}-{c.window[1] / 1e3:.6g} N/mm" if not math.isnan(c.window[0]) else "no grid geometry within their lengths")
+            + f"), {c.rates_solved} rates solved, "
             f"{c.failed_limits} failing a limit, {c.fitting} fitting"
         )
+    lines += [f"  {line}" for line in s.evidence]
     if s.choice is None and s.nearest:
         lines.append("nearest candidates:")
         lines += [f"  {m.text()}" for m in s.nearest]

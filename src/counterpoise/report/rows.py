@@ -32,6 +32,7 @@ SUMMARY_COLUMNS = [
     "certificate_gap_kg",
     "starts_reaching_best",
     "worst_scenario",
+    "lower_bound_ratio",
 ]
 VERIFICATION_COLUMNS = [
     "subsystem",
@@ -133,6 +134,7 @@ def summary_row(result: DesignResult) -> Row:
         "certificate_gap_kg": s.certificate_gap,
         "starts_reaching_best": f"{s.starts[0]}/{s.starts[1]}",
         "worst_scenario": worst.scenario if (worst := v.worst()) is not None else "",
+        "lower_bound_ratio": result.parts.search.lower_bound_ratio if result.parts is not None else None,
     }
 
 
