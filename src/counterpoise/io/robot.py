@@ -90,15 +90,23 @@ def _matrix(m: object) -> Matrix:
 
 
 def _read_urdf(path: Path) -> RobotModel:
+    import logging
+
     import yourdfpy
     from lxml import etree
 
+    logger = logging.getLogger("yourdfpy")
+    level = logger.level
+    logger.setLevel(logging.CRITICAL)  # its warnings would be extra lines: errors are ours to report
     try:
+        etree.parse(str(path), etree.XMLParser())  # strict: yourdfpy would recover from broken XML
         urdf = yourdfpy.URDF.load(
             str(path), build_scene_graph=False, load_meshes=False, build_collision_scene_graph=False, load_collision_meshes=False
         )
     except (etree.Error, OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
         raise InputError(f"cannot read the URDF {path.name}: {' '.join(str(exc).split())[:200]}") from None
+    finally:
+        logger.setLevel(level)
     robot = urdf.robot
     links = {link.name: link for link in robot.links}
     by_child = {}

@@ -87,6 +87,8 @@ def _views(up: np.ndarray, normal: np.ndarray | None) -> list[tuple[str, np.ndar
             vertical = np.cross(normal, np.eye(3)[int(np.argmin(np.abs(normal)))])
         vertical /= np.linalg.norm(vertical)
         horizontal = np.cross(vertical, normal)
+        if horizontal[int(np.argmax(np.abs(horizontal)))] < 0:  # along a positive world axis
+            horizontal = -horizontal
         return [("plane of motion", horizontal, vertical)]
     axis = np.eye(3)[int(np.argmin(np.abs(np.eye(3) @ up)))]
     h1 = axis - up * float(axis @ up)
@@ -141,7 +143,7 @@ def mechanism_plot(
     masses = [p.mass for p in placed_main if p.kind in ("body", "counter_mass")]
     heaviest = max(masses) if masses and max(masses) > 0 else 1.0
     payloads = {p.name for p in problem.payloads}
-    joints = _joint_frames(problem)
+    joints = _joint_positions(problem, _joint_frames(problem), main, design)
 
     width = 7.5 if len(views) == 1 else 15.0
     fig, axes = plt.subplots(1, len(views), figsize=(width, 6.2), squeeze=False, layout="constrained")
@@ -165,7 +167,7 @@ def mechanism_plot(
     handles = [
         Line2D([], [], color="0.15", linewidth=2.5, label="link (frame to frame)"),
         Line2D([], [], marker="o", markerfacecolor="white", markeredgecolor="0.15", linestyle="none", label="joint"),
-        Line2D([], [], marker="^", color="0.4", linestyle="none", label="ground"),
+        Line2D([], [], marker="^", color="0.4", linewidth=5, markersize=9, label="ground, fixed frames"),
         Line2D([], [], marker="o", color="tab:blue", alpha=0.6, linestyle="none", markersize=10, label="body (area ∝ mass)"),
     ]
     if problem.counter_masses:
@@ -188,22 +190,31 @@ def _length_scale(placed: list[Placed]) -> tuple[float, str]:
     return (1e-3, "mm") if extent < 2.0 else (1.0, "m")
 
 
-def _joint_frames(problem: Problem) -> set[str]:
-    """Frames whose own transforms move with a coordinate (drawn with a joint ring)."""
+def _joint_frames(problem: Problem) -> dict[str, int]:
+    """Frames whose own transforms move with a coordinate -> index of the first such
+    transform: the joint (drawn as a ring) sits where the frame's chain is just before it."""
     from ..model import expr as ex
     from ..model.mechanism import Rotation
 
     coordinates = {c.name for c in problem.coordinates}
-    out = set()
+    out: dict[str, int] = {}
     for f in problem.frames:
-        for t in f.transforms:
+        for i, t in enumerate(f.transforms):
             trees = [t.angle] if isinstance(t, Rotation) else list(t.vector)
             if any(ex.names(tree) & coordinates for tree in trees):
-                out.add(f.name)
+                out[f.name] = i
+                break
     return out
 
 
-def _draw(ax: Any, problem: Problem, placed: list[Placed], xy: Any, ghost: bool, joints: set[str], **style: Any) -> None:
+def _joint_positions(problem: Problem, joints: dict[str, int], coordinates: Mapping[str, float], variables: Mapping[str, float]) -> dict[str, Any]:
+    from ..mechanics.poses import mechanics
+
+    mech = mechanics(problem, coordinates, variables)
+    return {name: [float(c) for c in mech.pose(name, upto=i)[1]] for name, i in joints.items()}
+
+
+def _draw(ax: Any, problem: Problem, placed: list[Placed], xy: Any, ghost: bool, joints: Mapping[str, Any], **style: Any) -> None:
     frames = {p.name: p for p in placed if p.kind == "frame"}
     origin = np.zeros(3)
     link_color, alpha, z = ("0.6", 0.35, 1) if ghost else ("0.15", 1.0, 3)
@@ -211,7 +222,11 @@ def _draw(ax: Any, problem: Problem, placed: list[Placed], xy: Any, ghost: bool,
         a = frames[f.parent].position if f.parent in frames else origin
         b = frames[f.name].position
         pa, pb = xy(a), xy(b)
-        ax.plot([pa[0], pb[0]], [pa[1], pb[1]], color=link_color, linewidth=2.5 if not ghost else 1.5, alpha=alpha, zorder=z, solid_capstyle="round")
+        fixed = f.subsystem is None
+        if fixed and ghost:
+            continue
+        width = 5.0 if fixed else (2.5 if not ghost else 1.5)
+        ax.plot([pa[0], pb[0]], [pa[1], pb[1]], color="0.75" if fixed else link_color, linewidth=width, alpha=alpha, zorder=z - (1 if fixed else 0), solid_capstyle="round")
         if f.orientation is not None and not ghost:  # a reference link keeping another frame's axes
             ax.plot(*pb, marker="D", markersize=5, color="tab:purple", zorder=z + 2, linestyle="none")
     for p in placed:
@@ -228,8 +243,8 @@ def _draw(ax: Any, problem: Problem, placed: list[Placed], xy: Any, ghost: bool,
         if f.subsystem is None and f.parent == GROUND:
             g = xy(frames[f.name].position)
             ax.plot(*g, marker="^", markersize=10, color="0.4", zorder=2, linestyle="none")
-    for name in joints:
-        j = xy(frames[name].position)
+    for position in joints.values():
+        j = xy(position)
         ax.plot(*j, marker="o", markersize=7, markerfacecolor="white", markeredgecolor="0.15", zorder=6, linestyle="none")
     labels: dict[tuple[str, float, float], list[str]] = {}
 
