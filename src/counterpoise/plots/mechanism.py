@@ -234,7 +234,10 @@ def _draw(ax: Any, problem: Problem, placed: list[Placed], xy: Any, ghost: bool,
             pf, pc = xy(frames[p.frame].position if p.frame in frames else origin), xy(p.position)
             width = 0.9 if p.kind == "body" else 1.6
             ax.plot([pf[0], pc[0]], [pf[1], pc[1]], color=link_color, linewidth=width, alpha=alpha * 0.8, zorder=z - 1)
-    if ghost:
+    if ghost:  # the corner poses: links and small faint masses, no labels
+        for p in placed:
+            if p.kind in ("body", "counter_mass"):
+                ax.plot(*xy(p.position), marker="o" if p.kind == "body" else "s", markersize=3.5, color="0.55", alpha=0.45, zorder=1, linestyle="none")
         return
     cmap, norm, heaviest, payloads = style["cmap"], style["norm"], style["heaviest"], style["payloads"]
     ground = xy(origin)
