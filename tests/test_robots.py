@@ -37,6 +37,7 @@ MANIFEST = {
     "robot_joint_moving_and_locked.toml": ("robot.locked.elbow_joint", "listed both as moving (robot.joints) and as locked"),
     "robot_range_beyond_limits.toml": ("robot.joints.elbow_joint.range", "goes beyond the joint's limits [-180 deg, 180 deg]"),
     "robot_locked_beyond_limits.toml": ("robot.locked.wrist_1_joint", "locked value '-400 deg' goes beyond the joint's limits"),
+    "robot_locked_bare_number.toml": ("robot.locked.wrist_1_joint", "an angle needs its unit: write '-90 deg' or '-90 rad'"),
     "robot_fixed_joint_moving.toml": ("robot.joints.tool0_fixed_joint", "a fixed joint: it does not move"),
     "robot_urdf_and_mjcf.toml": ("robot.urdf", "not both"),
     "robot_range_in_mm.toml": ("robot.joints.elbow_joint.range", "expected an angle (revolute joint), got a length"),

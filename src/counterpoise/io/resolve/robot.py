@@ -83,8 +83,22 @@ def _unit_for(joint: RobotJoint) -> str:
     return canonical_dimension(LENGTH) if joint.kind == "prismatic" else ""
 
 
+def _bare_angle(raw: object) -> bool:
+    """A number without a unit (not 0): an angle must say whether it is in deg or rad."""
+    if isinstance(raw, bool):
+        return False
+    if isinstance(raw, (int, float)):
+        return raw != 0
+    try:
+        return float(str(raw)) != 0
+    except ValueError:
+        return False
+
+
 def _check_dimension(ctx: Context, joint: RobotJoint, dimension: str, key: str, raw: object) -> None:
     wanted = _unit_for(joint)
+    if not wanted and _bare_angle(raw):
+        raise ctx.fail(key, f"an angle needs its unit: write '{raw} deg' or '{raw} rad'")
     if dimension != wanted:
         what = "a length (prismatic joint)" if wanted else "an angle (revolute joint)"
         raise ctx.fail(key, f"expected {what}, got {dimension_name(dimension)} ('{raw}')")
