@@ -68,7 +68,14 @@ def read_robot(path: Path, fmt: str) -> RobotModel:
     """Read a URDF or MJCF file; problems with the file are :class:`InputError`."""
     if not path.is_file():
         raise InputError(f"no such file: {path}")
-    return _read_urdf(path) if fmt == "urdf" else _read_mjcf(path)
+    model = _read_urdf(path) if fmt == "urdf" else _read_mjcf(path)
+    for link in model.links:
+        for joint in link.joints:
+            if not all(math.isfinite(c) for c in joint.axis) or not any(joint.axis):
+                raise InputError(f"{path.name}: joint '{joint.name}' has no usable axis {joint.axis}")
+            if not all(math.isfinite(c) for c in (*link.xyz, *link.com, link.mass, *joint.anchor)):
+                raise InputError(f"{path.name}: link '{link.name}' has a value that is not a finite number")
+    return model
 
 
 def rpy_from_matrix(r: Matrix) -> Triple:
