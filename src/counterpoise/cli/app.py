@@ -136,7 +136,7 @@ def solve(
     files: FilesArg,
     out: Annotated[Path, typer.Option("--out", help="Folder for the reports (one subfolder per problem).")] = Path("results"),
     set_: SetOpt = None,
-    plot: Annotated[bool, typer.Option("--plot", help="Also write energy.png (energies and residual torque) next to the reports.")] = False,
+    plot: Annotated[bool, typer.Option("--plot", help="Also write energy.png (energies and residual torque) and mechanism.png (the mechanism with its design) next to the reports.")] = False,
     starts: Annotated[int, typer.Option("--starts", help="Seeded multi-start over the free geometry: number of starts.")] = 1,
 ) -> None:
     """Solve problem files and write their reports."""
@@ -163,6 +163,9 @@ def solve(
                 from ..plots import energy_plot
 
                 energy_plot(result, folder)
+                from ..plots.mechanism import design_mechanism_plot
+
+                design_mechanism_plot(result, folder)
         except OSError as exc:
             err_console.print(f"{problem.path}: cannot write reports to {out}: {exc.strerror or exc}", markup=False)
             worst = max(worst, 1)
@@ -292,6 +295,53 @@ def plot(
         except (CounterpoiseError, OSError) as exc:
             err_console.print(f"{problem.path}: {exc}", markup=False)
             raise typer.Exit(1) from None
+    for path in paths:
+        out_console.print(f"wrote {path}", markup=False)
+
+
+AtOpt = Annotated[
+    Optional[list[str]],
+    typer.Option("--at", help="A coordinate (or design variable) and its value with a unit, e.g. --at 'elbow_joint=30 deg' (repeatable); the others stay at home."),
+]
+
+
+@app.command()
+def frames(
+    file: Annotated[Path, typer.Argument(help="Problem file (TOML).", show_default=False)],
+    at: AtOpt = None,
+    csv: Annotated[bool, typer.Option("--csv", help="Print CSV instead of a table.")] = False,
+    set_: SetOpt = None,
+) -> None:
+    """Print the world position of every frame, centre of mass, counter-mass and spring end."""
+    from .mechanism import AtError, frames_table
+
+    problem = _load_all([file], _overrides(set_))[0]
+    try:
+        frames_table(problem, at, csv, out_console)
+    except AtError as exc:
+        err_console.print(f"{file}: {exc}", markup=False)
+        raise typer.Exit(2) from None
+
+
+@app.command()
+def draw(
+    file: Annotated[Path, typer.Argument(help="Problem file (TOML).", show_default=False)],
+    at: AtOpt = None,
+    out: Annotated[Path, typer.Option("--out", help="Folder for <problem>/mechanism.png.")] = Path("results"),
+    set_: SetOpt = None,
+) -> None:
+    """Draw the mechanism (a kinematic sketch) at home and at the corners of its ranges."""
+    from .mechanism import AtError, draw_files
+
+    problem = _load_all([file], _overrides(set_))[0]
+    try:
+        paths = draw_files(problem, at, out)
+    except AtError as exc:
+        err_console.print(f"{file}: {exc}", markup=False)
+        raise typer.Exit(2) from None
+    except OSError as exc:
+        err_console.print(f"{problem.path}: cannot write the drawing to {out}: {exc.strerror or exc}", markup=False)
+        raise typer.Exit(1) from None
     for path in paths:
         out_console.print(f"wrote {path}", markup=False)
 

@@ -15,6 +15,8 @@ COMMANDS: dict[str, str] = {
     "schedule": "Print the adjustments for one payload: what an operator sets at the table.",
     "study": "Solve a problem over a grid or a Latin hypercube of parameters, bounds or weights.",
     "plot": "Write plots: energy.png of a problem's design, or study.png/pareto.png of a study.",
+    "frames": "Print the world position of every frame, centre of mass, counter-mass and spring end.",
+    "draw": "Draw the mechanism (a kinematic sketch) at home and at the corners of its ranges.",
 }
 
 DESCRIPTION = "Design gravity balancers for mechanisms. Add --debug to see the traceback of an internal error."

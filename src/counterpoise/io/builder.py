@@ -101,10 +101,42 @@ class ProblemBuilder:
             entry["coupled"] = dict(coupled)
         return self._put("subsystems", name, self._described(entry, description))
 
-    def frame(self, name: str, *transforms: Mapping[str, Any], parent: str = "ground", description: str = "") -> "ProblemBuilder":
-        """A frame: ``parent`` and transforms made with :func:`rotate` and :func:`translate`."""
-        entry = {"parent": parent, "transforms": [dict(t) for t in transforms]}
+    def frame(
+        self, name: str, *transforms: Mapping[str, Any], parent: str = "ground", description: str = "", orientation: str | None = None
+    ) -> "ProblemBuilder":
+        """A frame: ``parent`` and transforms made with :func:`rotate` and :func:`translate`;
+        ``orientation`` names a frame whose axes it keeps (a parallelogram's reference link)."""
+        entry: dict[str, Any] = {"parent": parent, "transforms": [dict(t) for t in transforms]}
+        if orientation is not None:
+            entry["orientation"] = orientation
         return self._put("frames", name, self._described(entry, description))
+
+    def robot(
+        self,
+        urdf: str | None = None,
+        mjcf: str | None = None,
+        subsystem: str = "robot",
+        joints: Mapping[str, tuple[Value, Value]] | None = None,
+        locked: Mapping[str, Value] | None = None,
+        homes: Mapping[str, Value] | None = None,
+        description: str = "",
+    ) -> "ProblemBuilder":
+        """A robot model (docs/robots.md): ``urdf`` or ``mjcf`` (absolute, or relative to the
+        ``label`` given to :meth:`build`), the moving ``joints`` as ``name: (lower, upper)``,
+        the ``locked`` ones as ``name: value``; every link becomes a frame and a body."""
+        entry: dict[str, Any] = {"subsystem": subsystem}
+        for key, value in (("urdf", urdf), ("mjcf", mjcf)):
+            if value is not None:
+                entry[key] = str(value)
+        entry["joints"] = {}
+        for jname, (lo, hi) in (joints or {}).items():
+            entry["joints"][jname] = {"range": [lo, hi]}
+            if homes and jname in homes:
+                entry["joints"][jname]["home"] = homes[jname]
+        if locked:
+            entry["locked"] = dict(locked)
+        self._data["robot"] = self._described(entry, description)
+        return self
 
     def body(self, name: str, frame: str, mass: Value, com: Vec3, description: str = "") -> "ProblemBuilder":
         return self._put("bodies", name, self._described({"frame": frame, "mass": mass, "com": list(com)}, description))

@@ -137,6 +137,9 @@ TransformEntry = Annotated[
 class FrameSpec(_Table):
     parent: str = "ground"
     transforms: tuple[TransformEntry, ...] = ()
+    #: keep the orientation of this frame (a parallelogram's or belt's reference link):
+    #: the origin follows ``parent`` and ``transforms``, the axes stay those of the named frame
+    orientation: str | None = None
     description: str = ""
 
 
@@ -265,11 +268,32 @@ class SelectionSpec(_Table):
     nearest: Annotated[int, Field(ge=1, le=100)] = 5
 
 
+class RobotJointSpec(_Table):
+    """A joint of a robot model that moves: it becomes a coordinate of the robot's subsystem."""
+
+    range: tuple[Value, Value]
+    home: Value | None = None
+    description: str = ""
+
+
+class RobotSpec(_Table):
+    """A robot model (URDF or MJCF): every link a frame and a body (docs/robots.md)."""
+
+    urdf: str | None = None  # path relative to the problem file, or absolute
+    mjcf: str | None = None
+    subsystem: Name = "robot"
+    description: str = ""
+    joints: dict[str, RobotJointSpec] = Field(default_factory=dict)
+    locked: dict[str, Value] = Field(default_factory=dict)
+
+
 class ProblemFile(_Table):
     problem: ProblemMeta
     gravity: GravitySpec
     parameters: dict[Name, ParameterEntry] = Field(default_factory=dict)
-    subsystems: Annotated[dict[Name, SubsystemSpec], Field(min_length=1)]
+    #: at least one, or a [robot] (checked when resolving)
+    subsystems: dict[Name, SubsystemSpec] = Field(default_factory=dict)
+    robot: RobotSpec | None = None
     frames: dict[Name, FrameSpec] = Field(default_factory=dict)
     bodies: dict[Name, BodySpec] = Field(default_factory=dict)
     counter_masses: dict[Name, CounterMassSpec] = Field(default_factory=dict)

@@ -65,6 +65,9 @@ class Frame:
 
     pose(frame) = pose(parent) · T_1 · T_2 · … (each transform acts in the frame built so far).
     ``subsystem`` is the subsystem whose coordinates move it (None: fixed to ground).
+    ``orientation``: the frame whose axes it keeps (``orientation = "<frame>"`` in a file);
+    the loader has already appended the rotations that undo the parent chain's and redo
+    that frame's, so the transforms alone give the pose. ``link``: the robot link it is.
     """
 
     name: str
@@ -73,6 +76,8 @@ class Frame:
     subsystem: str | None
     description: str = ""
     keys: tuple[str, ...] = ()  # file key of each transform (a DH row gives four), for messages
+    orientation: str | None = None
+    link: bool = False  # a link of a [robot] model
 
     def key(self, index: int) -> str:
         """The file key of transform ``index``."""

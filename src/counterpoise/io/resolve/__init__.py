@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from ...model.problem import Problem, Settings
 from ..schema import ProblemFile
-from . import mechanism, parts, payloads, quantities, report, substitution
+from . import mechanism, parts, payloads, quantities, report, robot, substitution
 from .context import REPORT_FUNCTIONS, RESERVED, Context
 
 __all__ = ["REPORT_FUNCTIONS", "RESERVED", "resolve"]
@@ -27,16 +27,22 @@ def resolve(spec: ProblemFile, label: str) -> Problem:
     for sub in spec.subsystems.values():
         for cname in sub.coordinates:
             ctx.declare("coordinates", cname)
+    if not spec.subsystems and spec.robot is None:
+        raise ctx.fail("subsystems", "missing required key (or a [robot] model whose joints move)")
+    robot_model = robot.read(ctx)
     parameters = quantities.parameters(ctx) + payloads.parameters(ctx)
     catalogues = parts.catalogues(ctx)
     parameters += parts.slot_parameters(ctx, catalogues)
     variables = quantities.variables(ctx)
     payloads.check_adjustments(ctx, variables)
     subsystems, coordinates = mechanism.subsystems(ctx)
-    frames = mechanism.frames(ctx)
+    robot_subsystems, robot_coordinates = robot.coordinates(ctx, robot_model)
+    subsystems, coordinates = robot_subsystems + subsystems, robot_coordinates + coordinates
+    frames = mechanism.frames(ctx, robot.frames(ctx, robot_model))
     by_name = {f.name: f for f in frames}
     payload_bodies, payload_ranges = payloads.bodies(ctx, by_name)
-    bodies, substitutions, substituted = substitution.substitutions(ctx, mechanism.bodies(ctx, by_name) + payload_bodies, by_name)
+    given_bodies = robot.bodies(ctx, robot_model, by_name) + mechanism.bodies(ctx, by_name)
+    bodies, substitutions, substituted = substitution.substitutions(ctx, given_bodies + payload_bodies, by_name)
     counter_masses = mechanism.counter_masses(ctx, by_name)
     springs = mechanism.springs(ctx, by_name)
     slot_springs: dict[str, list[str]] = {}

@@ -66,19 +66,28 @@ def coupled(ctx: Context, sname: str, sub: Any) -> None:
         ctx.coupled[name] = tree
 
 
-def frames(ctx: Context) -> tuple[Frame, ...]:
+def frames(ctx: Context, given: tuple[Frame, ...] = ()) -> tuple[Frame, ...]:
+    """The frames of ``[frames]``, after ``given`` ones (a robot's links), which they may hang from."""
     specs = ctx.spec.frames
+    known = {f.name: f for f in given}
     coordinate_subsystem = {c: s for s, sub in ctx.spec.subsystems.items() for c in sub.coordinates}
+    if ctx.spec.robot is not None:
+        coordinate_subsystem.update({c: ctx.spec.robot.subsystem for c in ctx.spec.robot.joints})
     for name, f in specs.items():
         if name == GROUND:
             raise ctx.fail(f"frames.{name}", "'ground' is the fixed world frame and cannot be declared")
-        if f.parent != GROUND and f.parent not in specs:
-            close = suggest(f.parent, list(specs) + [GROUND])
-            raise ctx.fail(f"frames.{name}.parent", f"unknown frame '{f.parent}'{close}")
+        for field, target in (("parent", f.parent), ("orientation", f.orientation)):
+            if target is not None and target != GROUND and target not in specs and target not in known:
+                close = suggest(target, list(specs) + list(known) + [GROUND])
+                raise ctx.fail(f"frames.{name}.{field}", f"unknown frame '{target}'{close}")
     order = topological(
-        {n: None for n in specs}, lambda n: {specs[n].parent} - {GROUND}, "frames", ctx.label, key_suffix="parent"
+        {n: None for n in specs},
+        lambda n: {specs[n].parent, specs[n].orientation} & set(specs),
+        "frames",
+        ctx.label,
+        key_suffix="parent",
     )
-    frames: dict[str, Frame] = {}
+    frames: dict[str, Frame] = dict(known)
     for name in order:
         f = specs[name]
         key = f"frames.{name}"
@@ -102,16 +111,54 @@ def frames(ctx: Context) -> tuple[Frame, ...]:
                 for comp in vec:
                     used |= ex.names(comp)
                 transforms.append(Translation(vec))
+        if f.orientation is not None:
+            turns = reorientation(f.parent, transforms, f.orientation, frames)
+            for t in turns:
+                used |= ex.names(t.angle)
+            transforms += turns
+            keys += [f"{key}.orientation"] * len(turns)
         subsystems = {coordinate_subsystem[n] for n in used if n in coordinate_subsystem}
-        parent_sub = frames[f.parent].subsystem if f.parent != GROUND else None
-        if parent_sub is not None:
-            subsystems.add(parent_sub)
+        for other in (f.parent, f.orientation):
+            other_sub = frames[other].subsystem if other not in (None, GROUND) else None
+            if other_sub is not None:
+                subsystems.add(other_sub)
         if len(subsystems) > 1:
             raise ctx.fail(
                 key, f"moves with coordinates of several subsystems ({', '.join(sorted(subsystems))}); subsystems must move independently"
             )
-        frames[name] = Frame(name, f.parent, tuple(transforms), next(iter(subsystems), None), f.description, tuple(keys))
-    return tuple(frames[n] for n in order)
+        frames[name] = Frame(
+            name, f.parent, tuple(transforms), next(iter(subsystems), None), f.description, tuple(keys), f.orientation
+        )
+    return tuple(given) + tuple(frames[n] for n in order)
+
+
+def _path(name: str, frames: Mapping[str, Frame]) -> list[str]:
+    """The frames from the ground to ``name`` (ground first, ``name`` last)."""
+    out = [name]
+    while out[-1] != GROUND:
+        parent = frames[out[-1]].parent
+        out.append(parent if parent is not None else GROUND)
+    return out[::-1]
+
+
+def _inverse(rotations: list[Rotation]) -> list[Rotation]:
+    return [Rotation(r.axis, ex.Num(-r.angle.value) if isinstance(r.angle, ex.Num) else ex.Neg(r.angle)) for r in reversed(rotations)]
+
+
+def reorientation(parent: str, own: list[Transform], target: str, frames: Mapping[str, Frame]) -> list[Rotation]:
+    """Rotations that, appended to a frame with ``parent`` and transforms ``own``, turn its
+    axes into those of ``target``: undo ``own`` and the parent chain down to the common
+    ancestor, then redo the chain from there up to ``target``. Each step is a rotation by
+    an affine angle, so the energy stays a trigonometric polynomial of the coordinates."""
+    up, down = _path(parent, frames), _path(target, frames)
+    common = 0
+    while common < min(len(up), len(down)) and up[common] == down[common]:
+        common += 1
+    undo: list[Rotation] = _inverse([t for t in own if isinstance(t, Rotation)])
+    for name in reversed(up[common:]):
+        undo += _inverse([t for t in frames[name].transforms if isinstance(t, Rotation)])
+    redo = [t for name in down[common:] for t in frames[name].transforms if isinstance(t, Rotation)]
+    return undo + redo
 
 
 X_AXIS = (ex.Num(1.0), ex.Num(0.0), ex.Num(0.0))
