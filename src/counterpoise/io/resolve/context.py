@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from ...errors import InputError, ProblemFileError, UnitError
+from ...errors import InputError, ProblemFileError, UnitError, raise_errors
 from ...model.functions import NUMPY_FUNCTIONS
 from ...model import expr as ex
 from ...model.mechanism import GROUND, Frame, Point
@@ -63,6 +63,8 @@ class Context:
         self.derived_parameters: list[Parameter] = []
         self.coupled: dict[str, ex.Expr] = {}  # coupled coordinate -> its tree in the coordinates
         self.payload_masses: dict[str, Any] = {}  # payload -> (lower, upper, nominal, unit), SI
+        #: errors found so far that did not stop the resolution (see :meth:`item`)
+        self.errors: list[ProblemFileError] = []
 
     @contextmanager
     def at(self, key: str) -> Iterator[None]:
@@ -74,6 +76,24 @@ class Context:
 
     def fail(self, key: str, message: str) -> ProblemFileError:
         return ProblemFileError(self.label, key, message)
+
+    @contextmanager
+    def item(self) -> Iterator[None]:
+        """One independent entry (a variable, a scenario): an error inside is recorded and
+        the resolution goes on with the next entry, so that every error of a file is
+        reported. Call :meth:`check` before anything that needs the entries."""
+        try:
+            yield
+        except ProblemFileError as exc:
+            self.errors.append(exc)
+
+    def defer(self, error: ProblemFileError) -> None:
+        """Record ``error`` and go on (the caller substitutes a harmless value)."""
+        self.errors.append(error)
+
+    def check(self) -> None:
+        """Raise the errors recorded so far (one line each), if any."""
+        raise_errors(self.errors)
 
     # -- names ---------------------------------------------------------------------
 
@@ -227,7 +247,9 @@ class Context:
 
     def point(self, frame: str, position: Iterable[Any], key: str, frames: Mapping[str, Frame], frame_key: str) -> Point:
         if frame != GROUND and frame not in frames:
-            raise self.fail(frame_key, f"unknown frame '{frame}'{suggest(frame, list(frames) + [GROUND])}")
+            # reported with the file's other errors; the point is placed on the ground meanwhile
+            self.defer(self.fail(frame_key, f"unknown frame '{frame}'{suggest(frame, list(frames) + [GROUND])}"))
+            frame = GROUND
         # a point is fixed in its frame: it may not move with coordinates (use a frame for that)
         return Point(frame, self.vector(position, key, LENGTH, "a position", self.design_names()))
 
@@ -247,7 +269,9 @@ class Context:
         self.signed.append((key, tree, raw, what))
 
     def subsystem_of(self, frame: str, frames: Mapping[str, Frame]) -> str | None:
-        return None if frame == GROUND else frames[frame].subsystem
+        if frame == GROUND or frame not in frames:  # an unknown frame is reported by point()
+            return None
+        return frames[frame].subsystem
 
 
 def _shown(si: float, unit: DisplayUnit) -> str:

@@ -74,7 +74,8 @@ def frames(ctx: Context) -> tuple[Frame, ...]:
             raise ctx.fail(f"frames.{name}", "'ground' is the fixed world frame and cannot be declared")
         if f.parent != GROUND and f.parent not in specs:
             close = suggest(f.parent, list(specs) + [GROUND])
-            raise ctx.fail(f"frames.{name}.parent", f"unknown frame '{f.parent}'{close}")
+            ctx.defer(ctx.fail(f"frames.{name}.parent", f"unknown frame '{f.parent}'{close}"))
+    ctx.check()  # every unknown parent, one line each
     order = topological(
         {n: None for n in specs}, lambda n: {specs[n].parent} - {GROUND}, "frames", ctx.label, key_suffix="parent"
     )

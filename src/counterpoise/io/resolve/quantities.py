@@ -68,35 +68,37 @@ def parameters(ctx: Context) -> tuple[Parameter, ...]:
 def variables(ctx: Context) -> tuple[Variable, ...]:
     out = []
     for name, v in ctx.spec.variables.items():
-        key = f"variables.{name}"
-        lower = ctx.literal(v.lower, f"{key}.lower")
-        upper = ctx.literal(v.upper, f"{key}.upper")
-        initial = ctx.literal(v.initial, f"{key}.initial") if v.initial is not None else None
-        with ctx.at(f"{key}.unit"):
-            unit = display_unit(v.unit) if v.unit is not None else (lower.unit if lower.unit.symbol else upper.unit)
-        for part, q in (("lower", lower), ("upper", upper), ("initial", initial)):
-            if q is not None and q.dimension != unit.dimension and not (q.si == 0 and q.unit.symbol == ""):
-                raise ctx.fail(f"{key}.{part}", f"expected {dimension_name(unit.dimension)} like unit '{unit.label}', got {dimension_name(q.dimension)}")
-        if lower.si > upper.si:
-            raise ctx.fail(key, f"lower bound {v.lower} is greater than upper bound {v.upper}")
-        if not math.isfinite(upper.si - lower.si):
-            raise ctx.fail(key, f"the bounds {v.lower} and {v.upper} are too far apart (their difference overflows)")
-        init = initial.si if initial is not None else 0.5 * (lower.si + upper.si)
-        if not lower.si <= init <= upper.si:
-            raise ctx.fail(f"{key}.initial", f"initial value {v.initial} lies outside [{v.lower}, {v.upper}]")
-        nominal = _adjustment(ctx, v.nominal, f"{key}.nominal", unit)
-        travel = _adjustment(ctx, v.travel, f"{key}.travel", unit)
-        if nominal is not None and not lower.si <= nominal <= upper.si:
-            raise ctx.fail(f"{key}.nominal", f"nominal {v.nominal} lies outside the bounds [{v.lower}, {v.upper}]")
-        if travel is not None and travel < 0:
-            raise ctx.fail(f"{key}.travel", "must not be negative")
-        if travel is not None and travel > upper.si - lower.si:
-            raise ctx.fail(f"{key}.travel", f"travel {v.travel} exceeds the span of the bounds [{v.lower}, {v.upper}]")
-        ctx.symbol_unit[name] = unit
-        ctx.symbol_value[name] = init
-        ctx.variable_lower[name] = lower.si
-        ctx.box[name] = (lower.si, upper.si)
-        out.append(Variable(name, lower.si, upper.si, init, unit, v.adjustable, v.description, nominal, travel))
+        with ctx.item():
+            key = f"variables.{name}"
+            lower = ctx.literal(v.lower, f"{key}.lower")
+            upper = ctx.literal(v.upper, f"{key}.upper")
+            initial = ctx.literal(v.initial, f"{key}.initial") if v.initial is not None else None
+            with ctx.at(f"{key}.unit"):
+                unit = display_unit(v.unit) if v.unit is not None else (lower.unit if lower.unit.symbol else upper.unit)
+            for part, q in (("lower", lower), ("upper", upper), ("initial", initial)):
+                if q is not None and q.dimension != unit.dimension and not (q.si == 0 and q.unit.symbol == ""):
+                    raise ctx.fail(f"{key}.{part}", f"expected {dimension_name(unit.dimension)} like unit '{unit.label}', got {dimension_name(q.dimension)}")
+            if lower.si > upper.si:
+                raise ctx.fail(key, f"lower bound {v.lower} is greater than upper bound {v.upper}")
+            if not math.isfinite(upper.si - lower.si):
+                raise ctx.fail(key, f"the bounds {v.lower} and {v.upper} are too far apart (their difference overflows)")
+            init = initial.si if initial is not None else 0.5 * (lower.si + upper.si)
+            if not lower.si <= init <= upper.si:
+                raise ctx.fail(f"{key}.initial", f"initial value {v.initial} lies outside [{v.lower}, {v.upper}]")
+            nominal = _adjustment(ctx, v.nominal, f"{key}.nominal", unit)
+            travel = _adjustment(ctx, v.travel, f"{key}.travel", unit)
+            if nominal is not None and not lower.si <= nominal <= upper.si:
+                raise ctx.fail(f"{key}.nominal", f"nominal {v.nominal} lies outside the bounds [{v.lower}, {v.upper}]")
+            if travel is not None and travel < 0:
+                raise ctx.fail(f"{key}.travel", "must not be negative")
+            if travel is not None and travel > upper.si - lower.si:
+                raise ctx.fail(f"{key}.travel", f"travel {v.travel} exceeds the span of the bounds [{v.lower}, {v.upper}]")
+            ctx.symbol_unit[name] = unit
+            ctx.symbol_value[name] = init
+            ctx.variable_lower[name] = lower.si
+            ctx.box[name] = (lower.si, upper.si)
+            out.append(Variable(name, lower.si, upper.si, init, unit, v.adjustable, v.description, nominal, travel))
+    ctx.check()
     return tuple(out)
 
 
@@ -129,20 +131,22 @@ def scenarios(ctx: Context, default_gravity: Gravity, parameters: tuple[Paramete
     base = {p.name: p for p in parameters if p.is_base}
     out = []
     for name, sc in ctx.spec.scenarios.items():
-        key = f"scenarios.{name}"
-        g = gravity(ctx, sc.gravity, f"{key}.gravity") if sc.gravity is not None else default_gravity
-        values: dict[str, float] = {}
-        for pname, raw in sc.parameters.items():
-            pkey = f"{key}.parameters.{pname}"
-            if pname not in base:
-                hint = " (only literal parameters can change per scenario)" if pname in ctx.spec.parameters else suggest(pname, base)
-                raise ctx.fail(pkey, f"unknown parameter '{pname}'{hint}")
-            q = ctx.literal(raw, pkey)
-            if q.dimension != base[pname].unit.dimension and not (q.si == 0 and not q.unit.symbol):
-                raise ctx.fail(pkey, f"expected {dimension_name(base[pname].unit.dimension)}, got {dimension_name(q.dimension)}")
-            values[pname] = q.si
-        check_scenario_values(ctx, values, key)
-        out.append(Scenario(name, g, values, sc.description))
+        with ctx.item():
+            key = f"scenarios.{name}"
+            g = gravity(ctx, sc.gravity, f"{key}.gravity") if sc.gravity is not None else default_gravity
+            values: dict[str, float] = {}
+            for pname, raw in sc.parameters.items():
+                pkey = f"{key}.parameters.{pname}"
+                if pname not in base:
+                    hint = " (only literal parameters can change per scenario)" if pname in ctx.spec.parameters else suggest(pname, base)
+                    raise ctx.fail(pkey, f"unknown parameter '{pname}'{hint}")
+                q = ctx.literal(raw, pkey)
+                if q.dimension != base[pname].unit.dimension and not (q.si == 0 and not q.unit.symbol):
+                    raise ctx.fail(pkey, f"expected {dimension_name(base[pname].unit.dimension)}, got {dimension_name(q.dimension)}")
+                values[pname] = q.si
+            check_scenario_values(ctx, values, key)
+            out.append(Scenario(name, g, values, sc.description))
+    ctx.check()
     return tuple(out)
 
 
