@@ -56,6 +56,7 @@ def _resolve(ctx: Context) -> Problem:
     payloads.check_adjustments(ctx, variables)
     subsystems, coordinates = mechanism.subsystems(ctx)
     frames = mechanism.frames(ctx)
+    quantities.check_angles(ctx, frames)
     by_name = {f.name: f for f in frames}
     payload_bodies, payload_ranges = payloads.bodies(ctx, by_name)
     bodies, substitutions, substituted = substitution.substitutions(ctx, mechanism.bodies(ctx, by_name) + payload_bodies, by_name)

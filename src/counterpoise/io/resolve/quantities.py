@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from ...errors import ProblemFileError
+from ...errors import InputError, ProblemFileError, UnitError
 from ...model import expr as ex
 from ...model.problem import Gravity, Objective, Parameter, Scenario, Variable
 from ...model.units import (
@@ -21,12 +21,15 @@ from ...model.units import (
     check_dimension,
     dimension_name,
     dimensionality_of,
+    angle_hint,
     display_unit,
+    is_angle_unit,
     looks_like_quantity,
+    parse_quantity,
     pint_quantity,
     ureg,
 )
-from .context import Context, evaluate_checked, numpy_functions, suggest, topological
+from .context import Context, evaluate_checked, numpy_functions, read_quantity, suggest, topological
 
 DEFAULT_SCENARIO = "nominal"
 
@@ -39,7 +42,7 @@ def parameters(ctx: Context) -> tuple[Parameter, ...]:
     derived: dict[str, ex.Expr] = {}
     for name, raw in raw_values.items():
         key = f"parameters.{name}"
-        if isinstance(raw, str) and not looks_like_quantity(raw):
+        if isinstance(raw, str) and not _is_literal(raw):
             derived[name] = ctx.expression(raw, key, entries.keys())
         else:
             literal[name] = ctx.literal(raw, key)
@@ -58,11 +61,48 @@ def parameters(ctx: Context) -> tuple[Parameter, ...]:
         if not math.isfinite(si):
             raise ctx.fail(key, f"'{raw_values[name]}' does not evaluate to a finite number")
         unit = DisplayUnit(base_unit_symbol(value), 1.0, dimensionality_of(value.to_base_units()))
+        ctx.name_kinds[name] = ctx.angle_kind(tree, raw_values[name], key)
         ctx.symbol_unit[name] = unit
         ctx.symbol_value[name] = si
         out.append(Parameter(name, unit, expr=tree, description=descriptions[name]))
     ctx.derived_parameters = [p for p in out if not p.is_base]
     return tuple(out)
+
+
+def _is_literal(raw: str) -> bool:
+    """'135 mm' is a literal; '90 deg - 5 deg' and 'r_a + 1' are expressions."""
+    if not looks_like_quantity(raw):
+        return False
+    try:
+        parse_quantity(raw)
+    except UnitError:
+        try:
+            ex.parse(raw, ex.MATH_FUNCTIONS, read_quantity)
+        except InputError:
+            return True  # not an expression either: the literal's error is the one to report
+        return False
+    return True
+
+
+def angle(ctx: Context, value: Any, key: str) -> float:
+    """An angle literal ('90 deg', '1.5708 rad', or 0), in radians.
+
+    A bare number other than 0 is an error that says how to write it (for locked joints
+    and anything else that must be an angle).
+    """
+    q = ctx.literal(value, key)
+    if q.unit.symbol == "" and q.unit.dimension == "" and q.si != 0:
+        raise ctx.fail(key, f"a bare number used as an angle: {angle_hint(q.si)}")
+    if q.dimension != "" or not (q.unit.symbol == "" or is_angle_unit(q.unit.symbol)):
+        raise ctx.fail(key, f"expected an angle (deg or rad), got {dimension_name(q.dimension) if q.dimension else repr(str(value))}")
+    return q.si
+
+
+def same_angle_unit(ctx: Context, reference: DisplayUnit, q: Quantity, raw: Any, key: str) -> None:
+    """Where the reference (a coordinate's range, a parameter, a variable's bounds) is an
+    angle, a bare number other than 0 is an error: it would silently be radians."""
+    if is_angle_unit(reference.symbol) and q.unit.symbol == "" and q.si != 0:
+        raise ctx.fail(key, f"a bare number used as an angle ({reference.symbol} elsewhere): {angle_hint(q.si)}")
 
 
 def variables(ctx: Context) -> tuple[Variable, ...]:
@@ -78,6 +118,8 @@ def variables(ctx: Context) -> tuple[Variable, ...]:
             for part, q in (("lower", lower), ("upper", upper), ("initial", initial)):
                 if q is not None and q.dimension != unit.dimension and not (q.si == 0 and q.unit.symbol == ""):
                     raise ctx.fail(f"{key}.{part}", f"expected {dimension_name(unit.dimension)} like unit '{unit.label}', got {dimension_name(q.dimension)}")
+                if q is not None:
+                    same_angle_unit(ctx, unit, q, getattr(v, part), f"{key}.{part}")
             if lower.si > upper.si:
                 raise ctx.fail(key, f"lower bound {v.lower} is greater than upper bound {v.upper}")
             if not math.isfinite(upper.si - lower.si):
@@ -109,6 +151,7 @@ def _adjustment(ctx: Context, raw: Any, key: str, unit: DisplayUnit) -> float | 
     q = ctx.literal(raw, key)
     if q.dimension != unit.dimension and not (q.si == 0 and q.unit.symbol == ""):
         raise ctx.fail(key, f"expected {dimension_name(unit.dimension)} like unit '{unit.label}', got {dimension_name(q.dimension)}")
+    same_angle_unit(ctx, unit, q, raw, key)
     return q.si
 
 
@@ -143,6 +186,7 @@ def scenarios(ctx: Context, default_gravity: Gravity, parameters: tuple[Paramete
                 q = ctx.literal(raw, pkey)
                 if q.dimension != base[pname].unit.dimension and not (q.si == 0 and not q.unit.symbol):
                     raise ctx.fail(pkey, f"expected {dimension_name(base[pname].unit.dimension)}, got {dimension_name(q.dimension)}")
+                same_angle_unit(ctx, base[pname].unit, q, raw, pkey)
                 values[pname] = q.si
             check_scenario_values(ctx, values, key)
             out.append(Scenario(name, g, values, sc.description))
@@ -194,3 +238,52 @@ def objective(ctx: Context) -> Objective:
     if ws.si < 0:
         raise ctx.fail(skey, "must not be negative")
     return Objective(o.mass_weight, w.si, ws.si)
+
+
+def check_angles(ctx: Context, frames: Any) -> None:
+    """Every place of the file where an angle is expected holds one (see
+    :meth:`Context.angle_kind`): coordinate ranges and homes, the rotations and DH rows of
+    the file's frames, coupled coordinates. Frames made by other means (an imported robot
+    model, whose angles are radians by definition) are not the file's text: not checked."""
+    from ...model.mechanism import Rotation
+
+    for sname, sub in ctx.spec.subsystems.items():
+        for cname, c in sub.coordinates.items():
+            key = f"subsystems.{sname}.coordinates.{cname}"
+            with ctx.item():
+                ends = [ctx.literal(r, f"{key}.range") for r in c.range]
+                if all(q.unit.symbol == "" and q.dimension == "" for q in ends) and any(q.si != 0 for q in ends):
+                    lo, hi = (f"{q.si:g}" for q in ends)
+                    raise ctx.fail(
+                        f"{key}.range",
+                        f"bare numbers used as an angle: write ['{lo} deg', '{hi} deg'] or give the unit rad ('[{lo}, {hi}]' would be radians)",
+                    )
+                unit = next((q.unit for q in ends if q.unit.symbol), None)
+                if c.home is not None and unit is not None:
+                    same_angle_unit(ctx, unit, ctx.literal(c.home, f"{key}.home"), c.home, f"{key}.home")
+        for name, raw in sub.coupled.items():
+            with ctx.item():
+                key = f"subsystems.{sname}.coupled.{name}"
+                if name in ctx.coupled:
+                    ctx.angle_kind(ctx.coupled[name], raw, key)
+    for frame in frames:
+        spec = ctx.spec.frames.get(frame.name)
+        if spec is None:
+            continue
+        for i, t in enumerate(frame.transforms):
+            if isinstance(t, Rotation):
+                key = frame.key(i)
+                key = key if key.endswith((".alpha", ".theta")) else f"{key}.angle"
+                raw = _raw_at(spec, key)
+                with ctx.item():
+                    ctx.expect_angle(t.angle, raw, key)
+    ctx.check()
+
+
+def _raw_at(spec: Any, key: str) -> Any:
+    """The text written at ``frames.<name>.transforms.<i>.angle`` (or ``.dh.alpha``)."""
+    parts = key.split(".")
+    node: Any = spec.transforms[int(parts[3])]
+    for part in parts[4:]:
+        node = getattr(node, part)
+    return node
