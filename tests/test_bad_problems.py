@@ -159,7 +159,7 @@ MANIFEST: dict[str, Expect] = {
         "catalogues.parts.units",
         "in_n_mm.csv: not plausible for extension springs read in SI units: column rate_N_per_m: median 0.52 N/m "
         "(expected 1 N/m to 1000 N/mm); column free_length_m: median 30 m (expected 1 mm to 1 m); "
-        'the values are plausible in N-mm units: set units = "N-mm"',
+        'the values are most plausible in N-mm units: set units = "N-mm"',
     ),
     # angles: a bare number is not taken as radians without a word (issue 14)
     "angle_bare_number.toml": Expect(

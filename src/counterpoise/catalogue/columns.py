@@ -79,6 +79,17 @@ PLAUSIBLE: dict[str, tuple[float, float]] = {
     "wire_diameter": (5e-5, 0.03),  # m
     "mass": (1e-7, 50.0),  # kg
 }
+#: A typical median of each column (the shipped catalogue's, rounded): where several unit
+#: systems make a file plausible, the one closest to these (in log scale) is suggested.
+TYPICAL: dict[str, float] = {
+    "rate": 1e3,
+    "free_length": 0.04,
+    "max_length": 0.08,
+    "max_load": 50.0,
+    "outer_diameter": 0.01,
+    "wire_diameter": 1e-3,
+    "mass": 5e-3,
+}
 #: How a band is written in a message.
 PLAUSIBLE_TEXT: dict[str, str] = {
     "rate": "1 N/m to 1000 N/mm",

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from ..errors import ProblemFileError
 from ..model.parts import Catalogue
-from .columns import FIELDS, PLAUSIBLE, PLAUSIBLE_TEXT, UNIT_SYSTEMS, ColumnMapping, mapping_from
+from .columns import FIELDS, PLAUSIBLE, PLAUSIBLE_TEXT, TYPICAL, UNIT_SYSTEMS, ColumnMapping, mapping_from
 
 #: the name that stands for the catalogue shipped with the package
 SHIPPED = "shipped"
@@ -110,9 +110,14 @@ def check_plausible(label: str, values: dict[str, list], mapping: ColumnMapping,
         if known:
             medians[field] = statistics.median(known)
 
+    def read_as(units: str) -> dict[str, float]:
+        return {f: m * UNIT_SYSTEMS[units].get(FIELDS[f], (1.0, ""))[0] / mapping.factor(f) for f, m in medians.items()}
+
     def outside(units: str) -> list[str]:
-        scale = {f: UNIT_SYSTEMS[units].get(FIELDS[f], (1.0, ""))[0] / mapping.factor(f) for f in medians}
-        return [f for f, m in medians.items() if not PLAUSIBLE[f][0] <= m * scale[f] <= PLAUSIBLE[f][1]]
+        return [f for f, m in read_as(units).items() if not PLAUSIBLE[f][0] <= m <= PLAUSIBLE[f][1]]
+
+    def distance(units: str) -> float:
+        return sum(abs(math.log(m / TYPICAL[f])) for f, m in read_as(units).items() if m > 0)
 
     wrong = outside(mapping.units)
     if not wrong:
@@ -122,8 +127,8 @@ def check_plausible(label: str, values: dict[str, list], mapping: ColumnMapping,
         f"(expected {PLAUSIBLE_TEXT[f]})"
         for f in wrong[:2]
     )
-    fits = [u for u in UNIT_SYSTEMS if u != mapping.units and not outside(u)]
-    hint = f'; the values are plausible in {fits[0]} units: set units = "{fits[0]}"' if fits else "; check the unit system (units = ...) and the columns"
+    fits = sorted((u for u in UNIT_SYSTEMS if u != mapping.units and not outside(u)), key=distance)
+    hint = f'; the values are most plausible in {fits[0]} units: set units = "{fits[0]}"' if fits else "; check the unit system (units = ...) and the columns"
     raise CatalogueUnitsError(label, "units", f"not plausible for extension springs read in {mapping.units} units: {shown}{hint}")
 
 

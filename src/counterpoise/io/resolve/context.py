@@ -198,6 +198,9 @@ class Context:
         if isinstance(tree, ex.BinOp):
             a = self.angle_kind(tree.left, raw, key)
             b = self.angle_kind(tree.right, raw, key)
+            if a[0] == b[0] == "bare" and not ex.names(tree):  # '2*45': the number it makes
+                with np.errstate(all="ignore"):
+                    a = b = ("bare", f"{float(np.real(ex.evaluate(tree, {}, numpy_functions()))):g}")
             kinds = {a[0], b[0]}
             if tree.op in "+-":
                 if kinds == {"angle", "bare"}:
