@@ -200,7 +200,10 @@ class Context:
             b = self.angle_kind(tree.right, raw, key)
             if a[0] == b[0] == "bare" and not ex.names(tree):  # '2*45': the number it makes
                 with np.errstate(all="ignore"):
-                    a = b = ("bare", f"{float(np.real(ex.evaluate(tree, {}, numpy_functions()))):g}")
+                    try:
+                        a = b = ("bare", f"{float(np.real(ex.evaluate(tree, {}, numpy_functions()))):g}")
+                    except (ArithmeticError, ValueError, TypeError):
+                        pass  # '1/0': reported elsewhere; the first number is named meanwhile
             kinds = {a[0], b[0]}
             if tree.op in "+-":
                 if kinds == {"angle", "bare"}:

@@ -42,12 +42,14 @@ def parameters(ctx: Context) -> tuple[Parameter, ...]:
     derived: dict[str, ex.Expr] = {}
     for name, raw in raw_values.items():
         key = f"parameters.{name}"
-        if isinstance(raw, str) and not _is_literal(raw):
-            derived[name] = ctx.expression(raw, key, entries.keys())
-        else:
-            literal[name] = ctx.literal(raw, key)
-            ctx.symbol_unit[name] = literal[name].unit
-            ctx.symbol_value[name] = literal[name].si
+        with ctx.item():  # every bad parameter is reported
+            if isinstance(raw, str) and not _is_literal(raw):
+                derived[name] = ctx.expression(raw, key, entries.keys())
+            else:
+                literal[name] = ctx.literal(raw, key)
+                ctx.symbol_unit[name] = literal[name].unit
+                ctx.symbol_value[name] = literal[name].si
+    ctx.check()
     order = topological(derived, lambda n: ex.names(derived[n]) & derived.keys(), "parameters", ctx.label)
     out: list[Parameter] = [Parameter(n, q.unit, value=q.si, description=descriptions[n]) for n, q in literal.items()]
     for name in order:
