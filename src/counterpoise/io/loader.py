@@ -111,10 +111,10 @@ def _schema_errors(raw: dict[str, Any], errors: list[Any], label: str) -> list[P
         if err.get("type") == "extra_forbidden" and path:
             present = _node(raw, path[:-1])
             candidates = [k for k in known if not (isinstance(present, dict) and k in present)]
-            close = ex.suggest(str(path[-1]), candidates)
-            messages[tuple(path)] = f"unknown key{close}"
+            close = ex.nearest(str(path[-1]), candidates)
+            messages[tuple(path)] = "unknown key" + (f" (did you mean '{close}'?)" if close else "")
             if close:
-                suggested.add((*path[:-1], close.split("'")[1]))
+                suggested.add((*path[:-1], close))
     out: list[ProblemFileError] = []
     seen: set[tuple[Any, ...]] = set()
     for err, path, _ in located:

@@ -260,10 +260,16 @@ def calls(expr: Expr) -> tuple[Call, ...]:
     return ()
 
 
+def nearest(name: str, candidates: Iterable[str]) -> str | None:
+    """The candidate closest to ``name`` (difflib's ratio ≥ 0.6), or None."""
+    close = difflib.get_close_matches(name, sorted(candidates), n=1)
+    return close[0] if close else None
+
+
 def suggest(name: str, candidates: Iterable[str]) -> str:
     """' (did you mean 'x'?)' for the closest candidate, or ''."""
-    close = difflib.get_close_matches(name, sorted(candidates), n=1)
-    return f" (did you mean '{close[0]}'?)" if close else ""
+    close = nearest(name, candidates)
+    return f" (did you mean '{close}'?)" if close else ""
 
 
 def check_names(
