@@ -57,7 +57,7 @@ MANIFEST: dict[str, Expect] = {
     "toml_nested_too_deeply.toml": Expect("toml", "TOML syntax error: arrays or tables nested too deeply"),
     # shape (schema)
     "missing_gravity_section.toml": Expect("gravity", "missing required key"),
-    "unknown_key_typo_descripton.toml": Expect("parameters.r_a.descripton", "unknown key"),
+    "unknown_key_typo_descripton.toml": Expect("parameters.r_a.descripton", "unknown key (did you mean 'description'?)"),
     # the unknown key is reported, with the required key it probably meant
     "unknown_key_typo_uper.toml": Expect("variables.M_a.uper", "unknown key (did you mean 'upper'?)"),
     "nan_value.toml": Expect("parameters.r_a.value", "value must be finite, got nan"),
