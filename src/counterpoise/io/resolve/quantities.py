@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping
 from typing import Any
 
@@ -273,19 +274,29 @@ def check_angles(ctx: Context, frames: Any) -> None:
         if spec is None:
             continue
         for i, t in enumerate(frame.transforms):
-            if isinstance(t, Rotation):
-                key = frame.key(i)
-                key = key if key.endswith((".alpha", ".theta")) else f"{key}.angle"
-                raw = _raw_at(spec, key)
-                with ctx.item():
-                    ctx.expect_angle(t.angle, raw, key)
+            if not isinstance(t, Rotation):
+                continue
+            key = frame.key(i)
+            key = key if key.endswith((".alpha", ".theta")) else f"{key}.angle"
+            raw = _raw_at(spec, frame.name, key)
+            if raw is None:
+                continue  # not a rotation written in the file (an orientation = "<frame>", ...)
+            with ctx.item():
+                ctx.expect_angle(t.angle, raw, key)
     ctx.check()
 
 
-def _raw_at(spec: Any, key: str) -> Any:
-    """The text written at ``frames.<name>.transforms.<i>.angle`` (or ``.dh.alpha``)."""
-    parts = key.split(".")
-    node: Any = spec.transforms[int(parts[3])]
-    for part in parts[4:]:
-        node = getattr(node, part)
-    return node
+_ROTATION_KEY = re.compile(r"^frames\.(?P<frame>[^.]+)\.transforms\.(?P<index>\d+)\.(?:angle|dh\.(?P<dh>alpha|theta))$")
+
+
+def _raw_at(spec: Any, name: str, key: str) -> Any:
+    """The text written at ``frames.<name>.transforms.<i>.angle`` (or ``.dh.alpha``,
+    ``.dh.theta``) of frame ``spec``; None when ``key`` is no such place."""
+    match = _ROTATION_KEY.match(key)
+    if match is None or match["frame"] != name or int(match["index"]) >= len(spec.transforms):
+        return None
+    node = spec.transforms[int(match["index"])]
+    field = match["dh"]
+    if field is not None:
+        return getattr(node.dh, field, None) if hasattr(node, "dh") else None
+    return getattr(node, "angle", None)
