@@ -269,6 +269,7 @@ def check_angles(ctx: Context, frames: Any) -> None:
                 key = f"subsystems.{sname}.coupled.{name}"
                 if name in ctx.coupled:
                     ctx.angle_kind(ctx.coupled[name], raw, key)
+    _check_robot_angles(ctx)
     for frame in frames:
         spec = ctx.spec.frames.get(frame.name)
         if spec is None:
@@ -284,6 +285,32 @@ def check_angles(ctx: Context, frames: Any) -> None:
             with ctx.item():
                 ctx.expect_angle(t.angle, raw, key)
     ctx.check()
+
+
+def _check_robot_angles(ctx: Context) -> None:
+    """The ranges, homes and locked values a file gives an imported robot's joints (a
+    ``[robot]`` table, when the schema has one): bare numbers other than 0 are errors. A
+    prismatic joint's values are lengths: a bare number there fails its dimension check
+    before this one runs, so a bare number reaching here is an angle."""
+    robot = getattr(ctx.spec, "robot", None)
+    if robot is None:
+        return
+    for name, joint in (getattr(robot, "joints", None) or {}).items():
+        key = f"robot.joints.{name}"
+        with ctx.item():
+            ends = [ctx.literal(r, f"{key}.range") for r in joint.range]
+            if all(q.unit.symbol == "" for q in ends) and any(q.si != 0 for q in ends):
+                lo, hi = (f"{q.si:g}" for q in ends)
+                raise ctx.fail(f"{key}.range", f"bare numbers used as an angle: write ['{lo} deg', '{hi} deg'] or give the unit rad")
+            unit = next((q.unit for q in ends if q.unit.symbol), None)
+            home = getattr(joint, "home", None)
+            if home is not None and unit is not None:
+                same_angle_unit(ctx, unit, ctx.literal(home, f"{key}.home"), home, f"{key}.home")
+    for name, raw in (getattr(robot, "locked", None) or {}).items():
+        with ctx.item():
+            q = ctx.literal(raw, f"robot.locked.{name}")
+            if q.unit.symbol == "" and q.si != 0:
+                raise ctx.fail(f"robot.locked.{name}", f"a bare number used as an angle: {angle_hint(q.si)}")
 
 
 _ROTATION_KEY = re.compile(r"^frames\.(?P<frame>[^.]+)\.transforms\.(?P<index>\d+)\.(?:angle|dh\.(?P<dh>alpha|theta))$")
