@@ -11,6 +11,7 @@ import numpy as np
 
 from ...errors import InputError, ProblemFileError, UnitError
 from ...model import expr as ex
+from ...model.mechanism import Rotation
 from ...model.problem import Gravity, Objective, Parameter, Scenario, Variable
 from ...model.units import (
     ACCELERATION,
@@ -248,8 +249,6 @@ def check_angles(ctx: Context, frames: Any) -> None:
     :meth:`Context.angle_kind`): coordinate ranges and homes, the rotations and DH rows of
     the file's frames, coupled coordinates. Frames made by other means (an imported robot
     model, whose angles are radians by definition) are not the file's text: not checked."""
-    from ...model.mechanism import Rotation
-
     for sname, sub in ctx.spec.subsystems.items():
         for cname, c in sub.coordinates.items():
             key = f"subsystems.{sname}.coordinates.{cname}"
