@@ -6,8 +6,9 @@ file, which dotted key the error must name and a fragment of the message; a file
 an entry fails :func:`test_manifest_lists_every_file`.
 
 Through the command line (``counterpoise solve FILE --out DIR``) each file must give exit
-status 2, exactly one line on stderr -- ``<file>: <key>: <message>`` -- no traceback and
-nothing written. The same expectations are checked in-process on
+status 2, exactly one line on stderr per error -- ``<file>: <key>: <message>`` -- no
+traceback and nothing written. Most files have one error; an entry's ``also`` lists the
+further lines of a file with several (every error of a file is reported). The same expectations are checked in-process on
 :func:`counterpoise.loader.load_problem`, and the expression whitelist is tested directly.
 
 Entries with a ``bug`` are known defects of ``src/`` (an invalid file accepted, a stray
@@ -41,6 +42,11 @@ class Expect(NamedTuple):
     key: str  # dotted key the error line must name
     fragment: str  # must occur in the message
     bug: str = ""  # non-empty: known src bug, tests are xfail(strict=True)
+    also: tuple[tuple[str, str], ...] = ()  # (key, fragment) of the further error lines, in order
+
+    @property
+    def lines(self) -> list[tuple[str, str]]:
+        return [(self.key, self.fragment), *self.also]
 
 
 MANIFEST: dict[str, Expect] = {
@@ -51,7 +57,7 @@ MANIFEST: dict[str, Expect] = {
     "toml_nested_too_deeply.toml": Expect("toml", "TOML syntax error: arrays or tables nested too deeply"),
     # shape (schema)
     "missing_gravity_section.toml": Expect("gravity", "missing required key"),
-    "unknown_key_typo_descripton.toml": Expect("parameters.r_a.descripton", "unknown key"),
+    "unknown_key_typo_descripton.toml": Expect("parameters.r_a.descripton", "unknown key (did you mean 'description'?)"),
     # the unknown key is reported, with the required key it probably meant
     "unknown_key_typo_uper.toml": Expect("variables.M_a.uper", "unknown key (did you mean 'upper'?)"),
     "nan_value.toml": Expect("parameters.r_a.value", "value must be finite, got nan"),
@@ -148,6 +154,38 @@ MANIFEST: dict[str, Expect] = {
     "slot_unknown_catalogue.toml": Expect("slots.s.catalogue", "unknown catalogue 'shop'"),
     "spring_slot_and_stiffness.toml": Expect("springs.s.slot", "give either a stiffness or a slot"),
     "slot_tolerance_above_100_percent.toml": Expect("slots.s.rate_tolerance", "a tolerance must be between 0 and 100 %, got '150 %'"),
+    "catalogue_units_si_on_n_mm.toml": Expect(
+        "catalogues.parts.units",
+        "in_n_mm.csv: not plausible for extension springs read in SI units: column rate_N_per_m: median 0.52 N/m "
+        "(expected 1 N/m to 1000 N/mm); column free_length_m: median 30 m (expected 1 mm to 1 m); "
+        'the values are most plausible in N-mm units: set units = "N-mm"',
+    ),
+    # angles: a bare number is not taken as radians without a word (issue 14)
+    "angle_bare_number.toml": Expect(
+        "frames.link_a.transforms.1.angle", "a bare number used as an angle ('90' would be radians): write '90 deg' or '1.5708 rad'"
+    ),
+    "angle_bare_range.toml": Expect(
+        "subsystems.leg.coordinates.theta_a.range", "bare numbers used as an angle: write ['57.2 deg', '209.7 deg'] or give the unit rad"
+    ),
+    "angle_bare_added_in_expression.toml": Expect(
+        "frames.link_b.transforms.1.angle", "'theta_b + 90' adds the bare number 90 to an angle, which takes it as radians: write '90 deg' or '1.5708 rad'"
+    ),
+    "angle_bare_in_scenario.toml": Expect(
+        "scenarios.tilted.parameters.phi", "a bare number used as an angle (deg elsewhere): write '90 deg' or '1.5708 rad'"
+    ),
+    "angle_bare_dh_alpha.toml": Expect("frames.link_c.transforms.0.dh.alpha", "a bare number used as an angle ('90' would be radians): write '90 deg'"),
+    "expr_unknown_unit.toml": Expect("frames.link_b.transforms.1.angle", "cannot parse 'theta_b + 90 xdeg': unknown unit 'xdeg' (or a missing '*')"),
+    # unknown keys: the unknown key itself, with the nearest key its table knows
+    "unknown_key_beside_union_tag.toml": Expect("frames.link_b.transforms.0.offset", "unknown key"),
+    "unknown_key_typo_angel.toml": Expect("frames.link_b.transforms.1.angel", "unknown key (did you mean 'angle'?)"),
+    "unknown_key_typo_transform.toml": Expect("frames.link_a.transform", "unknown key (did you mean 'transforms'?)"),
+    "unknown_key_typo_stifness.toml": Expect("springs.s.stifness", "unknown key (did you mean 'stiffness'?)"),
+    # every error of a file, one line each
+    "frame_two_unknown_parents.toml": Expect(
+        "frames.link_b.parent",
+        "unknown frame 'link_aa' (did you mean 'link_a'?)",
+        also=(("frames.link_c.parent", "unknown frame 'link_bb' (did you mean 'link_b'?)"),),
+    ),
 }
 
 #: Longest error line (after ``<file>: ``) a bad file may produce: echoed input is clipped.
@@ -218,9 +256,13 @@ def test_load_problem_names_the_key(name):
     assert err.file == str(path)
     assert err.key == expect.key
     assert expect.fragment in err.message
-    assert str(err) == f"{path}: {err.key}: {err.message}"
-    assert "\n" not in str(err)
-    assert len(f"{err.key}: {err.message}") <= MAX_LINE, f"{len(str(err))} characters"
+    errors = getattr(err, "errors", (err,))
+    assert len(errors) == len(expect.lines), str(err)
+    assert str(err) == "\n".join(f"{path}: {e.key}: {e.message}" for e in errors)
+    for e, (key, fragment) in zip(errors, expect.lines):
+        assert e.key == key and fragment in e.message, str(e)
+        assert "\n" not in str(e)
+        assert len(f"{e.key}: {e.message}") <= MAX_LINE, f"{len(str(e))} characters"
 
 
 # --------------------------------------------------------------------------------------
@@ -237,14 +279,15 @@ def test_solve_rejects_with_one_line(name, tmp_path):
     _assert_no_traceback(proc.stderr)
     assert proc.returncode == 2, proc.stderr
     lines = proc.stderr.splitlines()
-    assert len(lines) == 1 and lines[0].strip(), proc.stderr
-    _assert_error_line(lines[0], path, expect)
-    assert len(lines[0]) <= len(f"{path}: ") + MAX_LINE, f"{len(lines[0])} characters"
+    assert len(lines) == len(expect.lines) and all(line.strip() for line in lines), proc.stderr
+    for line, (key, fragment) in zip(lines, expect.lines):
+        _assert_error_line(line, path, Expect(key, fragment))
+        assert len(line) <= len(f"{path}: ") + MAX_LINE, f"{len(line)} characters"
     assert list(tmp_path.iterdir()) == [], "nothing may be written for bad input"
 
 
 def test_validate_rejects_every_file(tmp_path):
-    """One run over all files: exit 2 and exactly one error line per file, in order."""
+    """One run over all files: exit 2 and exactly one line per error, in order."""
     paths = [BAD / name for name in VALID]
     proc = _run("validate", *map(str, paths), cwd=tmp_path)
     _assert_no_traceback(proc.stdout)
@@ -252,9 +295,10 @@ def test_validate_rejects_every_file(tmp_path):
     assert proc.returncode == 2
     assert "ok " not in proc.stdout
     lines = proc.stderr.splitlines()
-    assert len(lines) == len(paths), proc.stderr
-    for line, path in zip(lines, paths):
-        _assert_error_line(line, path, MANIFEST[path.name])
+    expected = [(path, Expect(key, fragment)) for path in paths for key, fragment in MANIFEST[path.name].lines]
+    assert len(lines) == len(expected), proc.stderr
+    for line, (path, expect) in zip(lines, expected):
+        _assert_error_line(line, path, expect)
     assert list(tmp_path.iterdir()) == []
 
 

@@ -106,7 +106,7 @@ def test_nan_on_the_coordinate_box_is_rejected():
     text = pendulum_toml(0.8, 0.3, (0.02, 1.0), 0.0).replace('angle = "q"', 'angle = "sqrt(q + pi) - sqrt(pi)"')
     load_problem_text(text)  # q in [-180, 180] deg: q + pi >= 0 everywhere
     with pytest.raises(ProblemFileError) as info:
-        load_problem_text(text.replace("sqrt(q + pi)", "sqrt(q + 3)"))
+        load_problem_text(text.replace("sqrt(q + pi)", "sqrt(q + 3 rad)"))  # a bare 3 added to q is an error of its own
     assert info.value.key == "frames.link.transforms.0.angle"
     assert "is not a finite number everywhere within the bounds: nan at q = -180 deg" in info.value.message
 

@@ -66,3 +66,33 @@ class UnitError(InputError):
 
 class SolverError(CounterpoiseError):
     """The numerical machinery failed in a way that is not a property of the design."""
+
+
+class ProblemFileErrors(ProblemFileError):
+    """Several independent errors of one file, one line each.
+
+    ``key`` and ``message`` are the first error's (so code that handles one
+    :class:`ProblemFileError` keeps working); ``errors`` holds them all and ``str()`` is
+    one line per error. Use :func:`raise_errors` to raise a list of errors.
+    """
+
+    def __init__(self, errors: "list[ProblemFileError] | tuple[ProblemFileError, ...]") -> None:
+        first = errors[0]
+        super().__init__(first.file, first.key, first.message)
+        self.errors = tuple(errors)
+
+    def __str__(self) -> str:
+        return "\n".join(str(e) for e in self.errors)
+
+
+def raise_errors(errors: "list[ProblemFileError]") -> None:
+    """Raise nothing for no error, the error itself for one, :class:`ProblemFileErrors` for more.
+
+    The same line is reported once.
+    """
+    flat = [inner for e in errors for inner in (e.errors if isinstance(e, ProblemFileErrors) else (e,))]
+    unique = list({str(e): e for e in flat}.values())
+    if len(unique) == 1:
+        raise unique[0]
+    if unique:
+        raise ProblemFileErrors(unique)

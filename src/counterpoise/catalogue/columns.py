@@ -65,6 +65,42 @@ UNIT_SYSTEMS: dict[str, dict[str, tuple[float, str]]] = {
     },
 }
 
+#: Where the median of a column must lie for a catalogue of extension springs (SI units).
+#: Stock extension springs run from watch-size (0.1 N/mm, 3 mm long, 0.1 mm wire) to
+#: garage-door size (a few hundred N/mm, under a metre free, 15 mm wire). The bands are a
+#: decade or more wider than that: they catch a whole file read in the wrong units
+#: (lengths in mm read as m are 1000 times too large), not an unusual part.
+PLAUSIBLE: dict[str, tuple[float, float]] = {
+    "rate": (1.0, 1e6),  # N/m: 1 N/m to 1000 N/mm
+    "free_length": (1e-3, 1.0),  # m: 1 mm to 1 m
+    "max_length": (1e-3, 3.0),  # m
+    "max_load": (1e-2, 1e5),  # N
+    "outer_diameter": (5e-4, 0.3),  # m
+    "wire_diameter": (5e-5, 0.03),  # m
+    "mass": (1e-7, 50.0),  # kg
+}
+#: A typical median of each column (the shipped catalogue's, rounded): where several unit
+#: systems make a file plausible, the one closest to these (in log scale) is suggested.
+TYPICAL: dict[str, float] = {
+    "rate": 1e3,
+    "free_length": 0.04,
+    "max_length": 0.08,
+    "max_load": 50.0,
+    "outer_diameter": 0.01,
+    "wire_diameter": 1e-3,
+    "mass": 5e-3,
+}
+#: How a band is written in a message.
+PLAUSIBLE_TEXT: dict[str, str] = {
+    "rate": "1 N/m to 1000 N/mm",
+    "free_length": "1 mm to 1 m",
+    "max_length": "1 mm to 3 m",
+    "max_load": "0.01 N to 100 kN",
+    "outer_diameter": "0.5 mm to 300 mm",
+    "wire_diameter": "0.05 mm to 30 mm",
+    "mass": "0.1 mg to 50 kg",
+}
+
 _VENDOR = {
     "part_number": "part_number",
     "rate": "stiffness",

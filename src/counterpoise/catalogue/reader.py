@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import csv
 import math
+import statistics
 from pathlib import Path
 
 from ..errors import ProblemFileError
 from ..model.parts import Catalogue
-from .columns import ColumnMapping, mapping_from
+from .columns import FIELDS, PLAUSIBLE, PLAUSIBLE_TEXT, TYPICAL, UNIT_SYSTEMS, ColumnMapping, mapping_from
 
 #: the name that stands for the catalogue shipped with the package
 SHIPPED = "shipped"
@@ -24,6 +25,11 @@ class CatalogueError(ProblemFileError):
 
     def __init__(self, file: str, where: str, message: str) -> None:
         super().__init__(file, where, message)
+
+
+class CatalogueUnitsError(CatalogueError):
+    """The values of a catalogue are not plausible for springs in the unit system it is
+    read with (see :data:`~.columns.PLAUSIBLE`)."""
 
 
 def shipped_catalogue_path() -> Path:
@@ -90,7 +96,40 @@ def read_catalogue(
             values[key].append(row[key])
     if not number:
         raise CatalogueError(label, "file", "the catalogue has no parts")
+    check_plausible(label, values, mapping, header, index)
     return Catalogue(name or Path(label).stem, label, **{k: tuple(v) for k, v in values.items()})
+
+
+def check_plausible(label: str, values: dict[str, list], mapping: ColumnMapping, header: list[str], index: dict[str, int]) -> None:
+    """The median of each column must be plausible for an extension spring
+    (:data:`~.columns.PLAUSIBLE`); if not, the file is probably in other units: the unit
+    systems that make every median plausible are named."""
+    medians = {}
+    for field in PLAUSIBLE:
+        known = [v for v in values.get(field, []) if not math.isnan(v)]
+        if known:
+            medians[field] = statistics.median(known)
+
+    def read_as(units: str) -> dict[str, float]:
+        return {f: m * UNIT_SYSTEMS[units].get(FIELDS[f], (1.0, ""))[0] / mapping.factor(f) for f, m in medians.items()}
+
+    def outside(units: str) -> list[str]:
+        return [f for f, m in read_as(units).items() if not PLAUSIBLE[f][0] <= m <= PLAUSIBLE[f][1]]
+
+    def distance(units: str) -> float:
+        return sum(abs(math.log(m / TYPICAL[f])) for f, m in read_as(units).items() if m > 0)
+
+    wrong = outside(mapping.units)
+    if not wrong:
+        return
+    shown = "; ".join(
+        f"column {header[index[f]]}: median {medians[f] / mapping.factor(f):.4g} {mapping.unit_name(f)} "
+        f"(expected {PLAUSIBLE_TEXT[f]})"
+        for f in wrong[:2]
+    )
+    fits = sorted((u for u in UNIT_SYSTEMS if u != mapping.units and not outside(u)), key=distance)
+    hint = f'; the values are most plausible in {fits[0]} units: set units = "{fits[0]}"' if fits else "; check the unit system (units = ...) and the columns"
+    raise CatalogueUnitsError(label, "units", f"not plausible for extension springs read in {mapping.units} units: {shown}{hint}")
 
 
 def _where(number: int, line: int, column: str) -> str:

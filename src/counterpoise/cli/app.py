@@ -82,6 +82,11 @@ def _load_all(files: list[Path], overrides: dict[str, str]) -> list:
         for line in errors:
             err_console.print(line, markup=False)
         raise typer.Exit(2)
+    from ..formulation.assumptions import degeneracies
+
+    for problem in problems:  # nothing to balance: say so, the design would be "optimal" anyway
+        for warning in degeneracies(problem):
+            err_console.print(f"{problem.path}: warning: {warning}", markup=False)
     return problems
 
 

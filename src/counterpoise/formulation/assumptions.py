@@ -22,10 +22,19 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 from ..errors import ProblemFileError
 from ..model import expr as ex
 from ..model.mechanism import Rotation
 from ..model.problem import Problem
+
+#: Configurations (seeded) on which :func:`degeneracies` samples the unbalanced energy.
+DEGENERACY_SAMPLES = 64
+DEGENERACY_SEED = 14
+#: The weight's energy "does not change" when it varies by less than this fraction of
+#: Σ m g |p| (a scale of the energy itself).
+DEGENERACY_TOLERANCE = 1e-9
 
 
 @dataclass(frozen=True)
@@ -143,3 +152,70 @@ def check_exact_conditions(problem: Problem) -> None:
                             "the translation is not a polynomial in the coordinates, so exact balance conditions "
                             "cannot be derived from samples",
                         )
+
+
+def degeneracies(problem: Problem) -> list[str]:
+    """Why there may be nothing to balance: warnings, one line each (empty if none).
+
+    A problem whose weight does no work as the mechanism moves comes out "optimal" with
+    any design, which hides a transcription mistake. Found here, on the given bodies (the
+    unbalanced mechanism) at the initial design, :data:`DEGENERACY_SAMPLES` seeded
+    configurations per scenario:
+
+    - no bodies at all (a file cut short before its frames and bodies);
+    - a coordinate that no frame uses (it moves nothing);
+    - zero gravity in a scenario;
+    - a weight whose energy does not change over the ranges (gravity normal to the plane
+      of motion, centres of mass on the joint axes), in a scenario or along a coordinate.
+    """
+    from ..mechanics.energy import Mechanics
+
+    out: list[str] = []
+    if not problem.bodies:
+        return ["nothing to balance: the problem has no bodies (is the file cut short before its frames and bodies?)"]
+    used: set[str] = set()
+    for frame in problem.frames:
+        for t in frame.transforms:
+            trees = [t.angle, *t.axis] if isinstance(t, Rotation) else list(t.vector)
+            for tree in trees:
+                used |= ex.names(tree)
+    idle = [c.name for c in problem.coordinates if c.name not in used]
+    for name in idle:
+        out.append(f"coordinate '{name}' drives no frame: it moves nothing, so there is nothing to balance about it")
+    rng = np.random.default_rng(DEGENERACY_SEED)
+    coordinates = {c.name: c.lower + (c.upper - c.lower) * rng.random(DEGENERACY_SAMPLES) for c in problem.coordinates}
+    variables = {v.name: v.initial for v in problem.variables}
+    for scenario in problem.scenarios:
+        where = f" in scenario '{scenario.name}'" if len(problem.scenarios) > 1 else ""
+        if scenario.gravity.acceleration == 0:
+            out.append(f"gravity is zero{where}: there is no weight to balance")
+            continue
+        base = {p.name: scenario.parameters.get(p.name, p.value) for p in problem.base_parameters}
+
+        def weight(values: dict[str, np.ndarray]) -> tuple[np.ndarray, float]:
+            m = Mechanics(problem, base, variables, values, scenario.gravity.vector)
+            energy = np.zeros(DEGENERACY_SAMPLES)
+            scale = 0.0
+            for body in problem.bodies:
+                mass = np.broadcast_to(np.asarray(m.value(body.mass), dtype=float), (DEGENERACY_SAMPLES,))
+                p = np.array([np.broadcast_to(np.asarray(c, dtype=float), (DEGENERACY_SAMPLES,)) for c in m.position(body.com)])
+                energy = energy + np.broadcast_to(np.asarray(m.gravity_energy(mass, body.com), dtype=float), (DEGENERACY_SAMPLES,))
+                scale += float(np.max(np.abs(mass) * np.linalg.norm(p, axis=0))) * scenario.gravity.acceleration
+            return energy, scale
+
+        energy, scale = weight(coordinates)
+        threshold = DEGENERACY_TOLERANCE * scale
+        if np.ptp(energy) <= threshold:
+            out.append(
+                f"nothing to balance{where}: the weight of the bodies does no work over the coordinates' ranges "
+                "(is gravity normal to the plane of motion, or every centre of mass on a joint axis?)"
+            )
+            continue
+        for c in problem.coordinates:
+            if c.name in idle:
+                continue
+            moved = dict(coordinates)
+            moved[c.name] = c.lower + (c.upper - c.lower) * rng.random(DEGENERACY_SAMPLES)
+            if np.max(np.abs(weight(moved)[0] - energy)) <= threshold:
+                out.append(f"coordinate '{c.name}' does not change the weight's energy{where}: there is no torque to balance about it")
+    return list(dict.fromkeys(out))

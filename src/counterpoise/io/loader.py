@@ -14,9 +14,12 @@ import re
 import sys
 from collections.abc import Iterable, Mapping
 from pathlib import Path
-from typing import Any
+from types import UnionType
+from typing import Annotated, Any, Union, get_args, get_origin
 
-from ..errors import ProblemFileError
+from pydantic import BaseModel, Tag
+
+from ..errors import ProblemFileError, raise_errors
 from ..model import expr as ex
 from ..model.problem import Problem
 from .repeat import expand_repeats
@@ -76,12 +79,7 @@ def load_problem_data(data: Mapping[str, Any], label: str = "<data>", overrides:
     try:
         spec = ProblemFile.model_validate(raw)
     except ValidationError as exc:
-        errors = exc.errors()
-        # an unknown key explains a missing one next to it ('uper' hides 'upper'): report it first
-        err = next((e for e in errors if e.get("type") == "extra_forbidden"), errors[0])
-        loc = _clean_loc(raw, err["loc"], keep_last=err.get("type") == "missing")
-        key = ".".join(str(k) for k in loc) or "file"
-        raise ProblemFileError(label, key, _pydantic_message(err, errors)) from None
+        raise_errors(_schema_errors(raw, exc.errors(), label))
     return resolve(spec, label)
 
 
@@ -97,34 +95,141 @@ def _apply_override(raw: dict[str, Any], key: str, value: Any, label: str) -> No
     node[parts[-1]] = value
 
 
-def _clean_loc(raw: Any, loc: Iterable[Any], keep_last: bool) -> list[Any]:
-    """Keep the parts of a pydantic error location that are real keys of the file.
+def _schema_errors(raw: dict[str, Any], errors: list[Any], label: str) -> list[ProblemFileError]:
+    """One error per offending key, in the file's order (pydantic's), each naming the key.
 
-    pydantic adds union tags and markers such as ``[key]``; they are dropped. A missing
-    key (``keep_last``) is named although the file does not contain it.
+    An unknown key is reported with the nearest key its table knows; a required key that
+    this suggestion names is then not reported as missing too ('uper' hides 'upper').
     """
-    out: list[Any] = []
-    node = raw
-    items = list(loc)
-    for i, part in enumerate(items):
-        if isinstance(node, dict) and part in node:
-            node = node[part]
-            out.append(part)
-        elif isinstance(node, list) and isinstance(part, int) and 0 <= part < len(node):
-            node = node[part]
-            out.append(part)
-        elif keep_last and i == len(items) - 1:
-            out.append(part)
+    located = []
+    for err in errors:
+        path, known = _locate(raw, err["loc"], keep_last=err.get("type") == "missing")
+        located.append((err, path, known))
+    suggested: set[tuple[Any, ...]] = set()
+    messages: dict[tuple[Any, ...], str] = {}
+    for err, path, known in located:
+        if err.get("type") == "extra_forbidden" and path:
+            present = _node(raw, path[:-1])
+            candidates = [k for k in known if not (isinstance(present, dict) and k in present)]
+            close = ex.nearest(str(path[-1]), candidates)
+            messages[tuple(path)] = "unknown key" + (f" (did you mean '{close}'?)" if close else "")
+            if close:
+                suggested.add((*path[:-1], close))
+    out: list[ProblemFileError] = []
+    seen: set[tuple[Any, ...]] = set()
+    for err, path, _ in located:
+        where = tuple(path)
+        if where in seen or (err.get("type") == "missing" and where in suggested):
+            continue
+        seen.add(where)
+        key = ".".join(str(k) for k in path) or "file"
+        out.append(ProblemFileError(label, key, messages.get(where) or _pydantic_message(err)))
     return out
 
 
-def _pydantic_message(err: Mapping[str, Any], errors: list[Any]) -> str:
+def _node(raw: Any, path: list[Any]) -> Any:
+    for part in path:
+        raw = raw[part]
+    return raw
+
+
+def _unwrap(tp: Any) -> Any:
+    """``tp`` without ``Annotated`` metadata and without ``None`` in an optional."""
+    while True:
+        if get_origin(tp) is Annotated:
+            tp = get_args(tp)[0]
+            continue
+        if get_origin(tp) in (Union, UnionType):
+            members = [m for m in get_args(tp) if m is not type(None)]
+            if len(members) == 1:
+                tp = members[0]
+                continue
+        return tp
+
+
+def _tags(tp: Any) -> dict[str, Any]:
+    """The members of a tagged union (``Tag("rotate")`` -> RotateSpec), or {}."""
+    out = {}
+    if get_origin(tp) in (Union, UnionType):
+        for member in get_args(tp):
+            if get_origin(member) is Annotated:
+                for meta in get_args(member)[1:]:
+                    if isinstance(meta, Tag):
+                        out[meta.tag] = member
+    return out
+
+
+def _child(tp: Any, part: Any) -> Any:
+    """The type of entry ``part`` of a value of type ``tp`` (None when unknown)."""
+    tp = _unwrap(tp)
+    if get_origin(tp) in (Union, UnionType):  # an untagged union: the member that has entries
+        members = [_unwrap(m) for m in get_args(tp)]
+        tables = [m for m in members if isinstance(m, type) and issubclass(m, BaseModel) or get_origin(m) in (dict, tuple)]
+        tp = tables[0] if tables else None
+    if isinstance(tp, type) and issubclass(tp, BaseModel):
+        for name, field in tp.model_fields.items():
+            if part in (name, field.alias):
+                return field.annotation
+        return None
+    if get_origin(tp) is dict:
+        return get_args(tp)[1]
+    if get_origin(tp) is tuple:
+        args = get_args(tp)
+        if len(args) == 2 and args[1] is Ellipsis:
+            return args[0]
+        return args[part] if isinstance(part, int) and 0 <= part < len(args) else None
+    return None
+
+
+def _known_keys(tp: Any) -> list[str]:
+    tp = _unwrap(tp)
+    if isinstance(tp, type) and issubclass(tp, BaseModel):
+        return [field.alias or name for name, field in tp.model_fields.items()]
+    return []
+
+
+def _locate(raw: Any, loc: Iterable[Any], keep_last: bool) -> tuple[list[Any], list[str]]:
+    """The keys of the file a pydantic error location names, and the keys known where the
+    last one is (for a suggestion).
+
+    pydantic adds the tags of unions (``rotate``, ``translate``: also key names) and the
+    names of union members to locations; the schema's types say which parts they are. A
+    missing key (``keep_last``) is named although the file does not contain it.
+    """
+    out: list[Any] = []
+    node: Any = raw
+    tp: Any = ProblemFile
+    known: list[str] = _known_keys(tp)
+    items = list(loc)
+    for i, part in enumerate(items):
+        tags = _tags(_unwrap_annotated(tp))
+        if isinstance(part, str) and part in tags:
+            tp = tags[part]  # a union tag, not a key of the file
+            continue
+        known = _known_keys(tp)
+        if isinstance(node, dict) and part in node:
+            node = node[part]
+            out.append(part)
+            tp = _child(tp, part)
+        elif isinstance(node, list) and isinstance(part, int) and 0 <= part < len(node):
+            node = node[part]
+            out.append(part)
+            tp = _child(tp, part)
+        elif keep_last and i == len(items) - 1:
+            out.append(part)
+    return out, known
+
+
+def _unwrap_annotated(tp: Any) -> Any:
+    while get_origin(tp) is Annotated:
+        tp = get_args(tp)[0]
+    return tp
+
+
+def _pydantic_message(err: Mapping[str, Any]) -> str:
     kind = err.get("type", "")
     if kind == "extra_forbidden":
-        loc = tuple(err["loc"])
-        missing = [e["loc"][-1] for e in errors if e.get("type") == "missing" and tuple(e["loc"][:-1]) == loc[:-1]]
-        hint = ex.suggest(str(loc[-1]), [str(m) for m in missing])
-        return f"unknown key{hint}"
+        return "unknown key"
     if kind == "missing":
         return "missing required key"
     if kind == "too_short":

@@ -14,7 +14,8 @@ import ast
 import difflib
 import math
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass
+import re
+from dataclasses import dataclass, field
 from typing import Any, Union
 
 from ..errors import ExpressionError
@@ -29,7 +30,11 @@ CONSTANTS: Mapping[str, float] = {"pi": math.pi}
 
 @dataclass(frozen=True)
 class Num:
+    """A number; ``value`` is in SI. ``unit`` is the unit it was written in ('' for a bare
+    number): kept for dimension checks and to tell an angle from a bare number."""
+
     value: float
+    unit: str = field(default="", compare=False)
 
 
 @dataclass(frozen=True)
@@ -82,8 +87,26 @@ _FORBIDDEN = {
 }
 
 
-def parse(text: str, functions: Iterable[str] = MATH_FUNCTIONS) -> Expr:
-    """Parse ``text`` into an :data:`Expr`, allowing calls only to ``functions``."""
+#: A number directly followed by a unit inside an expression: ``90 deg``, ``135 mm``,
+#: ``0.5 N/mm`` (a compound unit is written without spaces), ``2 m^2``.
+_NUMBER_UNIT = re.compile(
+    r"(?<![\w.])((?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*"
+    r"([A-Za-z][A-Za-z0-9_]*(?:/[A-Za-z][A-Za-z0-9_]*)*(?:(?:\^|\*\*)-?\d+)?)(?![\w(])"
+)
+#: Prefix of the names that stand for quantities while Python parses the text.
+_PLACEHOLDER = "_quantity_"
+
+#: ``quantity(number, unit)`` -> the value in SI, or None when ``unit`` is not a unit.
+QuantityReader = Callable[[float, str], "float | None"]
+
+
+def parse(text: str, functions: Iterable[str] = MATH_FUNCTIONS, quantity: QuantityReader | None = None) -> Expr:
+    """Parse ``text`` into an :data:`Expr`, allowing calls only to ``functions``.
+
+    With ``quantity``, a number followed by a unit (``"-q_lift - 90 deg"``) is a quantity:
+    a :class:`Num` holding its SI value and its unit. Without it, such text is an error
+    saying that units are not allowed there.
+    """
     if not isinstance(text, str):
         raise ExpressionError(f"expected an expression string, got {text!r}")
     if len(text) > MAX_LENGTH:
@@ -91,14 +114,47 @@ def parse(text: str, functions: Iterable[str] = MATH_FUNCTIONS) -> Expr:
     if not text.strip():
         raise ExpressionError("empty expression")
     _check_characters(text)
+    source, quantities = _quantities(text, quantity)
     try:
-        tree = ast.parse(text.strip(), mode="eval")
+        tree = ast.parse(source.strip(), mode="eval")
     except SyntaxError as exc:
+        unit = _NUMBER_UNIT.search(source)
+        if unit is not None and quantity is None:
+            raise ExpressionError(
+                f"cannot parse '{text}': units are not allowed in this expression ('{unit.group(0)}'); "
+                "declare the quantity in [parameters] and use its name"
+            ) from None
+        if unit is not None and unit.group(2) not in CONSTANTS:
+            raise ExpressionError(f"cannot parse '{text}': unknown unit '{unit.group(2)}' (or a missing '*')") from None
         raise ExpressionError(f"cannot parse '{text}': {exc.msg}") from None
     except (ValueError, MemoryError, RecursionError) as exc:  # null bytes, absurd nesting
         raise ExpressionError(f"cannot parse '{text}': {type(exc).__name__}") from None
     allowed = frozenset(functions)
-    return _convert(tree.body, text, allowed)
+    return _convert(tree.body, text, allowed, quantities)
+
+
+def _quantities(text: str, quantity: QuantityReader | None) -> tuple[str, dict[str, Num]]:
+    """``text`` with every quantity (number and unit) replaced by a placeholder name."""
+    if quantity is None or _PLACEHOLDER in text:
+        return text, {}
+    found: dict[str, Num] = {}
+
+    def replace(m: re.Match[str]) -> str:
+        unit = m.group(2)
+        if unit in CONSTANTS or unit in MATH_FUNCTIONS:
+            return m.group(0)
+        try:
+            number = float(m.group(1))
+        except (ValueError, OverflowError):
+            return m.group(0)
+        si = quantity(number, unit)
+        if si is None:
+            return m.group(0)
+        name = f"{_PLACEHOLDER}{len(found)}"
+        found[name] = Num(si, unit)
+        return f" {name} "
+
+    return _NUMBER_UNIT.sub(replace, text), found
 
 
 def _check_characters(text: str) -> None:
@@ -116,7 +172,8 @@ def _check_characters(text: str) -> None:
         raise ExpressionError(f"'#' is not allowed in '{text}' (a TOML comment goes after the closing quote)")
 
 
-def _convert(node: ast.AST, text: str, functions: frozenset[str]) -> Expr:
+def _convert(node: ast.AST, text: str, functions: frozenset[str], quantities: Mapping[str, Num] | None = None) -> Expr:
+    quantities = quantities or {}
     if isinstance(node, ast.Constant):
         if isinstance(node.value, bool) or not isinstance(node.value, (int, float)):
             raise ExpressionError(f"only numbers may appear as constants in '{text}', got {node.value!r}")
@@ -128,13 +185,17 @@ def _convert(node: ast.AST, text: str, functions: frozenset[str]) -> Expr:
             raise ExpressionError(f"value must be finite in '{text}'")
         return Num(value)
     if isinstance(node, ast.Name):
+        if node.id in quantities:
+            return quantities[node.id]
         if node.id.startswith("_"):
             raise ExpressionError(f"names starting with '_' are not allowed: '{node.id}' in '{text}'")
         return Name(node.id)
     if isinstance(node, ast.BinOp) and type(node.op) in _BINOPS:
-        return BinOp(_BINOPS[type(node.op)], _convert(node.left, text, functions), _convert(node.right, text, functions))
+        return BinOp(
+            _BINOPS[type(node.op)], _convert(node.left, text, functions, quantities), _convert(node.right, text, functions, quantities)
+        )
     if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
-        operand = _convert(node.operand, text, functions)
+        operand = _convert(node.operand, text, functions, quantities)
         return Neg(operand) if isinstance(node.op, ast.USub) else operand
     if isinstance(node, ast.Call):
         if not isinstance(node.func, ast.Name):
@@ -148,7 +209,7 @@ def _convert(node: ast.AST, text: str, functions: frozenset[str]) -> Expr:
             raise ExpressionError(f"keyword or starred arguments are not allowed in '{text}'")
         if name in MATH_FUNCTIONS and len(node.args) != 1:
             raise ExpressionError(f"{name}() takes one argument in '{text}'")
-        return Call(name, tuple(_convert(a, text, functions) for a in node.args))
+        return Call(name, tuple(_convert(a, text, functions, quantities) for a in node.args))
     for kind, label in _FORBIDDEN.items():
         if isinstance(node, kind):
             raise ExpressionError(f"{label} not allowed in '{text}'")
@@ -199,10 +260,16 @@ def calls(expr: Expr) -> tuple[Call, ...]:
     return ()
 
 
+def nearest(name: str, candidates: Iterable[str]) -> str | None:
+    """The candidate closest to ``name`` (difflib's ratio ≥ 0.6), or None."""
+    close = difflib.get_close_matches(name, sorted(candidates), n=1)
+    return close[0] if close else None
+
+
 def suggest(name: str, candidates: Iterable[str]) -> str:
     """' (did you mean 'x'?)' for the closest candidate, or ''."""
-    close = difflib.get_close_matches(name, sorted(candidates), n=1)
-    return f" (did you mean '{close[0]}'?)" if close else ""
+    close = nearest(name, candidates)
+    return f" (did you mean '{close}'?)" if close else ""
 
 
 def check_names(
@@ -228,13 +295,17 @@ class NameArgs:
         return self.fn(*names)
 
 
-def evaluate(expr: Expr, env: Mapping[str, Any], functions: Mapping[str, Callable[..., Any]]) -> Any:
+def evaluate(
+    expr: Expr, env: Mapping[str, Any], functions: Mapping[str, Callable[..., Any]], constant: Callable[[Num], Any] | None = None
+) -> Any:
     """Evaluate ``expr`` with names from ``env`` and calls from ``functions``.
 
     Works for any value type supporting ``+ - * / **`` (float, numpy, CasADi SX, pint).
+    ``constant`` gives the value of a number (default: its SI value; pint evaluation
+    gives numbers written with a unit their unit).
     """
     if isinstance(expr, Num):
-        return expr.value
+        return expr.value if constant is None else constant(expr)
     if isinstance(expr, Name):
         if expr.id in env:
             return env[expr.id]
@@ -242,10 +313,10 @@ def evaluate(expr: Expr, env: Mapping[str, Any], functions: Mapping[str, Callabl
             return CONSTANTS[expr.id]
         raise ExpressionError(f"unknown name '{expr.id}'")
     if isinstance(expr, Neg):
-        return -evaluate(expr.operand, env, functions)
+        return -evaluate(expr.operand, env, functions, constant)
     if isinstance(expr, BinOp):
-        a = evaluate(expr.left, env, functions)
-        b = evaluate(expr.right, env, functions)
+        a = evaluate(expr.left, env, functions, constant)
+        b = evaluate(expr.right, env, functions, constant)
         if expr.op == "+":
             return a + b
         if expr.op == "-":
@@ -259,5 +330,5 @@ def evaluate(expr: Expr, env: Mapping[str, Any], functions: Mapping[str, Callabl
         fn = functions[expr.func]
         if isinstance(fn, NameArgs):
             return fn(*(a.id for a in expr.args if isinstance(a, Name)))
-        return fn(*(evaluate(a, env, functions) for a in expr.args))
+        return fn(*(evaluate(a, env, functions, constant) for a in expr.args))
     raise ExpressionError(f"cannot evaluate {expr!r}")  # unreachable for trees built by parse()

@@ -235,3 +235,28 @@ def base_unit_symbol(q: Any) -> str:
     """Short SI symbol of a pint quantity's base units ('' when dimensionless)."""
     base = q.to_base_units()
     return "" if base.dimensionless else f"{base.units:~}"
+
+
+@lru_cache(maxsize=256)
+def is_angle_unit(symbol: str) -> bool:
+    """True for a unit of angle ('deg', 'rad', '°', 'arcmin', 'turn'); False for '' and
+    for other dimensionless units such as '%' (pint treats both as dimensionless)."""
+    if not symbol.strip():
+        return False
+    try:
+        base = ureg().Quantity(1.0, symbol).to_base_units()
+    except Exception:  # not a unit at all: not an angle either
+        return False
+    return bool(base.dimensionless) and base.units == ureg().radian
+
+
+#: Largest bare number read as radians first in a hint (2π: a full turn); larger ones are
+#: most likely degrees.
+RADIAN_HINT_LIMIT = 2 * math.pi
+
+
+def angle_hint(number: float) -> str:
+    """How to write a bare number meant as an angle: "write '90 deg' or '1.5708 rad'"."""
+    deg = f"'{number:g} deg' or '{math.radians(number):.5g} rad'"
+    rad = f"'{number:g} rad' or '{math.degrees(number):.5g} deg'"
+    return f"write {rad if abs(number) <= RADIAN_HINT_LIMIT and not float(number).is_integer() else deg}"

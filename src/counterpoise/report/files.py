@@ -75,6 +75,9 @@ def report_texts(result: DesignResult) -> dict[str, str]:
         "verification.csv": csv_text(verification_rows(result), VERIFICATION_COLUMNS),
         "status.txt": status_text(result) + parts.parts_status(result),
     }
+    from ..formulation.assumptions import degeneracies
+
+    texts["status.txt"] += "".join(f"warning: {w}\n" for w in degeneracies(result.problem))
     if result.problem.substitutions:
         texts["substitution.csv"] = csv_text(substitution_rows(result), SUBSTITUTION_COLUMNS)
     if result.payload is not None:

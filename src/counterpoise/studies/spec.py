@@ -2,7 +2,8 @@
 
 ``--vary NAME=START:STOP:N`` (grid) or ``--vary NAME=START:STOP`` with ``--samples N``
 (Latin hypercube, ``--seed S``; default :data:`DEFAULT_SEED`). START and STOP are
-quantities with units (``'m_endo=500 g:900 g:41'``; a bare ``0`` is allowed). NAME is
+quantities with units (``'m_endo=500 g:900 g:41'``; a bare ``0`` is allowed, and a bare
+number for an angle is an error: ``theta_L=0:90 deg:3``). NAME is
 
 - a literal parameter of the file: ``m_endo`` or ``parameters.m_endo``;
 - a variable's bound: ``M_b.upper`` or ``variables.M_b.upper`` (``.lower`` likewise);
@@ -24,7 +25,16 @@ import numpy as np
 from ..errors import ProblemFileError, UnitError
 from ..model import expr as ex
 from ..model.problem import Problem
-from ..model.units import DIMENSIONLESS, INVERSE_AREA, DisplayUnit, canonical_dimension, dimension_name, parse_quantity
+from ..model.units import (
+    DIMENSIONLESS,
+    INVERSE_AREA,
+    DisplayUnit,
+    angle_hint,
+    canonical_dimension,
+    dimension_name,
+    is_angle_unit,
+    parse_quantity,
+)
 
 DEFAULT_SEED = 20260101
 WEIGHTS = {"mass_weight": DIMENSIONLESS, "inertia_weight": INVERSE_AREA}
@@ -112,6 +122,8 @@ def parse_vary(problem: Problem, text: str, label: str) -> Vary:
         if q.dimension != dimension and not (q.si == 0 and not q.unit.symbol):  # a bare 0 is 0 in any unit
             hint = f" such as '{parts[0]} {file_unit.symbol}'" if file_unit is not None and file_unit.symbol and q.unit.symbol == "" else ""
             fail(f"'{part}' is {dimension_name(q.dimension)}, expected {dimension_name(dimension)}{hint}")
+        if file_unit is not None and is_angle_unit(file_unit.symbol) and not q.unit.symbol and q.si != 0:
+            fail(f"'{part}' is a bare number used as an angle ({name} is in {file_unit.symbol}): {angle_hint(q.si)}")
         values.append(q.si)
         unit = unit or (q.unit if q.unit.symbol else None)
     count = None

@@ -7,6 +7,7 @@
 
 from __future__ import annotations
 
+from ...errors import ProblemFileError, raise_errors
 from ...model.problem import Problem, Settings
 from ..schema import ProblemFile
 from . import mechanism, parts, payloads, quantities, report, robot, substitution
@@ -16,8 +17,27 @@ __all__ = ["REPORT_FUNCTIONS", "RESERVED", "resolve"]
 
 
 def resolve(spec: ProblemFile, label: str) -> Problem:
-    """Resolve ``spec`` (read from ``label``); every error is a one-line ProblemFileError."""
+    """Resolve ``spec`` (read from ``label``); every error is a one-line ProblemFileError.
+
+    Independent entries are resolved on after an error (:meth:`Context.item`), so a file
+    with several mistakes gets one line for each (a :class:`ProblemFileErrors`); what
+    failed later only because of an earlier error is not reported.
+    """
     ctx = Context(spec, label)
+    try:
+        problem = _resolve(ctx)
+    except ProblemFileError as exc:
+        raise_errors([*ctx.errors, exc])
+        raise  # unreachable: raise_errors raised
+    except Exception:
+        ctx.check()  # a failure that follows from an error already found
+        raise
+    ctx.check()
+    return problem
+
+
+def _resolve(ctx: Context) -> Problem:
+    spec, label = ctx.spec, ctx.label
     for kind in ("parameters", "variables", "report"):
         for name in getattr(spec, kind):
             ctx.declare(kind, name)
@@ -39,6 +59,7 @@ def resolve(spec: ProblemFile, label: str) -> Problem:
     robot_subsystems, robot_coordinates = robot.coordinates(ctx, robot_model)
     subsystems, coordinates = robot_subsystems + subsystems, robot_coordinates + coordinates
     frames = mechanism.frames(ctx, robot.frames(ctx, robot_model))
+    quantities.check_angles(ctx, frames)
     by_name = {f.name: f for f in frames}
     payload_bodies, payload_ranges = payloads.bodies(ctx, by_name)
     given_bodies = robot.bodies(ctx, robot_model, by_name) + mechanism.bodies(ctx, by_name)

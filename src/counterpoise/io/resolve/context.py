@@ -9,14 +9,13 @@ from __future__ import annotations
 
 import itertools
 import math
-import re
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
 
-from ...errors import InputError, ProblemFileError, UnitError
+from ...errors import InputError, ProblemFileError, UnitError, raise_errors
 from ...model.functions import NUMPY_FUNCTIONS
 from ...model import expr as ex
 from ...model.mechanism import GROUND, Frame, Point
@@ -28,8 +27,11 @@ from ...model.units import (
     STIFFNESS,
     DisplayUnit,
     Quantity,
+    angle_hint,
     check_dimension,
     dimensionality_of,
+    display_unit,
+    is_angle_unit,
     looks_like_quantity,
     parse_quantity,
     pint_quantity,
@@ -63,6 +65,10 @@ class Context:
         self.derived_parameters: list[Parameter] = []
         self.coupled: dict[str, ex.Expr] = {}  # coupled coordinate -> its tree in the coordinates
         self.payload_masses: dict[str, Any] = {}  # payload -> (lower, upper, nominal, unit), SI
+        #: errors found so far that did not stop the resolution (see :meth:`item`)
+        self.errors: list[ProblemFileError] = []
+        #: derived parameter -> its angle kind (see :meth:`angle_kind`)
+        self.name_kinds: dict[str, tuple[str, str]] = {}
 
     @contextmanager
     def at(self, key: str) -> Iterator[None]:
@@ -74,6 +80,24 @@ class Context:
 
     def fail(self, key: str, message: str) -> ProblemFileError:
         return ProblemFileError(self.label, key, message)
+
+    @contextmanager
+    def item(self) -> Iterator[None]:
+        """One independent entry (a variable, a scenario): an error inside is recorded and
+        the resolution goes on with the next entry, so that every error of a file is
+        reported. Call :meth:`check` before anything that needs the entries."""
+        try:
+            yield
+        except ProblemFileError as exc:
+            self.errors.append(exc)
+
+    def defer(self, error: ProblemFileError) -> None:
+        """Record ``error`` and go on (the caller substitutes a harmless value)."""
+        self.errors.append(error)
+
+    def check(self) -> None:
+        """Raise the errors recorded so far (one line each), if any."""
+        raise_errors(self.errors)
 
     # -- names ---------------------------------------------------------------------
 
@@ -106,17 +130,13 @@ class Context:
             if looks_like_quantity(value):
                 try:
                     q = parse_quantity(value)
-                except UnitError as exc:
-                    used = set(re.findall(r"[A-Za-z_][A-Za-z0-9_]*", value)) & set(self.symbol_kind)
-                    if used:
-                        raise UnitError(
-                            f"{exc}: a quantity cannot be part of an expression in '{value}'; "
-                            "declare it in [parameters] and use its name"
-                        ) from None
-                    raise
-                self.literal_unit[key] = q.unit
-                return ex.Num(q.si)
-            tree = ex.parse(value, functions)
+                except UnitError:  # '90 deg - q_lift': an expression that starts with a quantity
+                    tree = ex.parse(value, functions, read_quantity)
+                else:
+                    self.literal_unit[key] = q.unit
+                    return ex.Num(q.si, q.unit.symbol)
+            else:
+                tree = ex.parse(value, functions, read_quantity)
             ex.check_names(tree, allowed, value, REPORT_FUNCTIONS & functions)
             if self.coupled and ex.names(tree) & self.coupled.keys():
                 tree = ex.substitute(tree, self.coupled)
@@ -125,10 +145,13 @@ class Context:
     def dimension(self, tree: ex.Expr, raw: Any, key: str, extra: Mapping[str, Callable[..., Any]] | None = None) -> str:
         """The dimensionality of an expression (pint evaluation on representative values)."""
         if isinstance(tree, ex.Num):
+            if tree.unit:
+                return display_unit(tree.unit).dimension
             unit = self.literal_unit.get(key)
             if unit is not None:
                 return unit.dimension
             return "" if tree.value != 0 else "zero"
+        self.angle_kind(tree, raw, key)  # no bare number added to an angle
         reg = ureg()
         env = {n: pint_quantity(self.symbol_value[n], self.symbol_unit[n]) for n in ex.names(tree, REPORT_FUNCTIONS) if n in self.symbol_unit}
         funcs = numpy_functions()
@@ -139,6 +162,94 @@ class Context:
         if not isinstance(result, reg.Quantity):
             return ""
         return dimensionality_of(result)
+
+    # -- angles --------------------------------------------------------------------
+
+    def angle_kind(self, tree: ex.Expr, raw: Any, key: str) -> tuple[str, str]:
+        """What an expression is as far as angles go, and where that comes from.
+
+        pint treats angles as dimensionless, so '90' and '90 deg' have the same dimension
+        and a bare number would silently be radians. This tracks, besides dimensions:
+        ``angle`` (written with an angle unit: a quantity such as '90 deg', a coordinate,
+        parameter or variable given in deg or rad, asin/acos/atan of something),
+        ``bare`` (a non-zero number without a unit, or a parameter or variable given as
+        one), ``zero`` (a bare 0) and ``other``. Adding a bare number to an angle, or
+        handing one to sin/cos/tan, is an error: the number would be taken as radians.
+        Products and quotients of an angle by a number stay angles (``2*theta``).
+        """
+        if isinstance(tree, ex.Num):
+            if tree.unit:
+                return ("angle" if is_angle_unit(tree.unit) else "other", "")
+            return ("bare", f"{tree.value:g}") if tree.value != 0 else ("zero", "")
+        if isinstance(tree, ex.Name):
+            return self._name_kind(tree.id)
+        if isinstance(tree, ex.Neg):
+            return self.angle_kind(tree.operand, raw, key)
+        if isinstance(tree, ex.Call):
+            args = [self.angle_kind(a, raw, key) for a in tree.args] if tree.func in ex.MATH_FUNCTIONS else []
+            if tree.func in ("sin", "cos", "tan") and args and args[0][0] == "bare":
+                raise self.fail(key, f"'{raw}': {tree.func}() of {_bare_what(args[0][1])} takes it as radians: {_bare_fix(args[0][1])}")
+            if tree.func in ("asin", "acos", "atan"):
+                return ("angle", "")
+            if tree.func == "abs" and args:
+                return args[0]
+            return ("bare", args[0][1]) if args and args[0][0] == "bare" else ("other", "")
+        if isinstance(tree, ex.BinOp):
+            a = self.angle_kind(tree.left, raw, key)
+            b = self.angle_kind(tree.right, raw, key)
+            if a[0] == b[0] == "bare" and not ex.names(tree):  # '2*45': the number it makes
+                with np.errstate(all="ignore"):
+                    try:
+                        a = b = ("bare", f"{float(np.real(ex.evaluate(tree, {}, numpy_functions()))):g}")
+                    except (ArithmeticError, ValueError, TypeError):
+                        pass  # '1/0': reported elsewhere; the first number is named meanwhile
+            kinds = {a[0], b[0]}
+            if tree.op in "+-":
+                if kinds == {"angle", "bare"}:
+                    bare = a if a[0] == "bare" else b
+                    raise self.fail(key, f"'{raw}' adds {_bare_what(bare[1])} to an angle, which takes it as radians: {_bare_fix(bare[1])}")
+                if "zero" in kinds:
+                    return b if a[0] == "zero" else a
+                if "angle" in kinds:
+                    return ("angle", "")
+                return ("bare", a[1]) if kinds == {"bare"} else ("other", "")
+            if tree.op == "*":
+                if kinds == {"angle"}:
+                    return ("other", "")
+                if "angle" in kinds:
+                    return ("angle", "")
+                return ("bare", a[1]) if kinds == {"bare"} else ("other", "")
+            if tree.op == "/":
+                if a[0] == "angle":
+                    return ("other", "") if b[0] == "angle" else ("angle", "")
+                return ("bare", a[1]) if kinds == {"bare"} else ("other", "")
+            return ("bare", a[1]) if kinds == {"bare"} else ("other", "")  # **
+        return ("other", "")
+
+    def _name_kind(self, name: str) -> tuple[str, str]:
+        if name in self.name_kinds:
+            return self.name_kinds[name]
+        unit = self.symbol_unit.get(name)
+        kind = self.symbol_kind.get(name)
+        if unit is None:
+            return ("other", "")
+        if is_angle_unit(unit.symbol):
+            return ("angle", "")
+        if unit.symbol or unit.dimension or kind not in ("parameters", "variables"):
+            return ("other", "")
+        if kind == "parameters" and self.symbol_value.get(name) == 0:
+            return ("zero", "")
+        section = "parameters" if kind == "parameters" else "variables"
+        return ("bare", f"{section}.{name}")
+
+    def expect_angle(self, tree: ex.Expr, raw: Any, key: str) -> None:
+        """An angle is expected here: a bare number (or a parameter given as one) is an
+        error saying how to write it, e.g. "write '90 deg' or '1.5708 rad'"."""
+        kind, where = self.angle_kind(tree, raw, key)
+        if kind == "bare":
+            if where.startswith(("parameters.", "variables.")):
+                raise self.fail(key, f"'{raw}' uses {where}, a bare number, as an angle: give it a unit there (deg or rad)")
+            raise self.fail(key, f"a bare number used as an angle ('{raw}' would be radians): {angle_hint(float(where))}")
 
     def expect(self, tree: ex.Expr, raw: Any, key: str, dimension: str, what: str) -> None:
         found = self.dimension(tree, raw, key)
@@ -227,7 +338,9 @@ class Context:
 
     def point(self, frame: str, position: Iterable[Any], key: str, frames: Mapping[str, Frame], frame_key: str) -> Point:
         if frame != GROUND and frame not in frames:
-            raise self.fail(frame_key, f"unknown frame '{frame}'{suggest(frame, list(frames) + [GROUND])}")
+            # reported with the file's other errors; the point is placed on the ground meanwhile
+            self.defer(self.fail(frame_key, f"unknown frame '{frame}'{suggest(frame, list(frames) + [GROUND])}"))
+            frame = GROUND
         # a point is fixed in its frame: it may not move with coordinates (use a frame for that)
         return Point(frame, self.vector(position, key, LENGTH, "a position", self.design_names()))
 
@@ -247,13 +360,48 @@ class Context:
         self.signed.append((key, tree, raw, what))
 
     def subsystem_of(self, frame: str, frames: Mapping[str, Frame]) -> str | None:
-        return None if frame == GROUND else frames[frame].subsystem
+        if frame == GROUND or frame not in frames:  # an unknown frame is reported by point()
+            return None
+        return frames[frame].subsystem
 
 
 def _shown(si: float, unit: DisplayUnit) -> str:
     """An SI value in its display unit, for a message: '250 g', '0.25'."""
     text = f"{unit.from_si(si):.4g}"
     return f"{text} {unit.symbol}" if unit.symbol else text
+
+
+def _bare_what(where: str) -> str:
+    if where.startswith(("parameters.", "variables.")):
+        return f"{where}, a bare number,"
+    return f"the bare number {where}"
+
+
+def _bare_fix(where: str) -> str:
+    if where.startswith(("parameters.", "variables.")):
+        return "give it a unit there (deg or rad)"
+    try:
+        return angle_hint(float(where))
+    except ValueError:
+        return "give the number a unit (deg or rad)"
+
+
+def read_quantity(number: float, unit: str) -> float | None:
+    """A quantity inside an expression ('90 deg'): its SI value, or None if ``unit`` is not
+    a unit (the text is then parsed as it stands)."""
+    try:
+        u = display_unit(unit)
+    except UnitError:
+        return None
+    si = number * u.to_si
+    if not math.isfinite(si):
+        raise UnitError(f"value must be finite, got '{number:g} {unit}' (too large once converted to SI units)")
+    return si
+
+
+def _pint_constant(num: ex.Num) -> Any:
+    """A number in pint evaluation: with its unit when it was written with one."""
+    return pint_quantity(num.value, display_unit(num.unit)) if num.unit else num.value
 
 
 def numpy_functions() -> dict[str, Callable[..., Any]]:
@@ -267,7 +415,7 @@ def evaluate_checked(tree: ex.Expr, env: Mapping[str, Any], functions: Mapping[s
 
     with np.errstate(all="ignore"):
         try:
-            return ex.evaluate(tree, env, functions)
+            return ex.evaluate(tree, env, functions, _pint_constant)
         except InputError:
             raise
         except pint.DimensionalityError as exc:

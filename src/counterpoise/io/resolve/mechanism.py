@@ -79,7 +79,8 @@ def frames(ctx: Context, given: tuple[Frame, ...] = ()) -> tuple[Frame, ...]:
         for field, target in (("parent", f.parent), ("orientation", f.orientation)):
             if target is not None and target != GROUND and target not in specs and target not in known:
                 close = suggest(target, list(specs) + list(known) + [GROUND])
-                raise ctx.fail(f"frames.{name}.{field}", f"unknown frame '{target}'{close}")
+                ctx.defer(ctx.fail(f"frames.{name}.{field}", f"unknown frame '{target}'{close}"))
+    ctx.check()  # every unknown parent or orientation frame, one line each
     order = topological(
         {n: None for n in specs},
         lambda n: {specs[n].parent, specs[n].orientation} & set(specs),

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from ...catalogue import SHIPPED, CatalogueError, mapping_from, read_catalogue
+from ...catalogue.reader import CatalogueUnitsError
 from ...model.parts import Catalogue, SelectionSettings, SpringSlot
 from ...model.problem import Parameter
 from ...model.units import display_unit
@@ -47,6 +48,8 @@ def catalogues(ctx: Context) -> dict[str, Catalogue]:
         path: Path | str = c.file if c.file == SHIPPED else (base / c.file)
         try:
             out[name] = read_catalogue(path, mapping, name, rate_tol, tension_tol)
+        except CatalogueUnitsError as exc:
+            raise ctx.fail(f"{key}.units", f"{Path(exc.file).name}: {exc.message}") from None
         except CatalogueError as exc:
             raise ctx.fail(f"{key}.file", str(exc)) from None
     return out

@@ -3,13 +3,15 @@
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
-from ...errors import ProblemFileError
+from ...errors import InputError, ProblemFileError, UnitError
 from ...model import expr as ex
+from ...model.mechanism import Rotation
 from ...model.problem import Gravity, Objective, Parameter, Scenario, Variable
 from ...model.units import (
     ACCELERATION,
@@ -21,12 +23,15 @@ from ...model.units import (
     check_dimension,
     dimension_name,
     dimensionality_of,
+    angle_hint,
     display_unit,
+    is_angle_unit,
     looks_like_quantity,
+    parse_quantity,
     pint_quantity,
     ureg,
 )
-from .context import Context, evaluate_checked, numpy_functions, suggest, topological
+from .context import Context, evaluate_checked, numpy_functions, read_quantity, suggest, topological
 
 DEFAULT_SCENARIO = "nominal"
 
@@ -39,12 +44,14 @@ def parameters(ctx: Context) -> tuple[Parameter, ...]:
     derived: dict[str, ex.Expr] = {}
     for name, raw in raw_values.items():
         key = f"parameters.{name}"
-        if isinstance(raw, str) and not looks_like_quantity(raw):
-            derived[name] = ctx.expression(raw, key, entries.keys())
-        else:
-            literal[name] = ctx.literal(raw, key)
-            ctx.symbol_unit[name] = literal[name].unit
-            ctx.symbol_value[name] = literal[name].si
+        with ctx.item():  # every bad parameter is reported
+            if isinstance(raw, str) and not _is_literal(raw):
+                derived[name] = ctx.expression(raw, key, entries.keys())
+            else:
+                literal[name] = ctx.literal(raw, key)
+                ctx.symbol_unit[name] = literal[name].unit
+                ctx.symbol_value[name] = literal[name].si
+    ctx.check()
     order = topological(derived, lambda n: ex.names(derived[n]) & derived.keys(), "parameters", ctx.label)
     out: list[Parameter] = [Parameter(n, q.unit, value=q.si, description=descriptions[n]) for n, q in literal.items()]
     for name in order:
@@ -58,6 +65,7 @@ def parameters(ctx: Context) -> tuple[Parameter, ...]:
         if not math.isfinite(si):
             raise ctx.fail(key, f"'{raw_values[name]}' does not evaluate to a finite number")
         unit = DisplayUnit(base_unit_symbol(value), 1.0, dimensionality_of(value.to_base_units()))
+        ctx.name_kinds[name] = ctx.angle_kind(tree, raw_values[name], key)
         ctx.symbol_unit[name] = unit
         ctx.symbol_value[name] = si
         out.append(Parameter(name, unit, expr=tree, description=descriptions[name]))
@@ -65,38 +73,78 @@ def parameters(ctx: Context) -> tuple[Parameter, ...]:
     return tuple(out)
 
 
+def _is_literal(raw: str) -> bool:
+    """'135 mm' is a literal; '90 deg - 5 deg' and 'r_a + 1' are expressions."""
+    if not looks_like_quantity(raw):
+        return False
+    try:
+        parse_quantity(raw)
+    except UnitError:
+        try:
+            ex.parse(raw, ex.MATH_FUNCTIONS, read_quantity)
+        except InputError:
+            return True  # not an expression either: the literal's error is the one to report
+        return False
+    return True
+
+
+def angle(ctx: Context, value: Any, key: str) -> float:
+    """An angle literal ('90 deg', '1.5708 rad', or 0), in radians.
+
+    A bare number other than 0 is an error that says how to write it (for locked joints
+    and anything else that must be an angle).
+    """
+    q = ctx.literal(value, key)
+    if q.unit.symbol == "" and q.unit.dimension == "" and q.si != 0:
+        raise ctx.fail(key, f"a bare number used as an angle: {angle_hint(q.si)}")
+    if q.dimension != "" or not (q.unit.symbol == "" or is_angle_unit(q.unit.symbol)):
+        raise ctx.fail(key, f"expected an angle (deg or rad), got {dimension_name(q.dimension) if q.dimension else repr(str(value))}")
+    return q.si
+
+
+def same_angle_unit(ctx: Context, reference: DisplayUnit, q: Quantity, raw: Any, key: str) -> None:
+    """Where the reference (a coordinate's range, a parameter, a variable's bounds) is an
+    angle, a bare number other than 0 is an error: it would silently be radians."""
+    if is_angle_unit(reference.symbol) and q.unit.symbol == "" and q.si != 0:
+        raise ctx.fail(key, f"a bare number used as an angle ({reference.symbol} elsewhere): {angle_hint(q.si)}")
+
+
 def variables(ctx: Context) -> tuple[Variable, ...]:
     out = []
     for name, v in ctx.spec.variables.items():
-        key = f"variables.{name}"
-        lower = ctx.literal(v.lower, f"{key}.lower")
-        upper = ctx.literal(v.upper, f"{key}.upper")
-        initial = ctx.literal(v.initial, f"{key}.initial") if v.initial is not None else None
-        with ctx.at(f"{key}.unit"):
-            unit = display_unit(v.unit) if v.unit is not None else (lower.unit if lower.unit.symbol else upper.unit)
-        for part, q in (("lower", lower), ("upper", upper), ("initial", initial)):
-            if q is not None and q.dimension != unit.dimension and not (q.si == 0 and q.unit.symbol == ""):
-                raise ctx.fail(f"{key}.{part}", f"expected {dimension_name(unit.dimension)} like unit '{unit.label}', got {dimension_name(q.dimension)}")
-        if lower.si > upper.si:
-            raise ctx.fail(key, f"lower bound {v.lower} is greater than upper bound {v.upper}")
-        if not math.isfinite(upper.si - lower.si):
-            raise ctx.fail(key, f"the bounds {v.lower} and {v.upper} are too far apart (their difference overflows)")
-        init = initial.si if initial is not None else 0.5 * (lower.si + upper.si)
-        if not lower.si <= init <= upper.si:
-            raise ctx.fail(f"{key}.initial", f"initial value {v.initial} lies outside [{v.lower}, {v.upper}]")
-        nominal = _adjustment(ctx, v.nominal, f"{key}.nominal", unit)
-        travel = _adjustment(ctx, v.travel, f"{key}.travel", unit)
-        if nominal is not None and not lower.si <= nominal <= upper.si:
-            raise ctx.fail(f"{key}.nominal", f"nominal {v.nominal} lies outside the bounds [{v.lower}, {v.upper}]")
-        if travel is not None and travel < 0:
-            raise ctx.fail(f"{key}.travel", "must not be negative")
-        if travel is not None and travel > upper.si - lower.si:
-            raise ctx.fail(f"{key}.travel", f"travel {v.travel} exceeds the span of the bounds [{v.lower}, {v.upper}]")
-        ctx.symbol_unit[name] = unit
-        ctx.symbol_value[name] = init
-        ctx.variable_lower[name] = lower.si
-        ctx.box[name] = (lower.si, upper.si)
-        out.append(Variable(name, lower.si, upper.si, init, unit, v.adjustable, v.description, nominal, travel))
+        with ctx.item():
+            key = f"variables.{name}"
+            lower = ctx.literal(v.lower, f"{key}.lower")
+            upper = ctx.literal(v.upper, f"{key}.upper")
+            initial = ctx.literal(v.initial, f"{key}.initial") if v.initial is not None else None
+            with ctx.at(f"{key}.unit"):
+                unit = display_unit(v.unit) if v.unit is not None else (lower.unit if lower.unit.symbol else upper.unit)
+            for part, q in (("lower", lower), ("upper", upper), ("initial", initial)):
+                if q is not None and q.dimension != unit.dimension and not (q.si == 0 and q.unit.symbol == ""):
+                    raise ctx.fail(f"{key}.{part}", f"expected {dimension_name(unit.dimension)} like unit '{unit.label}', got {dimension_name(q.dimension)}")
+                if q is not None:
+                    same_angle_unit(ctx, unit, q, getattr(v, part), f"{key}.{part}")
+            if lower.si > upper.si:
+                raise ctx.fail(key, f"lower bound {v.lower} is greater than upper bound {v.upper}")
+            if not math.isfinite(upper.si - lower.si):
+                raise ctx.fail(key, f"the bounds {v.lower} and {v.upper} are too far apart (their difference overflows)")
+            init = initial.si if initial is not None else 0.5 * (lower.si + upper.si)
+            if not lower.si <= init <= upper.si:
+                raise ctx.fail(f"{key}.initial", f"initial value {v.initial} lies outside [{v.lower}, {v.upper}]")
+            nominal = _adjustment(ctx, v.nominal, f"{key}.nominal", unit)
+            travel = _adjustment(ctx, v.travel, f"{key}.travel", unit)
+            if nominal is not None and not lower.si <= nominal <= upper.si:
+                raise ctx.fail(f"{key}.nominal", f"nominal {v.nominal} lies outside the bounds [{v.lower}, {v.upper}]")
+            if travel is not None and travel < 0:
+                raise ctx.fail(f"{key}.travel", "must not be negative")
+            if travel is not None and travel > upper.si - lower.si:
+                raise ctx.fail(f"{key}.travel", f"travel {v.travel} exceeds the span of the bounds [{v.lower}, {v.upper}]")
+            ctx.symbol_unit[name] = unit
+            ctx.symbol_value[name] = init
+            ctx.variable_lower[name] = lower.si
+            ctx.box[name] = (lower.si, upper.si)
+            out.append(Variable(name, lower.si, upper.si, init, unit, v.adjustable, v.description, nominal, travel))
+    ctx.check()
     return tuple(out)
 
 
@@ -107,6 +155,7 @@ def _adjustment(ctx: Context, raw: Any, key: str, unit: DisplayUnit) -> float | 
     q = ctx.literal(raw, key)
     if q.dimension != unit.dimension and not (q.si == 0 and q.unit.symbol == ""):
         raise ctx.fail(key, f"expected {dimension_name(unit.dimension)} like unit '{unit.label}', got {dimension_name(q.dimension)}")
+    same_angle_unit(ctx, unit, q, raw, key)
     return q.si
 
 
@@ -129,20 +178,23 @@ def scenarios(ctx: Context, default_gravity: Gravity, parameters: tuple[Paramete
     base = {p.name: p for p in parameters if p.is_base}
     out = []
     for name, sc in ctx.spec.scenarios.items():
-        key = f"scenarios.{name}"
-        g = gravity(ctx, sc.gravity, f"{key}.gravity") if sc.gravity is not None else default_gravity
-        values: dict[str, float] = {}
-        for pname, raw in sc.parameters.items():
-            pkey = f"{key}.parameters.{pname}"
-            if pname not in base:
-                hint = " (only literal parameters can change per scenario)" if pname in ctx.spec.parameters else suggest(pname, base)
-                raise ctx.fail(pkey, f"unknown parameter '{pname}'{hint}")
-            q = ctx.literal(raw, pkey)
-            if q.dimension != base[pname].unit.dimension and not (q.si == 0 and not q.unit.symbol):
-                raise ctx.fail(pkey, f"expected {dimension_name(base[pname].unit.dimension)}, got {dimension_name(q.dimension)}")
-            values[pname] = q.si
-        check_scenario_values(ctx, values, key)
-        out.append(Scenario(name, g, values, sc.description))
+        with ctx.item():
+            key = f"scenarios.{name}"
+            g = gravity(ctx, sc.gravity, f"{key}.gravity") if sc.gravity is not None else default_gravity
+            values: dict[str, float] = {}
+            for pname, raw in sc.parameters.items():
+                pkey = f"{key}.parameters.{pname}"
+                if pname not in base:
+                    hint = " (only literal parameters can change per scenario)" if pname in ctx.spec.parameters else suggest(pname, base)
+                    raise ctx.fail(pkey, f"unknown parameter '{pname}'{hint}")
+                q = ctx.literal(raw, pkey)
+                if q.dimension != base[pname].unit.dimension and not (q.si == 0 and not q.unit.symbol):
+                    raise ctx.fail(pkey, f"expected {dimension_name(base[pname].unit.dimension)}, got {dimension_name(q.dimension)}")
+                same_angle_unit(ctx, base[pname].unit, q, raw, pkey)
+                values[pname] = q.si
+            check_scenario_values(ctx, values, key)
+            out.append(Scenario(name, g, values, sc.description))
+    ctx.check()
     return tuple(out)
 
 
@@ -190,3 +242,87 @@ def objective(ctx: Context) -> Objective:
     if ws.si < 0:
         raise ctx.fail(skey, "must not be negative")
     return Objective(o.mass_weight, w.si, ws.si)
+
+
+def check_angles(ctx: Context, frames: Any) -> None:
+    """Every place of the file where an angle is expected holds one (see
+    :meth:`Context.angle_kind`): coordinate ranges and homes, the rotations and DH rows of
+    the file's frames, coupled coordinates. Frames made by other means (an imported robot
+    model, whose angles are radians by definition) are not the file's text: not checked."""
+    for sname, sub in ctx.spec.subsystems.items():
+        for cname, c in sub.coordinates.items():
+            key = f"subsystems.{sname}.coordinates.{cname}"
+            with ctx.item():
+                ends = [ctx.literal(r, f"{key}.range") for r in c.range]
+                if all(q.unit.symbol == "" and q.dimension == "" for q in ends) and any(q.si != 0 for q in ends):
+                    lo, hi = (f"{q.si:g}" for q in ends)
+                    raise ctx.fail(
+                        f"{key}.range",
+                        f"bare numbers used as an angle: write ['{lo} deg', '{hi} deg'] or give the unit rad ('[{lo}, {hi}]' would be radians)",
+                    )
+                unit = next((q.unit for q in ends if q.unit.symbol), None)
+                if c.home is not None and unit is not None:
+                    same_angle_unit(ctx, unit, ctx.literal(c.home, f"{key}.home"), c.home, f"{key}.home")
+        for name, raw in sub.coupled.items():
+            with ctx.item():
+                key = f"subsystems.{sname}.coupled.{name}"
+                if name in ctx.coupled:
+                    ctx.angle_kind(ctx.coupled[name], raw, key)
+    _check_robot_angles(ctx)
+    for frame in frames:
+        spec = ctx.spec.frames.get(frame.name)
+        if spec is None:
+            continue
+        for i, t in enumerate(frame.transforms):
+            if not isinstance(t, Rotation):
+                continue
+            key = frame.key(i)
+            key = key if key.endswith((".alpha", ".theta")) else f"{key}.angle"
+            raw = _raw_at(spec, frame.name, key)
+            if raw is None:
+                continue  # not a rotation written in the file (an orientation = "<frame>", ...)
+            with ctx.item():
+                ctx.expect_angle(t.angle, raw, key)
+    ctx.check()
+
+
+def _check_robot_angles(ctx: Context) -> None:
+    """The ranges, homes and locked values a file gives an imported robot's joints (a
+    ``[robot]`` table, when the schema has one): bare numbers other than 0 are errors. A
+    prismatic joint's values are lengths: a bare number there fails its dimension check
+    before this one runs, so a bare number reaching here is an angle."""
+    robot = getattr(ctx.spec, "robot", None)
+    if robot is None:
+        return
+    for name, joint in (getattr(robot, "joints", None) or {}).items():
+        key = f"robot.joints.{name}"
+        with ctx.item():
+            ends = [ctx.literal(r, f"{key}.range") for r in joint.range]
+            if all(q.unit.symbol == "" for q in ends) and any(q.si != 0 for q in ends):
+                lo, hi = (f"{q.si:g}" for q in ends)
+                raise ctx.fail(f"{key}.range", f"bare numbers used as an angle: write ['{lo} deg', '{hi} deg'] or give the unit rad")
+            unit = next((q.unit for q in ends if q.unit.symbol), None)
+            home = getattr(joint, "home", None)
+            if home is not None and unit is not None:
+                same_angle_unit(ctx, unit, ctx.literal(home, f"{key}.home"), home, f"{key}.home")
+    for name, raw in (getattr(robot, "locked", None) or {}).items():
+        with ctx.item():
+            q = ctx.literal(raw, f"robot.locked.{name}")
+            if q.unit.symbol == "" and q.si != 0:
+                raise ctx.fail(f"robot.locked.{name}", f"a bare number used as an angle: {angle_hint(q.si)}")
+
+
+_ROTATION_KEY = re.compile(r"^frames\.(?P<frame>[^.]+)\.transforms\.(?P<index>\d+)\.(?:angle|dh\.(?P<dh>alpha|theta))$")
+
+
+def _raw_at(spec: Any, name: str, key: str) -> Any:
+    """The text written at ``frames.<name>.transforms.<i>.angle`` (or ``.dh.alpha``,
+    ``.dh.theta``) of frame ``spec``; None when ``key`` is no such place."""
+    match = _ROTATION_KEY.match(key)
+    if match is None or match["frame"] != name or int(match["index"]) >= len(spec.transforms):
+        return None
+    node = spec.transforms[int(match["index"])]
+    field = match["dh"]
+    if field is not None:
+        return getattr(node.dh, field, None) if hasattr(node, "dh") else None
+    return getattr(node, "angle", None)
