@@ -48,6 +48,9 @@ from .kinematics import matvec, sub
 
 #: Largest scaled closure gap (gap / loop size; axis rows as is) of an assembled configuration.
 CLOSURE_TOLERANCE = 1e-11
+#: Gauss-Newton iterations that measure the gap of a loop that cannot close at home.
+LEAST_SQUARES_ITERATIONS = 200
+LEAST_SQUARES_HALVINGS = 40
 #: Complex step of the closure Jacobian (exact to rounding; no subtractive cancellation).
 COMPLEX_STEP = 1e-30
 #: Newton corrections per continuation step (each converges quadratically from the predictor).
@@ -177,11 +180,30 @@ class Closure:
         gaps = self.gaps(q)[0] if np.isfinite(q).all() else self.gaps(self.home[None, :])[0]
         worst = int(np.argmax(gaps)) if len(gaps) else 0
         if not ok[0]:
+            # the least-squares gap: Gauss-Newton on to the closest the loop comes to closing
+            with np.errstate(all="ignore"):
+                q = self.home[None, :].copy()
+                for _ in range(LEAST_SQUARES_ITERATIONS):  # damped: halve the step until the gap shrinks
+                    h, jac = self.equations(q)
+                    step = _least_squares(jac[:, :, self.dependent], h[:, :, None])[:, :, 0]
+                    if not np.isfinite(step).all():
+                        break
+                    for _ in range(LEAST_SQUARES_HALVINGS):
+                        trial = q.copy()
+                        trial[:, self.dependent] -= step
+                        if float(np.sum(self._rows(trial).real ** 2)) < float(np.sum(h**2)):
+                            q = trial
+                            break
+                        step = 0.5 * step
+                    else:
+                        break
+            gaps = self.gaps(q)[0] if np.isfinite(q).all() else gaps
+            worst = int(np.argmax(gaps)) if len(gaps) else 0
             loop = self.loops[worst]
             raise ProblemFileError(
                 self.problem.path,
                 f"loops.{loop.name}",
-                f"the loop cannot close at home: its points stay {_mm(gaps[worst])} apart "
+                f"the loop cannot close at home: its points stay about {_mm(gaps[worst])} apart at best "
                 f"(check the lengths and the homes of the dependent coordinates, which pick the assembly branch)",
             )
         return q[0]
