@@ -177,6 +177,7 @@ def test_builder_makes_the_same_four_bar():
 BAD_LOOPS = {
     "loop_cannot_close_at_home.toml": ("loops.B", "the loop cannot close at home: its points stay about 4"),
     "loop_range_beyond_mobility.toml": ("loops.B", "cannot be assembled at theta2 = "),
+    "loop_singular_in_range.toml": ("loops.B", "the mechanism is singular at theta2 = 180."),
     "loop_dependent_with_range.toml": ("subsystems.fourbar.coordinates.theta3.range", "has no range of its own"),
     "loop_dependent_without_home.toml": ("subsystems.fourbar.coordinates.theta3.home", "picks the assembly branch"),
     "loop_independent_without_range.toml": ("subsystems.fourbar.coordinates.theta2.range", "missing required key"),

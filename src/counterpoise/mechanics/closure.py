@@ -279,8 +279,13 @@ class Closure:
         delta = qi - start
         steps = max(1, int(math.ceil(steps_per_range * float(np.abs(delta / span).max(initial=0.0)))))
         q = np.tile(self.home, (n_conf, 1))
-        tangent, _ = self.tangent(self.equations(self.home[None, :])[1])
+        jac_home = self.equations(self.home[None, :])[1]
+        tangent, _ = self.tangent(jac_home)
         tangent = np.repeat(tangent, n_conf, axis=0)
+        # orientation of ∂h/∂q_d, carried along: det(Pᵀ ∂h/∂q_d) > 0 with P the polar factor of the
+        # previous step's ∂h/∂q_d; it turns ≤ 0 when the path crosses a singular configuration
+        # between two steps (a change point, which the conditioning at the steps may not see)
+        polar = np.repeat(_polar(jac_home[:, :, self.dependent]), n_conf, axis=0)
         failed_at = np.full(n_conf, np.inf)
         singular_at = np.full(n_conf, np.inf)
         active = np.ones(n_conf, dtype=bool)
@@ -297,7 +302,11 @@ class Closure:
             new_tangent, new_cond = self.tangent(jac)
             tangent = np.where(active[:, None, None], new_tangent, tangent)
             cond = np.where(active, new_cond, cond)
-            bent = active & (new_cond < SINGULAR_CONDITIONING)
+            jd = jac[:, :, self.dependent]
+            with np.errstate(all="ignore"):
+                crossed = np.linalg.det(np.einsum("kmd,kme->kde", polar, jd)) <= 0
+            polar = np.where(active[:, None, None], _polar(jd), polar)
+            bent = active & ((new_cond < SINGULAR_CONDITIONING) | crossed)
             singular_at[bent] = np.minimum(singular_at[bent], t)
             if not active.any():
                 break
@@ -325,7 +334,7 @@ class Closure:
                 self.problem.path,
                 f"loops.{self.loops[0].name}",
                 f"the mechanism is singular at {where}: the loops do not determine the dependent coordinates there "
-                f"(conditioning below {SINGULAR_CONDITIONING:g}); narrow the ranges to keep away from it",
+                f"(the closure's Jacobian in them loses rank: a change point or a dead centre); narrow the ranges to keep away from it",
             )
         # the least-squares gap where the continuation stopped, from the last assembled configuration
         before = start + max(0.0, t - 1.0 / steps) * delta[k]
@@ -364,6 +373,13 @@ class Closure:
     def corners(self) -> np.ndarray:
         """Every corner of the box of independent ranges: (2^n_i, n_i)."""
         return np.array(list(itertools.product(*zip(self.lower, self.upper))), dtype=float).reshape(-1, len(self.independent))
+
+
+def _polar(a: np.ndarray) -> np.ndarray:
+    """The orthonormal polar factor U Vᵀ of each (m, n_d) matrix of ``a`` (N, m, n_d)."""
+    with np.errstate(all="ignore"):
+        u, _, vt = np.linalg.svd(np.nan_to_num(a), full_matrices=False)
+    return np.einsum("kmd,kde->kme", u, vt)
 
 
 def _least_squares(a: np.ndarray, b: np.ndarray) -> np.ndarray:
