@@ -59,9 +59,11 @@ NEWTON_ITERATIONS = 12
 STEPS_PER_RANGE = 32
 #: Before a configuration is declared impossible, its path is retried with this many times more steps.
 REFINE = 4
-#: The grid whose nodes start the Newton corrections of many configurations has about this
-#: many nodes (per axis: its n_i-th root, at least GRID_MIN_NODES).
-GRID_NODES = 4 * STEPS_PER_RANGE + 1
+#: The grid whose nodes start the Newton corrections of many configurations has at most about
+#: this many nodes (per axis: its n_i-th root, at least GRID_MIN_NODES, at most GRID_MAX_PER_AXIS:
+#: 129 for one independent coordinate, 34 for two, 10 for three).
+GRID_NODES = 1200
+GRID_MAX_PER_AXIS = 4 * STEPS_PER_RANGE + 1
 GRID_MIN_NODES = 5
 #: Above this many nodes (many independent coordinates) every configuration is continued from home instead.
 GRID_MAX_NODES = 20_000
@@ -258,7 +260,7 @@ class Closure:
         return ManifoldPoints(q, tangent, cond)
 
     def _per_axis(self) -> int:
-        return max(GRID_MIN_NODES, int(round(GRID_NODES ** (1.0 / max(len(self.independent), 1)))))
+        return max(GRID_MIN_NODES, min(GRID_MAX_PER_AXIS, int(GRID_NODES ** (1.0 / max(len(self.independent), 1)))))
 
     def grid(self) -> tuple[np.ndarray, ManifoldPoints]:
         """(nodes (G, n_i), their configurations): a grid over the box of independent
