@@ -70,6 +70,9 @@ GRID_MAX_NODES = 20_000
 #: A Newton correction from a grid node's prediction larger than this × the prediction's
 #: change is suspected of leaving the branch: that configuration is continued from home.
 BRANCH_CORRECTION = 0.5
+#: ... or than this (SI: rad, or m for a sliding dependent coordinate): a second-order
+#: correction where the tangent vanishes (a rocker at its extreme) is not a change of branch.
+BRANCH_FLOOR = 1e-3
 #: Singular values of ∂h/∂q_d below RANK_TOLERANCE × the largest are zero (redundant rows).
 RANK_TOLERANCE = 1e-9
 #: A configuration is singular when σ_min/σ_max of ∂h/∂q_d (its n_d largest singular
@@ -229,8 +232,8 @@ class Closure:
         Few configurations are continued from home (:meth:`continued`). Many are started
         from the nearest node of a grid over the box of ranges, itself continued from home,
         predicted along the node's tangent and corrected by Newton; a configuration whose
-        correction fails, or moves further than a grid step would, is continued from home
-        instead. Raises ProblemFileError naming the first configuration (nearest home along
+        correction fails, or moves further than half the prediction's change (and than
+        BRANCH_FLOOR), is continued from home instead. Raises ProblemFileError naming the first configuration (nearest home along
         its path) that cannot be assembled or is singular.
         """
         qi = np.atleast_2d(np.asarray(qi, dtype=float))
@@ -251,7 +254,7 @@ class Closure:
         # a correction as large as the prediction's whole change means Newton may have left the branch
         moved = np.abs(q[:, self.dependent] - guess).max(axis=1) if len(self.dependent) else np.zeros(qi.shape[0])
         predicted = np.abs(np.einsum("kdi,ki->kd", grid.tangent[flat], step)).max(axis=1) if len(self.dependent) else moved
-        ok &= moved <= BRANCH_CORRECTION * np.maximum(predicted, CLOSURE_TOLERANCE)
+        ok &= moved <= np.maximum(BRANCH_CORRECTION * predicted, BRANCH_FLOOR)
         tangent, cond = self.tangent(jac)
         ok &= cond >= SINGULAR_CONDITIONING
         if not ok.all():

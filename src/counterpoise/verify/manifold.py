@@ -60,22 +60,19 @@ class ManifoldResiduals:
     @property
     def q(self) -> np.ndarray:
         """Every coordinate of the subsystem at the checked configurations: (N, n)."""
-        assert self._points is not None  # set in __init__
-        return self._points.q
+        return self._points.q  # type: ignore[union-attr]  # set in __init__
 
     @property
     def conditioning(self) -> float:
         """Smallest σ_min/σ_max of ∂h/∂q_d over the checked configurations (1: far from singular)."""
-        assert self._points is not None
-        return float(self._points.conditioning.min(initial=1.0))
+        return float(self._points.conditioning.min(initial=1.0))  # type: ignore[union-attr]
 
     def evaluate(self, variables: Mapping[str, float], base: Mapping[str, float], gravity: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
         """(residual, gravity torque of the bodies alone) along the manifold: (N, n_i) each."""
         self._solve(base)
-        assert self._residuals is not None and self._points is not None
-        r, t = self._residuals.evaluate(variables, base, gravity)
+        r, t = self._residuals.evaluate(variables, base, gravity)  # type: ignore[union-attr]
         c = self._closure
-        tangent = self._points.tangent
+        tangent = self._points.tangent  # type: ignore[union-attr]
 
         def along(g: np.ndarray) -> np.ndarray:
             g = np.asarray(g)
