@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..mechanics import NUMPY_FUNCTIONS, Mechanics
+from ..mechanics.closure import closure
 from ..verify.residuals import residuals
 from ._mpl import pyplot, save
 
@@ -50,7 +51,8 @@ def energy_plot(result: "DesignResult", folder: str | Path) -> list[Path]:
     plt = pyplot()
     problem, solution = result.problem, result.solution
     paths = []
-    rows = [(sub, name) for sub in problem.subsystems for name in sub.coordinates]
+    # closed loops: only the independent coordinates are swept; the dependent ones follow on the manifold
+    rows = [(sub, name) for sub in problem.subsystems for name in sub.coordinates if not problem.coordinate[name].dependent]
     for scenario in problem.scenarios:
         gravity, base = solution.scenario_parameters[scenario.name]
         variables = solution.variable_values(scenario.name)
@@ -61,6 +63,13 @@ def energy_plot(result: "DesignResult", folder: str | Path) -> list[Path]:
             q = np.linspace(coord.lower, coord.upper, SAMPLES)
             coords = {c: np.full(SAMPLES, home[c]) for c in sub.coordinates}
             coords[name] = q
+            tangent = None
+            if problem.subsystem_loops(sub.name):
+                c = closure(problem, sub.name, base)
+                qi = np.column_stack([coords[c.names[i]] for i in c.independent])
+                points = c.solve(qi)
+                coords = {n: points.q[:, i] for i, n in enumerate(c.names)}
+                tangent = (c, points.tangent)
             bodies, grav, spring = _energies(problem, sub.name, coords, variables, base, gravity)
             x = coord.unit.from_si(q)
             xlabel = f"{name} [{coord.unit.label}]"
@@ -76,6 +85,12 @@ def energy_plot(result: "DesignResult", folder: str | Path) -> list[Path]:
             ax.grid(alpha=0.3)
             qmat = np.column_stack([coords[c] for c in sub.coordinates])
             res, torque = residuals(problem, sub.name, qmat, variables, base, gravity)
+            if tangent is not None:  # the generalized force along the manifold (docs/loops.md)
+                c, t = tangent
+                res = np.column_stack([np.asarray(res)[:, c.independent] + np.einsum("kdi,kd->ki", t, np.asarray(res)[:, c.dependent])] + [np.asarray(res)[:, c.dependent]])
+                torque = np.column_stack([np.asarray(torque)[:, c.independent] + np.einsum("kdi,kd->ki", t, np.asarray(torque)[:, c.dependent])] + [np.asarray(torque)[:, c.dependent]])
+                order = list(c.independent) + list(c.dependent)
+                res, torque = res[:, np.argsort(order)], torque[:, np.argsort(order)]
             j = sub.coordinates.index(name)
             unit = "N·m" if coord.unit.dimension == "" else "N"
             ax = axes[r, 1]
@@ -88,7 +103,8 @@ def energy_plot(result: "DesignResult", folder: str | Path) -> list[Path]:
         title = f"{problem.name}: {result.status.value}, added mass {solution.added_mass:.4g} kg"
         if len(problem.scenarios) > 1:
             title += f", scenario {scenario.name}"
-        fig.suptitle(title + "\n(other coordinates of each subsystem at home)", fontsize=11)
+        note = "other coordinates of each subsystem at home" + ("; closed loops: dependent coordinates on the manifold" if problem.loops else "")
+        fig.suptitle(title + f"\n({note})", fontsize=11)
         legend: dict[str, object] = {}
         for ax in axes.flat:
             for handle, label in zip(*ax.get_legend_handles_labels()):

@@ -10,7 +10,7 @@ from __future__ import annotations
 from ...errors import ProblemFileError, raise_errors
 from ...model.problem import Problem, Settings
 from ..schema import ProblemFile
-from . import mechanism, parts, payloads, quantities, report, robot, substitution
+from . import loops, mechanism, parts, payloads, quantities, report, robot, substitution
 from .context import REPORT_FUNCTIONS, RESERVED, Context
 
 __all__ = ["REPORT_FUNCTIONS", "RESERVED", "resolve"]
@@ -61,6 +61,7 @@ def _resolve(ctx: Context) -> Problem:
     frames = mechanism.frames(ctx, robot.frames(ctx, robot_model))
     quantities.check_angles(ctx, frames)
     by_name = {f.name: f for f in frames}
+    closures = loops.loops(ctx, by_name, coordinates)
     payload_bodies, payload_ranges = payloads.bodies(ctx, by_name)
     given_bodies = robot.bodies(ctx, robot_model, by_name) + mechanism.bodies(ctx, by_name)
     bodies, substitutions, substituted = substitution.substitutions(ctx, given_bodies + payload_bodies, by_name)
@@ -99,4 +100,5 @@ def _resolve(ctx: Context) -> Problem:
         payloads=payload_ranges,
         slots=slots,
         selection=selection,
+        loops=closures,
     )
