@@ -174,6 +174,38 @@ def test_appendix_b_attachment_on_the_line_through_the_com(approx, b):
 
 
 # --------------------------------------------------------------------------------------
+# Examples 1 and 2: loops opened at one joint (problems/spherical_5r.toml,
+# problems/bennett_double_spherical.toml; docs/seeds.md)
+# --------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("name", "heights"),
+    [
+        # h_i = m_i g/k, k = 200 N/m: 300, 250, 200, 150 g
+        ("spherical_5r", {"h1": 0.300, "h2": 0.250, "h3": 0.200, "h4": 0.150}),
+        # k = 100 N/m: m = 200 g for links 1, 2, 4, 5 and m' = 150 g for link 3 (H'2)
+        ("bennett_double_spherical", {"h1": 0.200, "h2": 0.200, "h3": 0.150, "h4": 0.200, "h5": 0.200}),
+    ],
+)
+def test_opened_loop_heights(approx, name, heights):
+    result = solved(name)
+    assert result.status.value == "optimal"
+    assert result.verification.residual_ratio <= 1e-9
+    k = {"spherical_5r": 200.0, "bennett_double_spherical": 100.0}[name]
+    for var, mass in heights.items():
+        assert value(result, var, "mm") == approx(1000 * mass * G / k)
+
+
+def test_5r_heights_are_independent_of_the_other_links():
+    """Eq. (18): one condition per spring; a heavier link 3 changes h3 alone."""
+    result = solved("spherical_5r", (("parameters.m3", "400 g"),))
+    assert value(result, "h3", "mm") == pytest.approx(1000 * 0.4 * G / 200, rel=1e-6)
+    assert value(result, "h2", "mm") == pytest.approx(1000 * 0.25 * G / 200, rel=1e-6)
+    assert result.solution.conditions == 4
+
+
+# --------------------------------------------------------------------------------------
 # Example 3, the Bennett plano-spherical linkage: problems/bennett_plano_spherical.toml
 # --------------------------------------------------------------------------------------
 
