@@ -64,12 +64,14 @@ def _coerce(value: str) -> object:
 
 def _load_all(files: list[Path], overrides: dict[str, str]) -> list:
     from ..io.loader import load_problem
+    from ..mechanics.closure import check_assembly
 
     problems, errors = [], []
     seen: dict[str, Path] = {}
     for path in files:
         try:
             problem = load_problem(path, overrides)
+            check_assembly(problem)  # closed loops: closes at home, assembles over the ranges (docs/loops.md)
         except ProblemFileError as exc:
             errors.append(str(exc))
             continue

@@ -15,6 +15,7 @@ import numpy as np
 from .assumptions import check_exact_conditions
 from .compression import NOISE_TOLERANCE, adaptive_compression, numerical_rank
 from .formulation import Block, Formulation
+from .manifold import manifold_conditions
 
 
 class BalanceConditions:
@@ -31,6 +32,12 @@ class BalanceConditions:
         #: (subsystem, scenario, number of independent conditions) of every block
         self.ranks: list[tuple[str, str, int]] = []
         for block in f.blocks:
+            if f.problem.subsystem_loops(block.subsystem):  # closed loops: conditions on the manifold
+                rank, rows = manifold_conditions(f, block, parameters, rng, self._random_designs)
+                self.ranks.append((block.subsystem, block.scenario, rank))
+                if rows is not None:
+                    stacked.append(rows)
+                continue
             coords = [f.problem.coordinate[n] for n in block.coordinates]
             lo = np.array([c.lower for c in coords])
             hi = np.array([c.upper for c in coords])
@@ -72,7 +79,7 @@ class BalanceConditions:
             return stacked
         return ca.mtimes(ca.DM(u[:, :rank].T), stacked)
 
-    def _random_designs(self, n: int, rng: np.random.Generator) -> np.ndarray:
+    def _random_designs(self, n: int, rng: np.random.Generator) -> np.ndarray:  # noqa: D401
         """``n`` scaled designs drawn uniformly in the bounds: (n, number of slots)."""
         d = self.formulation.design
         return d.to_z(d.lower + (d.upper - d.lower) * rng.random((n, len(d))))

@@ -87,15 +87,20 @@ class ProblemBuilder:
         description: str = "",
         homes: Mapping[str, Value] | None = None,
         coupled: Mapping[str, Value] | None = None,
+        dependent: Mapping[str, Value] | None = None,
         **coordinates: tuple[Value, Value],
     ) -> "ProblemBuilder":
         """A subsystem and its coordinates as ``name=(lower, upper)`` ranges (``homes`` optional;
-        ``coupled`` names expressions of the coordinates, e.g. ``{"psi": "-theta"}``)."""
+        ``coupled`` names expressions of the coordinates, e.g. ``{"psi": "-theta"}``;
+        ``dependent`` maps coordinates solved from the loop closures to their homes, which
+        pick the assembly branch, e.g. ``{"theta3": "56 deg"}``, see :meth:`loop`)."""
         coords: dict[str, Any] = {}
         for cname, (lo, hi) in coordinates.items():
             coords[cname] = {"range": [lo, hi]}
             if homes and cname in homes:
                 coords[cname]["home"] = homes[cname]
+        for cname, home in (dependent or {}).items():
+            coords[cname] = {"dependent": True, "home": home}
         entry: dict[str, Any] = {"coordinates": coords}
         if coupled:
             entry["coupled"] = dict(coupled)
@@ -105,6 +110,23 @@ class ProblemBuilder:
         """A frame: ``parent`` and transforms made with :func:`rotate` and :func:`translate`."""
         entry = {"parent": parent, "transforms": [dict(t) for t in transforms]}
         return self._put("frames", name, self._described(entry, description))
+
+    def loop(
+        self,
+        name: str,
+        joint: str,
+        a: tuple[str, Vec3],
+        b: tuple[str, Vec3],
+        axis: Vec3 | None = None,
+        description: str = "",
+    ) -> "ProblemBuilder":
+        """The joint ``name`` where a closed loop was opened: ``joint`` is ``"revolute"`` (give
+        its ``axis`` in frame a's coordinates) or ``"spherical"``; ``a`` and ``b`` are
+        ``(frame, point)`` of the two points it keeps together (see docs/loops.md)."""
+        entry: dict[str, Any] = {"joint": joint, "a": {"frame": a[0], "point": list(a[1])}, "b": {"frame": b[0], "point": list(b[1])}}
+        if axis is not None:
+            entry["axis"] = list(axis)
+        return self._put("loops", name, self._described(entry, description))
 
     def body(self, name: str, frame: str, mass: Value, com: Vec3, description: str = "") -> "ProblemBuilder":
         return self._put("bodies", name, self._described({"frame": frame, "mass": mass, "com": list(com)}, description))

@@ -86,8 +86,10 @@ ParameterEntry = Annotated[
 
 
 class CoordinateSpec(_Table):
-    range: tuple[Value, Value]
+    range: tuple[Value, Value] | None = None  # required unless dependent
     home: Value | None = None
+    #: solved from the loop closures ([loops]); its home picks the assembly branch
+    dependent: bool = False
     description: str = ""
 
 
@@ -185,6 +187,17 @@ class SubstitutionSpec(_Table):
     points: Annotated[dict[Name, SubstitutionPointSpec], Field(min_length=1)]
 
 
+class LoopSpec(_Table):
+    """A closed loop, opened at one joint: the two points that the joint keeps together
+    (and, for a revolute joint, its axis in frame a's coordinates). See docs/loops.md."""
+
+    joint: Literal["revolute", "spherical"]
+    a: PointSpec
+    b: PointSpec
+    axis: Vec3 | None = None
+    description: str = ""
+
+
 class VariableSpec(_Table):
     lower: Value
     upper: Value
@@ -275,6 +288,7 @@ class ProblemFile(_Table):
     counter_masses: dict[Name, CounterMassSpec] = Field(default_factory=dict)
     springs: dict[Name, SpringSpec] = Field(default_factory=dict)
     substitutions: dict[Name, SubstitutionSpec] = Field(default_factory=dict)
+    loops: dict[Name, LoopSpec] = Field(default_factory=dict)
     variables: dict[Name, VariableSpec] = Field(default_factory=dict)
     objective: ObjectiveEntry = Field(default_factory=ObjectiveSpec)
     report: dict[Name, ReportSpec] = Field(default_factory=dict)

@@ -29,6 +29,9 @@ class Coordinate:
     home: float  # reference configuration for report quantities (default: mid-range)
     unit: DisplayUnit
     description: str = ""
+    #: solved from the subsystem's loop closures (counterpoise.model.loops); its range is
+    #: its home (it has none of its own) and its home picks the assembly branch
+    dependent: bool = False
 
 
 @dataclass(frozen=True)

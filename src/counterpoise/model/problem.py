@@ -14,6 +14,7 @@ from functools import cached_property
 
 from .elements import CounterMass, ZeroFreeLengthSpring
 from .expr import Expr
+from .loops import Loop
 from .mechanism import Body, Coordinate, Frame, Subsystem
 from .substitution import Substitution
 from .payload import MIN_ADDED, Payload
@@ -163,6 +164,7 @@ class Problem:
     payloads: tuple[Payload, ...] = ()
     slots: tuple[SpringSlot, ...] = ()  # catalogue slots (their names are base parameters: the rates)
     selection: SelectionSettings = field(default_factory=SelectionSettings)
+    loops: tuple[Loop, ...] = ()  # closures of closed chains (counterpoise.model.loops)
 
     @cached_property
     def frame(self) -> Mapping[str, Frame]:
@@ -189,3 +191,7 @@ class Problem:
 
     def subsystem_coordinates(self, subsystem: str) -> tuple[Coordinate, ...]:
         return tuple(c for c in self.coordinates if c.subsystem == subsystem)
+
+    def subsystem_loops(self, subsystem: str) -> tuple[Loop, ...]:
+        """The loops closed by ``subsystem``'s coordinates (empty: an open chain)."""
+        return tuple(loop for loop in self.loops if loop.subsystem == subsystem)

@@ -14,6 +14,7 @@ import numpy as np
 
 from ..model.problem import Problem
 from .checks import PRISMATIC, REVOLUTE, CoordinateCheck, Verification
+from .manifold import ManifoldResiduals
 from .residuals import SubsystemResiduals, configurations, energy_scale
 
 #: Residual evaluators of the problems checked last (a study verifies one problem many times).
@@ -50,6 +51,9 @@ def evaluators(solution: "Solution", samples: int | None = None, seed: int | Non
         found = []
         for scenario in problem.scenarios:
             for sub in problem.subsystems:
+                if problem.subsystem_loops(sub.name):  # closed loops: on the configuration manifold
+                    found.append((scenario.name, sub.name, ManifoldResiduals(problem, sub.name, n, rng, scenario.name)))  # type: ignore[arg-type]
+                    continue
                 q = configurations(problem, sub.name, n, rng)
                 found.append((scenario.name, sub.name, SubsystemResiduals(problem, sub.name, q)))
         entry[1][(n, seed)] = found
@@ -62,9 +66,9 @@ def verify(solution: "Solution", samples: int | None = None, seed: int | None = 
     checks = []
     for scenario, subsystem, evaluator in evaluators(solution, samples, seed):
         variables = solution.variable_values(scenario)
-        q = evaluator.q
         gravity, base = solution.scenario_parameters[scenario]
         r, t = evaluator.evaluate(variables, base, gravity)
+        q = evaluator.q  # after evaluate: a manifold is solved again when the geometry changed
         # column by column: r and t are transposed views, and a column is contiguous
         columns = [np.abs(r[:, j]) for j in range(r.shape[1])]
         residual = np.array([c.max() for c in columns])  # NaN if any is NaN

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from ...model.problem import Problem, Settings
 from ..schema import ProblemFile
-from . import mechanism, parts, payloads, quantities, report, substitution
+from . import loops, mechanism, parts, payloads, quantities, report, substitution
 from .context import REPORT_FUNCTIONS, RESERVED, Context
 
 __all__ = ["REPORT_FUNCTIONS", "RESERVED", "resolve"]
@@ -37,6 +37,7 @@ def resolve(spec: ProblemFile, label: str) -> Problem:
     subsystems, coordinates = mechanism.subsystems(ctx)
     frames = mechanism.frames(ctx)
     by_name = {f.name: f for f in frames}
+    closures = loops.loops(ctx, by_name, coordinates)
     payload_bodies, payload_ranges = payloads.bodies(ctx, by_name)
     bodies, substitutions, substituted = substitution.substitutions(ctx, mechanism.bodies(ctx, by_name) + payload_bodies, by_name)
     counter_masses = mechanism.counter_masses(ctx, by_name)
@@ -74,4 +75,5 @@ def resolve(spec: ProblemFile, label: str) -> Problem:
         payloads=payload_ranges,
         slots=slots,
         selection=selection,
+        loops=closures,
     )

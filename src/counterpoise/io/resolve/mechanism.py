@@ -19,6 +19,7 @@ from ...model.units import (
     dimension_name,
 )
 from ..schema import DHSpec, RotateSpec
+from . import loops
 from .context import RESERVED, Context, suggest, topological
 
 
@@ -27,6 +28,9 @@ def subsystems(ctx: Context) -> tuple[tuple[Subsystem, ...], tuple[Coordinate, .
     for sname, sub in ctx.spec.subsystems.items():
         for cname, c in sub.coordinates.items():
             key = f"subsystems.{sname}.coordinates.{cname}"
+            if c.dependent or c.range is None:
+                coords.append(loops.dependent_coordinate(ctx, sname, cname, c, key))
+                continue
             lo = ctx.literal(c.range[0], f"{key}.range")
             hi = ctx.literal(c.range[1], f"{key}.range")
             if lo.dimension != hi.dimension:

@@ -1,0 +1,70 @@
+"""Balance conditions on the configuration manifold of a subsystem with closed loops.
+
+On the manifold h(q_i, q_d) = 0 (:mod:`counterpoise.mechanics.closure`) the generalized
+force along the independent coordinates is V's gradient through the implicit function
+theorem:
+
+    r_i = ∂V/∂q_i + (dq_d/dq_i)ᵀ ∂V/∂q_d,     dq_d/dq_i = −(∂h/∂q_d)⁺ ∂h/∂q_i.
+
+Sampled on manifold points (solved at the formulation's parameter values) and random
+designs, the stacked r has a numerical rank; :func:`manifold_conditions` keeps that many
+rows, exactly as :mod:`.conditions` does for open chains (:mod:`.compression`), and hands
+them to the designer as equalities g(z, p) = 0 with the same interface. What this
+guarantees, and what it does not, is written in docs/loops.md: the rows are exact at their
+points; that they stand for the whole manifold rests on the rank having saturated, which
+the dense check of :mod:`counterpoise.verify.manifold` tests independently.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from ..mechanics.closure import closure
+from .compression import NOISE_TOLERANCE, adaptive_compression
+
+
+def manifold_conditions(
+    formulation: Any,
+    block: Any,
+    parameters: np.ndarray,
+    rng: np.random.Generator,
+    random_designs: Callable[[int, np.random.Generator], np.ndarray],
+) -> tuple[int, Any]:
+    """(rank, CasADi column of equalities or None) of one (subsystem, scenario) block."""
+    import casadi as ca
+
+    from .conditions import _coordinate_weights, _largest, _sample_residuals
+
+    f = formulation
+    _, base = f.parameters.scenario_values(parameters)[block.scenario]
+    c = closure(f.problem, block.subsystem, base)
+    ind, dep = c.independent, c.dependent
+    n, n_i = len(c.names), len(ind)
+
+    def sample(n_conf: int, n_design: int) -> tuple[np.ndarray, Any, float]:
+        qi = c.lower + (c.upper - c.lower) * rng.random((n_conf, n_i))
+        points = c.solve(qi)
+        z = random_designs(n_design, rng)
+        full = _sample_residuals(block.residual, points.q, z, parameters).reshape(n_conf, n, n_design)
+        values = (full[:, ind, :] + np.einsum("kdi,kdj->kij", points.tangent, full[:, dep, :])).reshape(n_conf * n_i, n_design)
+        noise = NOISE_TOLERANCE * _largest(block.magnitude, points.q, z, parameters)
+        weights = _coordinate_weights(values, n_i, noise)
+        return values * np.tile(weights, n_conf)[:, None], (points, weights), 0.0
+
+    start_designs = max(32, 2 * (len(f.design) + 1) + 8)
+    comp, (points, weights) = adaptive_compression(sample, start_configurations=16 + 8 * n_i, start_designs=start_designs)
+    if not comp.rank:
+        return 0, None
+    rows = []
+    at: dict[int, Any] = {}
+    for r in comp.rows:
+        k, j = int(r) // n_i, int(r) % n_i
+        if k not in at:
+            at[k] = block.residual(points.q[k], f.z, f.p)
+        g = at[k]
+        along = g[int(ind[j])] + sum(float(points.tangent[k, d, j]) * g[int(dep[d])] for d in range(len(dep)))
+        rows.append(along * float(weights[j]))
+    return comp.rank, ca.mtimes(ca.DM(comp.matrix), ca.vertcat(*rows))

@@ -1,0 +1,450 @@
+"""Loop closure: the configuration manifold of a subsystem with closed loops.
+
+For a subsystem whose coordinates split into independent ones q_i (with ranges) and
+dependent ones q_d (solved), the closure equations of its loops (:mod:`counterpoise.model.loops`)
+
+    h(q_i, q_d) = 0        (3 rows per loop: the joint's two points coincide;
+                            3 more for a revolute joint: its axis keeps its home direction in frame b)
+
+define the configuration manifold. :class:`Closure` builds h and its Jacobian once (CasADi,
+at one scenario's parameter values) and solves it for many configurations at once:
+
+- **Newton with a rank-revealing pseudo-inverse**: Δq_d = −(∂h/∂q_d)⁺ h. Redundant rows (a
+  planar loop's out-of-plane rows, identically zero) only add zero singular values, which
+  the pseudo-inverse drops; nobody has to remove equations.
+- **Continuation from home**: every configuration is reached along the straight segment
+  from the home configuration in q_i, in small steps, each predicted along the tangent
+  dq_d/dq_i and corrected by Newton. Steps are small against the ranges
+  (:data:`STEPS_PER_RANGE`), so the solution stays on the assembly branch of home.
+- **Input errors**: a loop that does not close at home, a configuration of the ranges that
+  cannot be assembled (the first one met from home is named), and a singular configuration
+  (∂h/∂q_d loses rank: the dependent coordinates are not determined there, and the generalized
+  force along the manifold is not defined) are :class:`ProblemFileError` naming the loop.
+- **Tangent**: dq_d/dq_i = −(∂h/∂q_d)⁺ ∂h/∂q_i (implicit function theorem), used for the
+  residual along the manifold (:mod:`counterpoise.formulation.manifold`,
+  :mod:`counterpoise.verify.manifold`).
+
+Scaling: point rows are divided by the loop's size (the largest distance of a frame origin
+or a loop point from the ground origin at home), so every row is dimensionless and
+:data:`CLOSURE_TOLERANCE` is relative.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..errors import ProblemFileError
+from ..model.loops import REVOLUTE_JOINT
+from ..model.mechanism import GROUND
+from ..model.problem import Problem
+from .energy import Mechanics
+from .kinematics import matvec, sub
+
+#: Largest scaled closure gap (gap / loop size; axis rows as is) of an assembled configuration.
+CLOSURE_TOLERANCE = 1e-11
+#: Gauss-Newton iterations that measure the gap of a loop that cannot close at home.
+LEAST_SQUARES_ITERATIONS = 200
+LEAST_SQUARES_HALVINGS = 40
+#: Complex step of the closure Jacobian (exact to rounding; no subtractive cancellation).
+COMPLEX_STEP = 1e-30
+#: Newton corrections per continuation step (each converges quadratically from the predictor).
+NEWTON_ITERATIONS = 12
+#: Continuation steps over a path as long as the whole range of a coordinate (fewer for shorter paths).
+STEPS_PER_RANGE = 32
+#: Before a configuration is declared impossible, its path is retried with this many times more steps.
+REFINE = 4
+#: The grid whose nodes start the Newton corrections of many configurations has about this
+#: many nodes (per axis: its n_i-th root, at least GRID_MIN_NODES).
+GRID_NODES = 4 * STEPS_PER_RANGE + 1
+GRID_MIN_NODES = 5
+#: A Newton correction from a grid node's prediction larger than this × the prediction's
+#: change is suspected of leaving the branch: that configuration is continued from home.
+BRANCH_CORRECTION = 0.5
+#: Singular values of ∂h/∂q_d below RANK_TOLERANCE × the largest are zero (redundant rows).
+RANK_TOLERANCE = 1e-9
+#: A configuration is singular when σ_min/σ_max of ∂h/∂q_d (its n_d largest singular
+#: values) is below this: the dependent coordinates are (nearly) undetermined there.
+SINGULAR_CONDITIONING = 1e-6
+#: Continuation steps of the assembly check on each edge of the box of ranges.
+CHECK_STEPS = STEPS_PER_RANGE
+#: Loop sizes below this (m) are taken as this (a loop of zero size still gets a scale).
+MIN_SIZE = 1e-6
+
+
+@dataclass(frozen=True)
+class ManifoldPoints:
+    """Configurations on the manifold.
+
+    ``q``: every coordinate of the subsystem (its order), (N, n); ``tangent``: dq_d/dq_i,
+    (N, n_d, n_i); ``conditioning``: σ_min/σ_max of ∂h/∂q_d, (N,).
+    """
+
+    q: np.ndarray
+    tangent: np.ndarray
+    conditioning: np.ndarray
+
+
+class Closure:
+    """The closure equations of one subsystem at fixed base-parameter values (SI)."""
+
+    def __init__(self, problem: Problem, subsystem: str, base: Mapping[str, float]) -> None:
+        self.problem = problem
+        self.subsystem = subsystem
+        self.base = dict(base)
+        self.loops = problem.subsystem_loops(subsystem)
+        coords = problem.subsystem_coordinates(subsystem)
+        self.names = [c.name for c in coords]
+        self.independent = np.array([i for i, c in enumerate(coords) if not c.dependent], dtype=int)
+        self.dependent = np.array([i for i, c in enumerate(coords) if c.dependent], dtype=int)
+        self.lower = np.array([coords[i].lower for i in self.independent])
+        self.upper = np.array([coords[i].upper for i in self.independent])
+        self.home = np.array([c.home for c in coords])
+        self.size = max(MIN_SIZE, _size(self._mechanics(self.home[None, :]), self.loops))
+        self.axis_b: dict[str, np.ndarray] = {}  # revolute axes in frame b, taken at home
+        self.m = 3 * len(self.loops)
+        # the home configuration, from the file's homes: positions first (axes in frame b are taken there)
+        self.home = self._home()
+        mech = self._mechanics(self.home[None, :])
+        for loop in self.loops:
+            if loop.joint == REVOLUTE_JOINT:
+                ra, _ = mech.pose(loop.a.frame)
+                rb, _ = mech.pose(loop.b.frame)
+                world = np.array([np.ravel(v)[0] for v in matvec(ra, mech.vector(loop.axis))], dtype=float)  # type: ignore[arg-type]
+                rb_home = np.array([[np.ravel(rb[r][c])[0] for c in range(3)] for r in range(3)], dtype=float)
+                self.axis_b[loop.name] = rb_home.T @ world
+        self.m = sum(3 + (3 if loop.name in self.axis_b else 0) for loop in self.loops)
+
+    # -- equations -------------------------------------------------------------------
+    def _mechanics(self, q: Any) -> Mechanics:
+        return Mechanics(self.problem, self.base, {}, {name: q[:, i] for i, name in enumerate(self.names)}, [0.0, 0.0, 0.0])
+
+    def _rows(self, q: Any) -> Any:
+        """h at configurations q (N, n), real or complex: (N, m)."""
+        mech = self._mechanics(q)
+        rows = []
+        for loop in self.loops:
+            gap = sub(mech.position(loop.a), mech.position(loop.b))
+            rows += [np.broadcast_to(g, (q.shape[0],)) / self.size for g in gap]
+            if loop.name in self.axis_b:
+                ra, _ = mech.pose(loop.a.frame)
+                rb, _ = mech.pose(loop.b.frame)
+                rows += [np.broadcast_to(v, (q.shape[0],)) for v in sub(matvec(ra, mech.vector(loop.axis)), matvec(rb, list(self.axis_b[loop.name])))]  # type: ignore[arg-type]
+        return np.stack(rows, axis=1)
+
+    def equations(self, q: np.ndarray, columns: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """h (N, m) and ∂h/∂q (N, m, n) at configurations q (N, n), by complex step (only
+        the ``columns`` given are filled; all by default)."""
+        n_conf, n = q.shape
+        h = self._rows(q).real
+        jac = np.zeros((n_conf, h.shape[1], n))
+        for j in range(n) if columns is None else columns:
+            qc = q.astype(complex)
+            qc[:, j] += 1j * COMPLEX_STEP
+            jac[:, :, j] = self._rows(qc).imag / COMPLEX_STEP
+        return h, jac
+
+    def gaps(self, q: np.ndarray) -> np.ndarray:
+        """Distance (m) between the two points of each loop: (N, number of loops)."""
+        mech = self._mechanics(q)
+        out = [np.linalg.norm(np.stack([np.broadcast_to(g, (q.shape[0],)) for g in sub(mech.position(loop.a), mech.position(loop.b))], axis=1), axis=1) for loop in self.loops]
+        return np.stack(out, axis=1)
+
+    # -- solving ---------------------------------------------------------------------
+    def _newton(self, q: np.ndarray, active: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Newton on q_d for the rows ``active``; returns (q, converged, last Jacobian)."""
+        d = self.dependent
+        done = np.zeros(q.shape[0], dtype=bool)
+        jac = np.zeros((q.shape[0], self.m, q.shape[1]))
+        with np.errstate(all="ignore"):
+            for _ in range(NEWTON_ITERATIONS + 1):
+                h, jac = self.equations(q)
+                err = np.abs(h).max(axis=1) if self.m else np.zeros(q.shape[0])
+                done = (err <= CLOSURE_TOLERANCE) | ~active
+                if done.all():
+                    break
+                step = _least_squares(jac[:, :, d], h[:, :, None])[:, :, 0]
+                q[:, d] -= np.where(done[:, None], 0.0, step)
+        bad = ~np.isfinite(q).all(axis=1)
+        q[bad] = self.home
+        return q, done & ~bad, jac
+
+    def _home(self) -> np.ndarray:
+        q = self.home[None, :].copy()
+        q, ok, jac = self._newton(q, np.ones(1, dtype=bool))
+        gaps = self.gaps(q)[0] if np.isfinite(q).all() else self.gaps(self.home[None, :])[0]
+        worst = int(np.argmax(gaps)) if len(gaps) else 0
+        if not ok[0]:
+            # the least-squares gap: Gauss-Newton on to the closest the loop comes to closing
+            with np.errstate(all="ignore"):
+                q = self.home[None, :].copy()
+                for _ in range(LEAST_SQUARES_ITERATIONS):  # damped: halve the step until the gap shrinks
+                    h, jac = self.equations(q)
+                    step = _least_squares(jac[:, :, self.dependent], h[:, :, None])[:, :, 0]
+                    if not np.isfinite(step).all():
+                        break
+                    for _ in range(LEAST_SQUARES_HALVINGS):
+                        trial = q.copy()
+                        trial[:, self.dependent] -= step
+                        if float(np.sum(self._rows(trial).real ** 2)) < float(np.sum(h**2)):
+                            q = trial
+                            break
+                        step = 0.5 * step
+                    else:
+                        break
+            gaps = self.gaps(q)[0] if np.isfinite(q).all() else gaps
+            worst = int(np.argmax(gaps)) if len(gaps) else 0
+            loop = self.loops[worst]
+            raise ProblemFileError(
+                self.problem.path,
+                f"loops.{loop.name}",
+                f"the loop cannot close at home: its points stay about {_mm(gaps[worst])} apart at best "
+                f"(check the lengths and the homes of the dependent coordinates, which pick the assembly branch)",
+            )
+        return q[0]
+
+    def tangent(self, jac: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(dq_d/dq_i (N, n_d, n_i), conditioning (N,)) from ∂h/∂q (N, m, n)."""
+        jd = jac[:, :, self.dependent]
+        with np.errstate(all="ignore"):
+            normal = np.einsum("kmd,kme->kde", jd, jd)
+            eig = np.linalg.eigvalsh(normal)
+            cond = np.sqrt(np.clip(eig[:, 0], 0.0, None) / np.where(eig[:, -1] > 0, eig[:, -1], np.inf))
+            tangent = -_least_squares(jd, jac[:, :, self.independent])
+        return np.nan_to_num(tangent), cond
+
+    def solve(self, qi: np.ndarray) -> ManifoldPoints:
+        """Configurations with independent coordinates ``qi`` (N, n_i) on the branch of home.
+
+        Few configurations are continued from home (:meth:`continued`). Many are started
+        from the nearest node of a grid over the box of ranges, itself continued from home,
+        predicted along the node's tangent and corrected by Newton; a configuration whose
+        correction fails, or moves further than a grid step would, is continued from home
+        instead. Raises ProblemFileError naming the first configuration (nearest home along
+        its path) that cannot be assembled or is singular.
+        """
+        qi = np.atleast_2d(np.asarray(qi, dtype=float))
+        n_i = len(self.independent)
+        per_axis = max(GRID_MIN_NODES, int(GRID_NODES ** (1.0 / max(n_i, 1))))
+        if qi.shape[0] <= per_axis**n_i:
+            return self.continued(qi)
+        axes = [np.linspace(lo, hi, per_axis) for lo, hi in zip(self.lower, self.upper)]
+        nodes = np.array(list(itertools.product(*axes)), dtype=float).reshape(-1, n_i)
+        grid = self.continued(nodes)
+        spacing = np.where(self.upper > self.lower, (self.upper - self.lower) / (per_axis - 1), 1.0)
+        index = np.clip(np.rint((qi - self.lower) / spacing).astype(int), 0, per_axis - 1)
+        flat = np.ravel_multi_index(tuple(index.T), (per_axis,) * n_i)
+        q = grid.q[flat].copy()
+        step = qi - nodes[flat]
+        q[:, self.independent] = qi
+        guess = q[:, self.dependent] + np.einsum("kdi,ki->kd", grid.tangent[flat], step)
+        q[:, self.dependent] = guess
+        q, ok, jac = self._newton(q, np.ones(qi.shape[0], dtype=bool))
+        # a correction as large as the prediction's whole change means Newton may have left the branch
+        moved = np.abs(q[:, self.dependent] - guess).max(axis=1) if len(self.dependent) else np.zeros(qi.shape[0])
+        predicted = np.abs(np.einsum("kdi,ki->kd", grid.tangent[flat], step)).max(axis=1) if len(self.dependent) else moved
+        ok &= moved <= BRANCH_CORRECTION * np.maximum(predicted, CLOSURE_TOLERANCE)
+        tangent, cond = self.tangent(jac)
+        ok &= cond >= SINGULAR_CONDITIONING
+        if not ok.all():
+            redo = self.continued(qi[~ok])
+            q[~ok], tangent[~ok], cond[~ok] = redo.q, redo.tangent, redo.conditioning
+        return ManifoldPoints(q, tangent, cond)
+
+    def continued(self, qi: np.ndarray, steps_per_range: int = STEPS_PER_RANGE) -> ManifoldPoints:
+        """Configurations ``qi`` (N, n_i), each continued along the segment from home."""
+        qi = np.atleast_2d(np.asarray(qi, dtype=float))
+        n_conf = qi.shape[0]
+        span = np.where(self.upper > self.lower, self.upper - self.lower, 1.0)
+        start = self.home[self.independent]
+        delta = qi - start
+        steps = max(1, int(math.ceil(steps_per_range * float(np.abs(delta / span).max(initial=0.0)))))
+        q = np.tile(self.home, (n_conf, 1))
+        tangent, _ = self.tangent(self.equations(self.home[None, :])[1])
+        tangent = np.repeat(tangent, n_conf, axis=0)
+        failed_at = np.full(n_conf, np.inf)
+        singular_at = np.full(n_conf, np.inf)
+        active = np.ones(n_conf, dtype=bool)
+        cond = np.ones(n_conf)
+        for s in range(1, steps + 1):
+            t = s / steps
+            step = delta / steps
+            q[:, self.independent] = np.where(active[:, None], start + t * delta, q[:, self.independent])
+            q[:, self.dependent] += np.where(active[:, None], np.einsum("kdi,ki->kd", tangent, step), 0.0)
+            q, ok, jac = self._newton(q, active)
+            lost = active & ~ok
+            failed_at[lost] = t
+            active &= ok
+            new_tangent, new_cond = self.tangent(jac)
+            tangent = np.where(active[:, None, None], new_tangent, tangent)
+            cond = np.where(active, new_cond, cond)
+            bent = active & (new_cond < SINGULAR_CONDITIONING)
+            singular_at[bent] = np.minimum(singular_at[bent], t)
+            if not active.any():
+                break
+        lost = np.isfinite(failed_at) | np.isfinite(singular_at)
+        if lost.any() and steps_per_range == STEPS_PER_RANGE:
+            redo = self.continued(qi[lost], STEPS_PER_RANGE * REFINE)  # raises if the finer path fails too
+            q[lost], tangent[lost], cond[lost] = redo.q, redo.tangent, redo.conditioning
+        elif lost.any():
+            self._raise(start, delta, failed_at, singular_at, steps)
+        return ManifoldPoints(q, tangent, cond)
+
+    def _raise(self, start: np.ndarray, delta: np.ndarray, failed_at: np.ndarray, singular_at: np.ndarray, steps: int) -> None:
+        """The input error for the configuration nearest home (in range fractions) that failed."""
+        span = np.where(self.upper > self.lower, self.upper - self.lower, 1.0)
+        length = np.abs(delta / span).max(axis=1)
+        fail_dist = np.where(np.isfinite(failed_at), failed_at * length, np.inf)
+        sing_dist = np.where(np.isfinite(singular_at), singular_at * length, np.inf)
+        singular = sing_dist.min() <= fail_dist.min()
+        k = int(np.argmin(sing_dist if singular else fail_dist))
+        t = singular_at[k] if singular else failed_at[k]
+        qi = start + t * delta[k]
+        where = self.describe(qi)
+        if singular:
+            raise ProblemFileError(
+                self.problem.path,
+                f"loops.{self.loops[0].name}",
+                f"the mechanism is singular at {where}: the loops do not determine the dependent coordinates there "
+                f"(conditioning below {SINGULAR_CONDITIONING:g}); narrow the ranges to keep away from it",
+            )
+        # the least-squares gap where the continuation stopped, from the last assembled configuration
+        before = start + max(0.0, t - 1.0 / steps) * delta[k]
+        q = self.solve_from(before, qi)
+        gaps = self.gaps(q[None, :])[0]
+        worst = int(np.argmax(gaps))
+        raise ProblemFileError(
+            self.problem.path,
+            f"loops.{self.loops[worst].name}",
+            f"the loop cannot be assembled at {where} (closure gap {_mm(gaps[worst])}): "
+            f"the ranges go beyond the mechanism's mobility on the branch of home",
+        )
+
+    def solve_from(self, before: np.ndarray, qi: np.ndarray) -> np.ndarray:
+        """Least-squares closure at ``qi`` from the configuration solved at ``before`` (no error)."""
+        old = np.seterr(all="ignore")
+        try:
+            q = np.tile(self.home, (1, 1))
+            q[0, self.independent] = before
+            q, *_ = self._newton(q, np.ones(1, dtype=bool))
+            q[0, self.independent] = qi
+            q, *_ = self._newton(q, np.ones(1, dtype=bool))
+        finally:
+            np.seterr(**old)
+        return q[0]
+
+    def describe(self, qi: np.ndarray) -> str:
+        """'theta2 = 190 deg' (the independent coordinates, in their units)."""
+        coords = self.problem.subsystem_coordinates(self.subsystem)
+        parts = []
+        for j, i in enumerate(self.independent):
+            c = coords[i]
+            parts.append(f"{c.name} = {c.unit.from_si(float(qi[j])):.6g} {c.unit.symbol}".rstrip())
+        return ", ".join(parts)
+
+    def corners(self) -> np.ndarray:
+        """Every corner of the box of independent ranges: (2^n_i, n_i)."""
+        return np.array(list(itertools.product(*zip(self.lower, self.upper))), dtype=float).reshape(-1, len(self.independent))
+
+
+def _least_squares(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Batched least-squares solutions x of a x = b, (N, m, n) and (N, m, k) -> (N, n, k).
+
+    Through the normal equations (n × n, n = number of dependent coordinates): redundant
+    rows of a (identically zero ones, or repeats) change nothing, and a configuration where
+    a loses rank is caught by the conditioning test before its tangent is used. A tiny
+    multiple of the trace keeps an exactly singular matrix solvable (the step is then checked).
+    """
+    normal = np.einsum("kmd,kme->kde", a, a)
+    ridge = RANK_TOLERANCE**2 * np.trace(normal, axis1=1, axis2=2)[:, None, None] * np.eye(a.shape[2])
+    return np.linalg.solve(normal + ridge, np.einsum("kmd,kmj->kdj", a, b))
+
+
+def _size(mech: Mechanics, loops: Sequence[Any]) -> float:
+    """The loop's size: the largest distance of a loop point or of a frame origin on the way from ground."""
+    size = 0.0
+    for loop in loops:
+        for point in (loop.a, loop.b):
+            size = max(size, _norm(mech.position(point)))
+            frame = point.frame
+            while frame is not None and frame != GROUND:
+                size = max(size, _norm(mech.pose(frame)[1]))
+                frame = mech.problem.frame[frame].parent
+    return size
+
+
+def _norm(v: Sequence[Any]) -> float:
+    """|v| of a vector whose entries are numbers or one-element arrays."""
+    return float(np.sqrt(sum(float(np.ravel(c)[0]) ** 2 for c in v)))
+
+
+def _mm(metres: float) -> str:
+    return f"{metres * 1e3:.4g} mm"
+
+
+_CACHE: dict[tuple[int, str, tuple[tuple[str, float], ...]], Closure] = {}
+_CACHE_SIZE = 16
+
+
+def closure(problem: Problem, subsystem: str, base: Mapping[str, float]) -> Closure:
+    """The :class:`Closure` of ``subsystem`` at these base parameters (built once per values)."""
+    key = (id(problem), subsystem, tuple((p.name, float(base[p.name])) for p in problem.base_parameters if p.name in base))
+    found = _CACHE.get(key)
+    if found is None or found.problem is not problem:
+        if len(_CACHE) >= _CACHE_SIZE:
+            _CACHE.pop(next(iter(_CACHE)))
+        found = _CACHE[key] = Closure(problem, subsystem, base)
+    return found
+
+
+def check_assembly(problem: Problem) -> None:
+    """Input errors of the loops at the file's values: a loop that does not close at home,
+    an edge of the box of ranges that cannot be assembled, a singular configuration on it.
+
+    Along every edge of the box of independent ranges (each coordinate swept while the
+    others sit at a corner) and along the segments from home to every corner. Raises
+    ProblemFileError; returns None when every loop assembles.
+    """
+    if not problem.loops:
+        return
+    seen: set[tuple[str, tuple[tuple[str, float], ...]]] = set()
+    for scenario in problem.scenarios:
+        base = scenario_base(problem, scenario.name)
+        for sub in problem.subsystems:
+            if not problem.subsystem_loops(sub.name):
+                continue
+            c = closure(problem, sub.name, base)
+            key = (sub.name, tuple(sorted((k, float(v)) for k, v in base.items())))
+            if key not in seen:
+                seen.add(key)
+                c.solve(edge_points(c))
+
+
+def scenario_base(problem: Problem, scenario: str) -> dict[str, float]:
+    """Base-parameter values (SI) of ``scenario``: the file's values with the scenario's own."""
+    base = {p.name: float(p.value) for p in problem.base_parameters if p.value is not None}
+    for s in problem.scenarios:
+        if s.name == scenario:
+            base.update({k: float(v) for k, v in s.parameters.items()})
+    return base
+
+
+def edge_points(c: Closure, per_range: int = CHECK_STEPS) -> np.ndarray:
+    """Points along every edge of the box of independent ranges, plus its corners."""
+    corners = c.corners()
+    out = [corners]
+    n_i = len(c.independent)
+    t = np.linspace(0.0, 1.0, per_range + 1)
+    for j in range(n_i):
+        for corner in corners:
+            if corner[j] != c.lower[j]:
+                continue
+            line = np.tile(corner, (len(t), 1))
+            line[:, j] = c.lower[j] + t * (c.upper[j] - c.lower[j])
+            out.append(line)
+    return np.vstack(out)
