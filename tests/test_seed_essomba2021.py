@@ -84,6 +84,35 @@ def test_c1_for_the_bought_rate(approx, c1, k_c):
     assert value(result, "k_C", "N/mm") * c1 * 60 == approx(0.04874 * G * 66.44)
 
 
+class TestOrientationClosed:
+    """The five-bar with its loop closed at the end effector (docs/seeds.md#essomba-closed).
+    C's and D's lever components lie on the end-effector axis, one line on the closed loop:
+    only k_C c1 c2 + k_D d1 d2 = m_C g |c_y| + m_D g |d_x| = 31.768 + 29.206 N·mm is fixed."""
+
+    def test_paper_k_d_gives_the_paper_k_c(self, approx):
+        result = solved("essomba2021_orientation_closed")
+        assert result.status.value == "optimal"
+        assert result.verification.residual_ratio <= 1e-9
+        assert result.verification.configurations >= 10_000
+        assert value(result, "k_C", "N/mm") == approx(0.013236)
+        # c_x and d_y move with theta_A and theta_B: A and B carry them (lever-axis attachments)
+        assert value(result, "k_A", "N/mm") == approx(0.15128)
+        assert value(result, "k_B", "N/mm") == approx(0.15022)
+
+    def test_one_spring_for_c_and_d(self, approx):
+        """k_D = 0: k_C = (0.04874 · 66.44 + 0.04852 · 61.36) · 9.81/2400 = 0.025406 N/mm."""
+        result = solved("essomba2021_orientation_closed", (("parameters.k_D", "0 N/mm"),))
+        assert result.status.value == "optimal"
+        assert result.verification.residual_ratio <= 1e-9
+        assert value(result, "k_C", "N/mm") == approx((48.74 * 66.44 + 48.52 * 61.36) * G / 1e3 / 2400)
+
+    def test_opened_model_cannot_drop_spring_d(self):
+        """Control: opened, D moves on its own box and needs its own spring."""
+        result = solved("essomba2021_orientation_full_com", (("variables.k_D.upper", "0 N/mm"),))
+        assert result.status.value == "infeasible"
+        assert result.verification.residual_ratio > 0.1
+
+
 MODES = ("down", "horizontal", "up")
 
 
