@@ -63,6 +63,8 @@ REFINE = 4
 #: many nodes (per axis: its n_i-th root, at least GRID_MIN_NODES).
 GRID_NODES = 4 * STEPS_PER_RANGE + 1
 GRID_MIN_NODES = 5
+#: Above this many nodes (many independent coordinates) every configuration is continued from home instead.
+GRID_MAX_NODES = 20_000
 #: A Newton correction from a grid node's prediction larger than this × the prediction's
 #: change is suspected of leaving the branch: that configuration is continued from home.
 BRANCH_CORRECTION = 0.5
@@ -119,6 +121,7 @@ class Closure:
                 rb_home = np.array([[np.ravel(rb[r][c])[0] for c in range(3)] for r in range(3)], dtype=float)
                 self.axis_b[loop.name] = rb_home.T @ world
         self.m = sum(3 + (3 if loop.name in self.axis_b else 0) for loop in self.loops)
+        self._grid: tuple[np.ndarray, ManifoldPoints] | None = None
 
     # -- equations -------------------------------------------------------------------
     def _mechanics(self, q: Any) -> Mechanics:
@@ -137,17 +140,17 @@ class Closure:
                 rows += [np.broadcast_to(v, (q.shape[0],)) for v in sub(matvec(ra, mech.vector(loop.axis)), matvec(rb, list(self.axis_b[loop.name])))]  # type: ignore[arg-type]
         return np.stack(rows, axis=1)
 
-    def equations(self, q: np.ndarray, columns: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """h (N, m) and ∂h/∂q (N, m, n) at configurations q (N, n), by complex step (only
-        the ``columns`` given are filled; all by default)."""
+    def equations(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """h (N, m) and ∂h/∂q (N, m, n) at configurations q (N, n), by complex step (every
+        perturbed copy of q in one evaluation: the cost is in the number of calls)."""
         n_conf, n = q.shape
-        h = self._rows(q).real
-        jac = np.zeros((n_conf, h.shape[1], n))
-        for j in range(n) if columns is None else columns:
-            qc = q.astype(complex)
-            qc[:, j] += 1j * COMPLEX_STEP
-            jac[:, :, j] = self._rows(qc).imag / COMPLEX_STEP
-        return h, jac
+        stacked = np.tile(q.astype(complex), (n + 1, 1))
+        for j in range(n):
+            stacked[(j + 1) * n_conf : (j + 2) * n_conf, j] += 1j * COMPLEX_STEP
+        rows = self._rows(stacked)
+        h = rows[:n_conf].real
+        jac = (rows[n_conf:].imag / COMPLEX_STEP).reshape(n, n_conf, -1).transpose(1, 2, 0)
+        return h, np.ascontiguousarray(jac)
 
     def gaps(self, q: np.ndarray) -> np.ndarray:
         """Distance (m) between the two points of each loop: (N, number of loops)."""
@@ -230,12 +233,10 @@ class Closure:
         """
         qi = np.atleast_2d(np.asarray(qi, dtype=float))
         n_i = len(self.independent)
-        per_axis = max(GRID_MIN_NODES, int(GRID_NODES ** (1.0 / max(n_i, 1))))
-        if qi.shape[0] <= per_axis**n_i:
+        per_axis = self._per_axis()
+        if per_axis**n_i > GRID_MAX_NODES:
             return self.continued(qi)
-        axes = [np.linspace(lo, hi, per_axis) for lo, hi in zip(self.lower, self.upper)]
-        nodes = np.array(list(itertools.product(*axes)), dtype=float).reshape(-1, n_i)
-        grid = self.continued(nodes)
+        nodes, grid = self.grid()
         spacing = np.where(self.upper > self.lower, (self.upper - self.lower) / (per_axis - 1), 1.0)
         index = np.clip(np.rint((qi - self.lower) / spacing).astype(int), 0, per_axis - 1)
         flat = np.ravel_multi_index(tuple(index.T), (per_axis,) * n_i)
@@ -256,6 +257,19 @@ class Closure:
             q[~ok], tangent[~ok], cond[~ok] = redo.q, redo.tangent, redo.conditioning
         return ManifoldPoints(q, tangent, cond)
 
+    def _per_axis(self) -> int:
+        return max(GRID_MIN_NODES, int(round(GRID_NODES ** (1.0 / max(len(self.independent), 1)))))
+
+    def grid(self) -> tuple[np.ndarray, ManifoldPoints]:
+        """(nodes (G, n_i), their configurations): a grid over the box of independent
+        ranges, continued from home, solved once (it is also the assembly check)."""
+        if self._grid is None:
+            per_axis = self._per_axis()
+            axes = [np.linspace(lo, hi, per_axis) for lo, hi in zip(self.lower, self.upper)]
+            nodes = np.array(list(itertools.product(*axes)), dtype=float).reshape(-1, len(self.independent))
+            self._grid = (nodes, self.continued(nodes))
+        return self._grid
+
     def continued(self, qi: np.ndarray, steps_per_range: int = STEPS_PER_RANGE) -> ManifoldPoints:
         """Configurations ``qi`` (N, n_i), each continued along the segment from home."""
         qi = np.atleast_2d(np.asarray(qi, dtype=float))
@@ -265,8 +279,13 @@ class Closure:
         delta = qi - start
         steps = max(1, int(math.ceil(steps_per_range * float(np.abs(delta / span).max(initial=0.0)))))
         q = np.tile(self.home, (n_conf, 1))
-        tangent, _ = self.tangent(self.equations(self.home[None, :])[1])
+        jac_home = self.equations(self.home[None, :])[1]
+        tangent, _ = self.tangent(jac_home)
         tangent = np.repeat(tangent, n_conf, axis=0)
+        # orientation of ∂h/∂q_d, carried along: det(Pᵀ ∂h/∂q_d) > 0 with P the polar factor of the
+        # previous step's ∂h/∂q_d; it turns ≤ 0 when the path crosses a singular configuration
+        # between two steps (a change point, which the conditioning at the steps may not see)
+        polar = np.repeat(_polar(jac_home[:, :, self.dependent]), n_conf, axis=0)
         failed_at = np.full(n_conf, np.inf)
         singular_at = np.full(n_conf, np.inf)
         active = np.ones(n_conf, dtype=bool)
@@ -283,7 +302,11 @@ class Closure:
             new_tangent, new_cond = self.tangent(jac)
             tangent = np.where(active[:, None, None], new_tangent, tangent)
             cond = np.where(active, new_cond, cond)
-            bent = active & (new_cond < SINGULAR_CONDITIONING)
+            jd = jac[:, :, self.dependent]
+            with np.errstate(all="ignore"):
+                crossed = np.linalg.det(np.einsum("kmd,kme->kde", polar, jd)) <= 0
+            polar = np.where(active[:, None, None], _polar(jd), polar)
+            bent = active & ((new_cond < SINGULAR_CONDITIONING) | crossed)
             singular_at[bent] = np.minimum(singular_at[bent], t)
             if not active.any():
                 break
@@ -311,7 +334,7 @@ class Closure:
                 self.problem.path,
                 f"loops.{self.loops[0].name}",
                 f"the mechanism is singular at {where}: the loops do not determine the dependent coordinates there "
-                f"(conditioning below {SINGULAR_CONDITIONING:g}); narrow the ranges to keep away from it",
+                f"(the closure's Jacobian in them loses rank: a change point or a dead centre); narrow the ranges to keep away from it",
             )
         # the least-squares gap where the continuation stopped, from the last assembled configuration
         before = start + max(0.0, t - 1.0 / steps) * delta[k]
@@ -350,6 +373,13 @@ class Closure:
     def corners(self) -> np.ndarray:
         """Every corner of the box of independent ranges: (2^n_i, n_i)."""
         return np.array(list(itertools.product(*zip(self.lower, self.upper))), dtype=float).reshape(-1, len(self.independent))
+
+
+def _polar(a: np.ndarray) -> np.ndarray:
+    """The orthonormal polar factor U Vᵀ of each (m, n_d) matrix of ``a`` (N, m, n_d)."""
+    with np.errstate(all="ignore"):
+        u, _, vt = np.linalg.svd(np.nan_to_num(a), full_matrices=False)
+    return np.einsum("kmd,kde->kme", u, vt)
 
 
 def _least_squares(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -406,8 +436,9 @@ def check_assembly(problem: Problem) -> None:
     """Input errors of the loops at the file's values: a loop that does not close at home,
     an edge of the box of ranges that cannot be assembled, a singular configuration on it.
 
-    Along every edge of the box of independent ranges (each coordinate swept while the
-    others sit at a corner) and along the segments from home to every corner. Raises
+    On the grid of :meth:`Closure.grid` (every node continued from home along its segment;
+    the box's edges and corners are nodes), or along every edge of the box when the grid
+    would be too large. Raises
     ProblemFileError; returns None when every loop assembles.
     """
     if not problem.loops:
@@ -422,7 +453,10 @@ def check_assembly(problem: Problem) -> None:
             key = (sub.name, tuple(sorted((k, float(v)) for k, v in base.items())))
             if key not in seen:
                 seen.add(key)
-                c.solve(edge_points(c))
+                if c._per_axis() ** len(c.independent) <= GRID_MAX_NODES:
+                    c.grid()  # the grid over the box: continued from home, its edges and corners included
+                else:
+                    c.solve(edge_points(c))
 
 
 def scenario_base(problem: Problem, scenario: str) -> dict[str, float]:
