@@ -205,6 +205,23 @@ def test_5r_heights_are_independent_of_the_other_links():
     assert result.solution.conditions == 4
 
 
+def test_5r_with_its_loop_closed_is_balanced_by_the_paper_heights():
+    """spherical_5r_closed.toml: R5 closed through the loop engine, heights pinned at m_i g/k;
+    the balance is verified on the 2-DOF configuration manifold (docs/seeds.md#spherical-5r)."""
+    result = solved("spherical_5r_closed")
+    assert result.status.value == "optimal"
+    assert result.verification.residual_ratio <= 1e-9
+    assert result.verification.configurations >= 10_000
+
+
+def test_5r_closed_with_a_wrong_height_is_not_balanced():
+    """Control: h3 = 2 m3 g/k = 19.62 mm instead of 9.81 mm leaves link 3 unbalanced."""
+    pinned = (("variables.h3.lower", "19.62 mm"), ("variables.h3.upper", "19.62 mm"))
+    result = solved("spherical_5r_closed", pinned)
+    assert result.status.value != "optimal"
+    assert result.verification.residual_ratio > 0.01
+
+
 # --------------------------------------------------------------------------------------
 # Example 3, the Bennett plano-spherical linkage: problems/bennett_plano_spherical.toml
 # --------------------------------------------------------------------------------------
