@@ -214,6 +214,16 @@ def test_5r_with_its_loop_closed_is_balanced_by_the_paper_heights():
     assert result.verification.configurations >= 10_000
 
 
+def test_5r_closed_leaves_one_height_free():
+    """On the closed loop the four link terms are dependent: 3 conditions on 4 heights
+    (the opened chain has 4), so the paper's heights are one balancing set among a family."""
+    free = tuple((f"variables.h{i}.{end}", v) for i in (1, 2, 3, 4) for end, v in (("lower", "0 mm"), ("upper", "100 mm")))
+    result = solved("spherical_5r_closed", free)
+    assert result.status.value == "optimal"
+    assert result.verification.residual_ratio <= 1e-9
+    assert result.solution.conditions == 3
+
+
 def test_5r_closed_with_a_wrong_height_is_not_balanced():
     """Control: h3 = 2 m3 g/k = 19.62 mm instead of 9.81 mm leaves link 3 unbalanced."""
     pinned = (("variables.h3.lower", "19.62 mm"), ("variables.h3.upper", "19.62 mm"))
