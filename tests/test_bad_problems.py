@@ -133,6 +133,10 @@ MANIFEST: dict[str, Expect] = {
     "substitution_impossible.toml": Expect(
         "substitutions.tip", "no substitution exists for body 'tip': its centre of mass must lie on the line through the two points"
     ),
+    "substitution_not_coincident.toml": Expect(
+        "substitutions.tip.points.at_end",
+        "substitution point 'at_end' does not coincide with the point of frame 'link_c' that receives it: at home they are 10 mm apart",
+    ),
     "dh_row_missing_theta.toml": Expect("frames.link_c.transforms.0.dh.theta", "missing required key"),
     "coupled_unknown_coordinate.toml": Expect("subsystems.leg.coupled.phi_c", "unknown name 'theta_d' in 'theta_c - theta_d'"),
     # payload ranges and adjustments (docs/payload.md)

@@ -8,8 +8,6 @@ texts built below), never from the paper's formulas. Tolerance 0.1 % unless stat
 from __future__ import annotations
 
 import math
-from functools import lru_cache
-
 import pytest
 
 from conftest import solved, value
@@ -176,107 +174,119 @@ def test_appendix_b_attachment_on_the_line_through_the_com(approx, b):
 
 
 # --------------------------------------------------------------------------------------
-# Mass moment substitution (section 4.1): the Bennett plano-spherical example
+# Examples 1 and 2: loops opened at one joint (problems/spherical_5r.toml,
+# problems/bennett_double_spherical.toml; docs/seeds.md)
 # --------------------------------------------------------------------------------------
 
-BENNETT = """
-[problem]
-name = "bennett_plano_spherical"
-[gravity]
-acceleration = "9.81 m/s^2"
-direction = [0, 0, -1]
-[parameters]
-m = "0.2 kg"
-m_half = "0.1 kg"
-L = "300 mm"
-k = "100 N/m"
-# link 1: on the fixed horizontal axis R1 (world x), R2 at its far end
-[subsystems.planar]
-coordinates.q1 = { range = ["-180 deg", "180 deg"] }
-[frames.link1]
-transforms = [{ rotate = "x", angle = "q1" }]
-[bodies.link1]
-frame = "link1"
-mass = "m"
-com = [0, "L/2", 0]
-# link 3: the last link of the spherical part, turning about O (R4's end at O), R3 at its far end
-[subsystems.spherical]
-coordinates.q4 = { range = ["-180 deg", "180 deg"] }
-coordinates.q3 = { range = ["-180 deg", "180 deg"] }
-[frames.link3]
-transforms = [{ rotate = "y", angle = "q4" }, { rotate = "x", angle = "35 deg" }, { rotate = "z", angle = "q3" }]
-[bodies.link3]
-frame = "link3"
-mass = "m_half"
-com = [0, "L/2", 0]
-# link 2 (between R2 and R3), mass m at mid-length, is not simulated: substituted
-[bodies.link2]
-frame = "ground"
-mass = "m"
-com = [0, "L/2", 0]
-[substitutions.link2]
-points.mu_R2 = { at = [0, 0, 0], frame = "link1", point = [0, "L", 0] }
-points.mu_R3 = { at = [0, "L", 0], frame = "link3", point = [0, "L", 0] }
-[variables.h1]
-lower = "0 mm"
-upper = "200 mm"
-[variables.h3]
-lower = "0 mm"
-upper = "200 mm"
-# springs at the top third of link 1 and the top quarter of link 3
-[springs.s1]
-stiffness = "k"
-from = { frame = "ground", point = [0, 0, "h1"] }
-to = { frame = "link1", point = [0, "2*L/3", 0] }
-[springs.s3]
-stiffness = "k"
-from = { frame = "ground", point = [0, 0, "h3"] }
-to = { frame = "link3", point = [0, "3*L/4", 0] }
-[report.M1]
-expression = "total_mass(planar)"
-unit = "g"
-[report.r1]
-expression = "com_distance(planar)"
-unit = "mm"
-[report.M3]
-expression = "total_mass(spherical)"
-unit = "g"
-[report.r3]
-expression = "com_distance(spherical)"
-unit = "mm"
-[settings]
-verify_tolerance = 1e-9
-"""
+
+@pytest.mark.parametrize(
+    ("name", "heights"),
+    [
+        # h_i = m_i g/k, k = 200 N/m: 300, 250, 200, 150 g
+        ("spherical_5r", {"h1": 0.300, "h2": 0.250, "h3": 0.200, "h4": 0.150}),
+        # k = 100 N/m: m = 200 g for links 1, 2, 4, 5 and m' = 150 g for link 3 (H'2)
+        ("bennett_double_spherical", {"h1": 0.200, "h2": 0.200, "h3": 0.150, "h4": 0.200, "h5": 0.200}),
+    ],
+)
+def test_opened_loop_heights(approx, name, heights):
+    result = solved(name)
+    assert result.status.value == "optimal"
+    assert result.verification.residual_ratio <= 1e-9
+    k = {"spherical_5r": 200.0, "bennett_double_spherical": 100.0}[name]
+    for var, mass in heights.items():
+        assert value(result, var, "mm") == approx(1000 * mass * G / k)
 
 
-@lru_cache(maxsize=1)
-def _bennett():
-    return design(load_problem_text(BENNETT, "bennett"))
+def test_5r_heights_are_independent_of_the_other_links():
+    """Eq. (18): one condition per spring; a heavier link 3 changes h3 alone."""
+    result = solved("spherical_5r", (("parameters.m3", "400 g"),))
+    assert value(result, "h3", "mm") == pytest.approx(1000 * 0.4 * G / 200, rel=1e-6)
+    assert value(result, "h2", "mm") == pytest.approx(1000 * 0.25 * G / 200, rel=1e-6)
+    assert result.solution.conditions == 4
 
 
-class TestBennettSubstitution:
-    """Link 2 (m, centre midway) becomes m/2 on R2 and m/2 on R3 (I3)."""
+def test_5r_with_its_loop_closed_is_balanced_by_the_paper_heights():
+    """spherical_5r_closed.toml: R5 closed through the loop engine, heights pinned at m_i g/k;
+    the balance is verified on the 2-DOF configuration manifold (docs/seeds.md#spherical-5r)."""
+    result = solved("spherical_5r_closed")
+    assert result.status.value == "optimal"
+    assert result.verification.residual_ratio <= 1e-9
+    assert result.verification.configurations >= 10_000
+
+
+def test_5r_closed_leaves_one_height_free():
+    """On the closed loop the four link terms are dependent: 3 conditions on 4 heights
+    (the opened chain has 4), so the paper's heights are one balancing set among a family."""
+    free = tuple((f"variables.h{i}.{end}", v) for i in (1, 2, 3, 4) for end, v in (("lower", "0 mm"), ("upper", "100 mm")))
+    result = solved("spherical_5r_closed", free)
+    assert result.status.value == "optimal"
+    assert result.verification.residual_ratio <= 1e-9
+    assert result.solution.conditions == 3
+
+
+def test_5r_closed_with_a_wrong_height_is_not_balanced():
+    """Control: h3 = 2 m3 g/k = 19.62 mm instead of 9.81 mm leaves link 3 unbalanced."""
+    pinned = (("variables.h3.lower", "19.62 mm"), ("variables.h3.upper", "19.62 mm"))
+    result = solved("spherical_5r_closed", pinned)
+    assert result.status.value != "optimal"
+    assert result.verification.residual_ratio > 0.01
+
+
+# --------------------------------------------------------------------------------------
+# Example 3, the Bennett plano-spherical linkage: problems/bennett_plano_spherical.toml
+# --------------------------------------------------------------------------------------
+
+
+class TestBennettPlanoSpherical:
+    """Link 2 (m, centre midway) becomes m/2 on R2 and m/2 on R3 (I3); four springs
+    (docs/seeds.md#bennett-plano-spherical). m = 200 g, k = 100 N/m, L = 300 mm."""
 
     @pytest.fixture
     def result(self):
-        return _bennett()
+        return solved("bennett_plano_spherical")
 
-    def test_substituted_masses(self, result, approx):
-        assert value(result, "mu_R2", "kg") == approx(0.1)
-        assert value(result, "mu_R3", "kg") == approx(0.1)
-
-    def test_augmented_links(self, result, approx):
-        # link 1: m + m/2 = 3m/2 with its centre of mass at 2L/3; link 3: m/2 + m/2 = m at 3L/4
-        assert value(result, "M1", "g") == approx(300.0)
-        assert value(result, "r1", "mm") == approx(200.0)
-        assert value(result, "M3", "g") == approx(200.0)
-        assert value(result, "r3", "mm") == approx(225.0)
-
-    def test_spring_heights(self, result, approx):
+    def test_balanced(self, result):
         assert result.status.value == "optimal"
         assert result.verification.residual_ratio <= 1e-9
+        assert result.verification.configurations >= 10_000
+
+    def test_substituted_masses(self, result, approx):
+        assert value(result, "mu_R2", "g") == approx(100.0)
+        assert value(result, "mu_R3", "g") == approx(100.0)
+
+    def test_augmented_links_and_attachment_fractions(self, result, approx):
+        # link 1: m + m/2 = 3m/2 = 300 g, centre of mass (m L/2 + m/2 L)/(3m/2) = 2L/3 = 200 mm
+        assert value(result, "M1", "g") == approx(300.0)
+        assert value(result, "r1", "mm") / 300.0 == approx(2 / 3)
+        # link 3: m/2 + mu_R3 = m = 200 g at (m/2 L/2 + mu_R3 L)/m = 3L/4 (the top quarter)
+        mu3 = value(result, "mu_R3", "g")
+        assert 100.0 + mu3 == approx(200.0)
+        assert (100.0 * 150.0 + mu3 * 300.0) / (100.0 + mu3) / 300.0 == approx(3 / 4)
+        # links 5, 4 and augmented link 3: 200 + 200 + 200 g
+        assert value(result, "M_spherical", "g") == approx(600.0)
+
+    def test_spring_heights(self, result, approx):
         assert value(result, "h1", "mm") == approx(1000 * 3 * 0.2 * G / (2 * 100))  # 3mg/(2k) = 29.43 mm
-        assert value(result, "h3", "mm") == approx(1000 * 0.2 * G / 100)  # mg/k = 19.62 mm
+        for name in ("h3", "h4", "h5"):
+            assert value(result, name, "mm") == approx(1000 * 0.2 * G / 100)  # mg/k = 19.62 mm
+
+    def test_attachment_elsewhere_on_the_line_changes_the_height(self, approx):
+        """Appendix B: on link 3 at L/2 instead of 3L/4, h3 = m g (3L/4)/(k L/2) = 1.5 mg/k = 29.43 mm."""
+        result = solved("bennett_plano_spherical", (("parameters.f3", "0.5"),))
+        assert result.verification.residual_ratio <= 1e-9
+        assert value(result, "h3", "mm") == approx(1.5 * 1000 * 0.2 * G / 100)
+
+    def test_link_2_that_does_not_reach_r3_is_rejected(self):
+        """Link 2's R3 point 10 mm off link 3's end at home: the linkage cannot be assembled."""
+        from counterpoise.errors import ProblemFileError
+        from counterpoise.io.loader import load_problem
+
+        from conftest import PROBLEMS
+
+        with pytest.raises(ProblemFileError) as info:
+            load_problem(PROBLEMS / "bennett_plano_spherical.toml", {"parameters.p3y": "160 mm"})
+        assert info.value.key == "substitutions.link2.points.mu_R3"
+        assert "does not coincide" in info.value.message
 
 
 # --------------------------------------------------------------------------------------
@@ -285,6 +295,49 @@ class TestBennettSubstitution:
 
 
 class TestRRS3:
+    """Three legs with their own centres O_i on a circle of radius 150 mm (no common point);
+    platform 900 g, m1 = 150 g, m2 = 120 g, k = 200 N/m (docs/seeds.md#rrs3)."""
+
+    def test_paper_spring_heights(self, approx):
+        """h_i1 = m1 g/k = 7.3575 mm; h_i2 = (m2 + m_u/3) g/k = 0.42 * 9.81/200 = 20.601 mm."""
+        result = solved("rrs3_parallel")
+        for i in (1, 2, 3):
+            assert value(result, f"h{i}_1", "mm") == approx(1000 * 0.150 * G / 200)
+            assert value(result, f"h{i}_2", "mm") == approx(1000 * (0.120 + 0.300) * G / 200)
+
+    def test_leg_centres_are_not_concurrent(self):
+        """The paper's 3-RRS has no common point of its axes: each leg's two axes meet at its
+        own O_i, 150 mm from the centre, 260 mm from the next leg's."""
+        import numpy as np
+
+        from counterpoise.io.loader import load_problem
+        from counterpoise.mechanics.energy import Mechanics
+
+        from conftest import PROBLEMS
+
+        problem = load_problem(PROBLEMS / "rrs3_parallel.toml")
+        base = {p.name: p.value for p in problem.parameters if p.is_base}
+        home = {c.name: c.home for c in problem.coordinates}
+        mech = Mechanics(problem, base, {v.name: v.initial for v in problem.variables}, home, [0.0, 0.0, -G])
+        centres = [np.array(mech.pose(f"leg{i}_1")[1], dtype=float) for i in (1, 2, 3)]
+        for i in range(3):
+            assert np.linalg.norm(centres[i]) == pytest.approx(0.150)
+            assert np.linalg.norm(centres[i] - centres[(i + 1) % 3]) == pytest.approx(0.150 * math.sqrt(3))
+
+    def test_legs_turning_about_one_point_are_rejected(self):
+        """The former file: every leg about O, S point of link 2 at (0, 90, 110) mm, 142.13 mm
+        from O, while the platform's S points are 156.2 mm from O."""
+        from counterpoise.errors import ProblemFileError
+        from counterpoise.io.loader import load_problem
+
+        from conftest import PROBLEMS
+
+        overrides = {"parameters.R_b": "0 mm", "parameters.s_x": "0 mm", "parameters.s_y": "90 mm", "parameters.s_z": "110 mm"}
+        with pytest.raises(ProblemFileError) as info:
+            load_problem(PROBLEMS / "rrs3_parallel.toml", overrides)
+        assert info.value.key == "substitutions.platform.points.m_u1"
+        assert "does not coincide with the point of frame 'leg1_2'" in info.value.message
+
     def test_symmetric_platform_splits_in_thirds(self, approx):
         result = solved("rrs3_parallel")
         assert result.status.value == "optimal"
@@ -298,6 +351,8 @@ class TestRRS3:
         assert result.verification.residual_ratio <= 1e-9
         mu = [value(result, f"m_u{i}", "g") for i in (1, 2, 3)]
         assert max(mu) - min(mu) > 100  # clearly unequal
+        for i, m in zip((1, 2, 3), mu):  # each link 2 carries its own share: h_i2 = (m2 + mu_i) g/k
+            assert value(result, f"h{i}_2", "mm") == approx((120.0 + m) * G / 200)
         # mass and first moment are kept: Σμ = m_u, Σμ s = m_u c (S joints at r = 100 mm, 30/150/270 deg)
         assert sum(mu) == approx(900.0)
         phis = [math.radians(a) for a in (30, 150, 270)]
