@@ -212,7 +212,7 @@ def degeneracies(problem: Problem) -> list[str]:
             )
             continue
         for c in problem.coordinates:
-            if c.name in idle:
+            if c.name in idle or c.dependent:  # a loop's dependent coordinate follows the others
                 continue
             moved = dict(coordinates)
             moved[c.name] = c.lower + (c.upper - c.lower) * rng.random(DEGENERACY_SAMPLES)

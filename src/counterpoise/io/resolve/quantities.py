@@ -253,6 +253,14 @@ def check_angles(ctx: Context, frames: Any) -> None:
         for cname, c in sub.coordinates.items():
             key = f"subsystems.{sname}.coordinates.{cname}"
             with ctx.item():
+                if c.range is None:  # a dependent coordinate of a closed loop: its home only
+                    if c.home is not None:
+                        home = ctx.literal(c.home, f"{key}.home")
+                        if home.unit.symbol == "" and home.dimension == "" and home.si != 0:
+                            raise ctx.fail(
+                                f"{key}.home", f"a bare number used as an angle: write '{home.si:g} deg' or '{home.si:g} rad' (a sliding coordinate: give its length unit)"
+                            )
+                    continue
                 ends = [ctx.literal(r, f"{key}.range") for r in c.range]
                 if all(q.unit.symbol == "" and q.dimension == "" for q in ends) and any(q.si != 0 for q in ends):
                     lo, hi = (f"{q.si:g}" for q in ends)
