@@ -43,7 +43,7 @@ def main(argv: list[str] | None = None) -> None:
     limit_blas_environment()  # before numpy and CasADi load their BLAS (see counterpoise.threads)
     os.environ.setdefault("PYDANTIC_DISABLE_PLUGINS", "__all__")
     fast = argv is None and bool(FAST_EXIT & set(args[:1]))
-    code = light.solve(args)
+    code = light.solve(args, pause_gc=fast)
     if code is not None:
         if fast:
             _fast_exit(code)
