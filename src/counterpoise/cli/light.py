@@ -373,7 +373,8 @@ def print_summary(rows: list[dict[str, Any]]) -> None:
     that, else through rich (a terminal: colours and its width)."""
     table = None
     lines = summary_lines(rows)
-    if not rich_is_terminal(sys.stdout) and all(_plain(t, ascii_only=True) and len(t) <= PLAIN_WIDTH for t in lines):
+    utf = (getattr(sys.stdout, "encoding", None) or "").lower().startswith("utf")  # else rich draws an ASCII box
+    if utf and not rich_is_terminal(sys.stdout) and all(_plain(t, ascii_only=True) and len(t) <= PLAIN_WIDTH for t in lines):
         table = plain_table(SUMMARY_TITLE, SUMMARY_COLUMNS, [summary_cells(r) for r in rows], PLAIN_WIDTH)
     if table is not None:
         sys.stdout.write(table + "".join(t + "\n" for t in lines))
