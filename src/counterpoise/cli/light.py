@@ -123,7 +123,11 @@ def parse_solve(args: list[str]) -> SolveArgs | None:
     if args[:1] != ["solve"]:
         return None
     debug = "--debug" in args
-    rest = [a for a in args[1:] if a != "--debug"]
+    if args.count("--debug") > 1:
+        return None
+    rest = list(args[1:])
+    if debug:
+        rest.remove("--debug")  # as the app: the first occurrence, wherever it is
     files: list[str] = []
     values: dict[str, list[str]] = {name: [] for name, takes in SOLVE_OPTIONS.items() if takes}
     plot = False
@@ -134,9 +138,9 @@ def parse_solve(args: list[str]) -> SolveArgs | None:
         if token == "--":
             files += rest[i:]
             break
-        if not token.startswith("-") or token == "-":
-            if token == "-":
-                return None
+        if token == "-":
+            return None
+        if not token.startswith("-"):
             files.append(token)
             continue
         name, eq, value = token.partition("=")
