@@ -4,6 +4,7 @@ Run from anywhere::
 
     python benchmarks/bench_scaling.py                 # sizes 1 2 4 8 12 16 24, 3 runs each
     python benchmarks/bench_scaling.py --sizes 24 --runs 5 --markdown
+    python benchmarks/bench_scaling.py --one 24        # one chain in this process (time it from outside)
 
 Each (size, run) is a fresh Python process, so that its peak memory (``ru_maxrss``) is the
 chain's own. In it: the problem is built in code (:class:`counterpoise.ProblemBuilder`),
@@ -35,37 +36,46 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 LENGTH, COM, ARM = 0.2, 0.1, 0.12
 TAPER = float(os.environ.get("COUNTERPOISE_BENCH_TAPER", "0.7"))  # --taper, passed to the child processes
+DEFAULT_TAPER = TAPER
 
 CHILD = r"""
-import json, resource, sys, time
-n = int(sys.argv[1])
+import sys
 sys.path.insert(0, sys.argv[2])
-from bench_scaling import chain_problem, required_masses
-from counterpoise.designer.designer import Designer
-from counterpoise.verify import judge, verify
-
-def timed(fn, *args):
-    c0, w0 = time.process_time(), time.perf_counter()
-    value = fn(*args)
-    return value, time.process_time() - c0, time.perf_counter() - w0
-
-problem, build_cpu, build_wall = timed(lambda: chain_problem(n))
-designer, d_cpu, d_wall = timed(Designer, problem)
-solution, s_cpu, s_wall = timed(designer.solve)
-verification, v_cpu, v_wall = timed(verify, solution)
-_, v2_cpu, v2_wall = timed(verify, solution)
-status, message = judge(solution, verification)
-masses = [solution.values[k] for k in sorted(solution.values, key=lambda k: int(k.variable[1:]))]
-error = max(abs(m - r) / r for m, r in zip(masses, required_masses(n)))
-print(json.dumps({
-    "n": n, "status": status.value, "message": message, "conditions": solution.conditions,
-    "iterations": solution.iterations, "ratio": verification.residual_ratio, "mass_error": error,
-    "span": max(required_masses(n)) / min(required_masses(n)),
-    "cpu": {"problem": build_cpu, "build": d_cpu, "solve": s_cpu, "verify": v_cpu, "verify_again": v2_cpu},
-    "wall": {"problem": build_wall, "build": d_wall, "solve": s_wall, "verify": v_wall, "verify_again": v2_wall},
-    "peak_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
-}))
+from bench_scaling import measure
+measure(int(sys.argv[1]))
 """
+
+
+def measure(n: int) -> None:
+    """Build, solve and verify the n-link chain in this process; print one JSON line."""
+    import json
+    import resource
+    import time
+
+    from counterpoise.designer.designer import Designer
+    from counterpoise.verify import judge, verify
+
+    def timed(fn, *args):
+        c0, w0 = time.process_time(), time.perf_counter()
+        value = fn(*args)
+        return value, time.process_time() - c0, time.perf_counter() - w0
+
+    problem, build_cpu, build_wall = timed(lambda: chain_problem(n))
+    designer, d_cpu, d_wall = timed(Designer, problem)
+    solution, s_cpu, s_wall = timed(designer.solve)
+    verification, v_cpu, v_wall = timed(verify, solution)
+    _, v2_cpu, v2_wall = timed(verify, solution)
+    status, message = judge(solution, verification)
+    masses = [solution.values[k] for k in sorted(solution.values, key=lambda k: int(k.variable[1:]))]
+    error = max(abs(m - r) / r for m, r in zip(masses, required_masses(n)))
+    print(json.dumps({
+        "n": n, "status": status.value, "message": message, "conditions": solution.conditions,
+        "iterations": solution.iterations, "ratio": verification.residual_ratio, "mass_error": error,
+        "span": max(required_masses(n)) / min(required_masses(n)),
+        "cpu": {"problem": build_cpu, "build": d_cpu, "solve": s_cpu, "verify": v_cpu, "verify_again": v2_cpu},
+        "wall": {"problem": build_wall, "build": d_wall, "solve": s_wall, "verify": v_wall, "verify_again": v2_wall},
+        "peak_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+    }))
 
 
 def required_masses(n: int) -> list[float]:
@@ -110,10 +120,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--sizes", type=int, nargs="+", default=[1, 2, 4, 8, 12, 16, 24])
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--markdown", action="store_true")
-    ap.add_argument("--taper", type=float, default=TAPER, help="body mass ratio of consecutive links (default 0.7; 1 = uniform chain)")
+    ap.add_argument("--taper", type=float, default=DEFAULT_TAPER, help="body mass ratio of consecutive links (default 0.7; 1 = uniform chain)")
     ap.add_argument("--src", type=Path, default=ROOT / "src", help="package sources to measure (default: this checkout's src)")
+    ap.add_argument("--one", type=int, metavar="N", help="build, solve and verify the N-link chain in this process, print its JSON line")
     args = ap.parse_args(argv)
     os.environ["COUNTERPOISE_BENCH_TAPER"] = repr(args.taper)
+    if args.one is not None:
+        global TAPER
+        TAPER = args.taper
+        sys.path.insert(0, str(args.src))
+        measure(args.one)
+        return 0
     head = ["links", "status", "conditions", "IPOPT iter", "mass span", "build", "solve", "verify (first)", "verify (again)",
             "build+solve+verify", "wall", "peak MiB", "residual ratio"]
     rows = []

@@ -10,7 +10,9 @@ load). Two mechanisms, because BLAS libraries read their thread count when they 
   built. The command line calls it before numpy is imported.
 - :func:`limit_blas_threads` also limits the thread pools already loaded (numpy's
   OpenBLAS) through threadpoolctl, once per process. The designer calls it before it
-  builds anything.
+  builds anything. When :func:`limit_blas_environment` ran before any BLAS was loaded
+  (the command line) and set every variable to the count wanted, the libraries read it
+  when they load and threadpoolctl (~5–10 ms: it inspects every loaded library) is skipped.
 
 Set ``COUNTERPOISE_BLAS_THREADS`` to allow more threads.
 """
@@ -18,8 +20,14 @@ Set ``COUNTERPOISE_BLAS_THREADS`` to allow more threads.
 from __future__ import annotations
 
 import os
+import sys
 
 _limited = False
+#: set when the environment alone limits every BLAS (see :func:`limit_blas_environment`)
+_environment_suffices = False
+
+#: modules whose import loads a BLAS or OpenMP runtime (numpy's OpenBLAS, CasADi's plugins)
+BLAS_MODULES = ("numpy", "scipy", "casadi", "clarabel")
 
 #: environment variables BLAS and OpenMP runtimes read when they are loaded
 ENVIRONMENT = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
@@ -31,8 +39,12 @@ def blas_threads() -> int:
 
 def limit_blas_environment() -> None:
     """Set the thread counts of BLAS/OpenMP libraries not loaded yet (user settings win)."""
+    global _environment_suffices
+    loaded = any(name in sys.modules for name in BLAS_MODULES)
     for name in ENVIRONMENT:
         os.environ.setdefault(name, str(blas_threads()))
+    if not loaded and all(os.environ[name] == str(blas_threads()) for name in ENVIRONMENT):
+        _environment_suffices = True
 
 
 def limit_blas_threads() -> None:
@@ -42,6 +54,8 @@ def limit_blas_threads() -> None:
         return
     _limited = True
     limit_blas_environment()
+    if _environment_suffices:
+        return
     try:
         from threadpoolctl import threadpool_limits
     except ImportError:  # pragma: no cover - threadpoolctl is a dependency

@@ -2,11 +2,18 @@
 
 :func:`main` is the console-script entry point. It imports nothing heavy: ``counterpoise``
 and ``counterpoise --help`` are answered from :mod:`.light` (the standard library only),
-every command goes to the typer app in :mod:`.app`, imported then. When the console script
-runs ``solve`` or ``validate``, the process ends with ``os._exit`` once the app has
+and so is ``counterpoise solve`` with the options :mod:`.light` knows (it imports the
+library, not typer or rich); every other command, and any ``solve`` call :mod:`.light`
+hands back, goes to the typer app in :mod:`.app`, imported then. When the console script
+runs ``solve`` or ``validate``, the process ends with ``os._exit`` once the command has
 returned and stdout and stderr are flushed: every report is already closed and renamed
 into place by then (:mod:`counterpoise.report.files`), and tearing down the imported
 modules (numpy, CasADi, pint, pydantic) would take longer than the work.
+
+Before anything is imported, the process environment gets (unless the user set them):
+one BLAS thread (:mod:`counterpoise.threads`) and ``PYDANTIC_DISABLE_PLUGINS=__all__``:
+pydantic otherwise scans every installed package's entry points for plugins when the
+problem schema is built (~7 ms); set ``PYDANTIC_DISABLE_PLUGINS=`` to keep them.
 """
 
 from __future__ import annotations
@@ -15,6 +22,7 @@ import os
 import sys
 
 from ..threads import limit_blas_environment
+from . import light
 from .light import COMMANDS, top_level_help, wants_top_level_help
 
 __all__ = ["COMMANDS", "main"]
@@ -33,9 +41,16 @@ def main(argv: list[str] | None = None) -> None:
         sys.stdout.flush()
         raise SystemExit(help_status)
     limit_blas_environment()  # before numpy and CasADi load their BLAS (see counterpoise.threads)
+    os.environ.setdefault("PYDANTIC_DISABLE_PLUGINS", "__all__")
+    fast = argv is None and bool(FAST_EXIT & set(args[:1]))
+    code = light.solve(args, pause_gc=fast)
+    if code is not None:
+        if fast:
+            _fast_exit(code)
+        raise SystemExit(code)
     from .app import main as app_main
 
-    if argv is not None or not FAST_EXIT & set(args[:1]):
+    if not fast:
         app_main(args)
         return
     try:

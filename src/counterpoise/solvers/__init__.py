@@ -1,7 +1,7 @@
 """Solver backends, one module each, behind the interface of :mod:`.base`.
 
-:mod:`.ipopt` (CasADi ``nlpsol``) solves the general design NLP; :mod:`.convex` (cvxpy
-with Clarabel) solves it as an LP/QP when the free variables enter linearly. A discrete
+:mod:`.ipopt` (CasADi ``nlpsol``) solves the general design NLP; :mod:`.convex` (Clarabel,
+given its matrices) solves it as an LP/QP when the free variables enter linearly. A discrete
 backend (bonmin or branch and bound over catalogue parts) plugs in beside them with the
 same :class:`~.base.Backend` call.
 """

@@ -1,4 +1,4 @@
-"""The convex path: an LP (or convex QP) solved with cvxpy and Clarabel; statuses mapped here.
+"""The convex path: an LP (or convex QP) handed to Clarabel as matrices; statuses mapped here.
 
 A design problem is convex when the balance equalities, the sign constraints and the
 objective are affine in the design variables that are free in a call (masses and spring
@@ -8,28 +8,42 @@ design is one LP: it is solved to its global optimum, with no initial guess.
 :class:`ConvexBackend` takes the same standard form as the IPOPT backend (CasADi SX
 ``{x, p, f, g}``) plus the indices of the variables that enter linearly, and honours the
 same call: ``solve(z0, p, bounds)``. Variables outside that set must be fixed in the call
-(``lbz == ubz``): that is how the certificate of a general design fixes its geometry. The
-cvxpy problem is built with parameters (DPP) on the first call of a constraint pattern and
-re-used afterwards, so a study pays for the canonicalisation once. cvxpy's default QP
-solver is OSQP; this backend always names ``solver="CLARABEL"``.
+(``lbz == ubz``): that is how the certificate of a general design fixes its geometry.
+
+The structure of this LP never varies: one vector of variables y, the constraints
+``lbg ≤ g(y) ≤ ubg`` and ``lbz ≤ y ≤ ubz`` with g affine, the objective ``c·y + ½ yᵀHy``
+with H constant. Its coefficients come from CasADi (one ``ca.Function`` built once, giving
+g, its Jacobian and the objective's gradient, evaluated per call with that call's
+parameters p and fixed variables, since p may enter the coefficients too), and Clarabel
+gets them as matrices in its standard form ``A y + s = b, s ∈ {0}ᵐ × ℝ₊ⁿ`` through its
+own Python API. A modelling layer (cvxpy) would add nothing here and cost 0.5–1 s of
+import per process.
+
+Clarabel's Python API reads a sparse matrix through the attributes of a SciPy CSC matrix
+(``data``, ``indices``, ``indptr``, ``shape``, ``nnz``, ``has_canonical_format``).
+:class:`CscMatrix` provides exactly these from numpy arrays, so the solve path does not
+import ``scipy.sparse`` (≈ 0.14 s); should a Clarabel release refuse it, the matrices are
+passed as ``scipy.sparse.csc_matrix`` instead (``tests/test_speed.py`` pins both).
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from .base import Bounds, SolverOutput, Status
 
-#: cvxpy problem statuses and what they mean for a design.
+#: Clarabel's statuses (``str(solution.status)``) and what they mean for a design; the
+#: near-statuses count as their full ones, the dense verification has the last word.
 STATUS_MAP: Mapping[str, Status] = {
-    "optimal": Status.OPTIMAL,
-    "optimal_inaccurate": Status.OPTIMAL,  # the dense verification has the last word
-    "infeasible": Status.INFEASIBLE,
-    "infeasible_inaccurate": Status.INFEASIBLE,
+    "Solved": Status.OPTIMAL,
+    "AlmostSolved": Status.OPTIMAL,
+    "PrimalInfeasible": Status.INFEASIBLE,
+    "AlmostPrimalInfeasible": Status.INFEASIBLE,
 }
 
 #: Clarabel settings: tighter than its defaults (1e-8), as the designs are checked to 1e-8.
@@ -40,9 +54,15 @@ CLARABEL_DEFAULTS: Mapping[str, Any] = {
     "max_iter": 200,
 }
 
+#: the objective counts as non-convex when H's smallest eigenvalue is below this, relative
+NONCONVEX_TOLERANCE = 1e-12
+
+#: ``solver_status`` of a call whose data hold NaN or inf (the solver is not called)
+INVALID_DATA = "invalid_data"
+
 
 def map_status(status: str) -> Status:
-    """The project's status for a cvxpy problem status (anything unlisted is a failure)."""
+    """The project's status for a Clarabel status name (anything unlisted is a failure)."""
     return STATUS_MAP.get(status, Status.FAILED)
 
 
@@ -60,6 +80,74 @@ def affine_variables(nlp: Mapping[str, Any], candidates: Sequence[int]) -> bool:
         return False
     grad = ca.gradient(f, zl)
     return not ca.depends_on(ca.jacobian(grad, zl), z) and not ca.depends_on(ca.jacobian(grad, zl), nlp["p"])
+
+
+@dataclass(frozen=True)
+class CscMatrix:
+    """A compressed-sparse-column matrix with the attributes Clarabel reads (SciPy's names)."""
+
+    data: np.ndarray
+    indices: np.ndarray
+    indptr: np.ndarray
+    shape: tuple[int, int]
+    has_canonical_format: bool = field(default=True, init=False)  # sorted rows, no duplicates
+
+    @property
+    def nnz(self) -> int:
+        return int(self.data.size)
+
+    @classmethod
+    def from_dense(cls, dense: np.ndarray) -> CscMatrix:
+        """The nonzeros of a dense 2-D array, column by column, rows ascending."""
+        dense = np.asarray(dense, dtype=float)
+        cols, rows = np.nonzero(dense.T)  # row-major over the transpose: by column, then row
+        indptr = np.zeros(dense.shape[1] + 1, dtype=np.int64)
+        np.cumsum(np.bincount(cols, minlength=dense.shape[1]), out=indptr[1:])
+        return cls(dense[rows, cols], rows.astype(np.int64), indptr, (int(dense.shape[0]), int(dense.shape[1])))
+
+    def to_scipy(self) -> Any:
+        from scipy.sparse import csc_matrix
+
+        return csc_matrix((self.data, self.indices, self.indptr), shape=self.shape)
+
+
+@dataclass(frozen=True)
+class ConeProgram:
+    """``min ½ yᵀPy + qᵀy  s.t.  A y + s = b``, s in ``n_zero`` zero cones then ``n_nonneg`` ≥ 0."""
+
+    P: np.ndarray  # dense, symmetric
+    q: np.ndarray
+    A: np.ndarray  # dense
+    b: np.ndarray
+    n_zero: int
+    n_nonneg: int
+
+    def finite(self) -> bool:
+        return bool(np.isfinite(self.P).all() and np.isfinite(self.q).all() and np.isfinite(self.A).all() and np.isfinite(self.b).all())
+
+
+def solve_cone_program(lp: ConeProgram, options: Mapping[str, Any]) -> tuple[np.ndarray | None, str, int]:
+    """Solve with Clarabel: (y or None, Clarabel's status name, iterations)."""
+    import clarabel
+
+    settings = clarabel.DefaultSettings()
+    settings.verbose = False
+    for key, value in options.items():
+        setattr(settings, key, value)
+    cones = []
+    if lp.n_zero:
+        cones.append(clarabel.ZeroConeT(lp.n_zero))
+    if lp.n_nonneg:
+        cones.append(clarabel.NonnegativeConeT(lp.n_nonneg))
+    P, A = CscMatrix.from_dense(np.triu(lp.P)), CscMatrix.from_dense(lp.A)
+    try:
+        solver = clarabel.DefaultSolver(P, lp.q, A, lp.b, cones, settings)
+    except (TypeError, AttributeError):  # a Clarabel that insists on SciPy's own matrices
+        solver = clarabel.DefaultSolver(P.to_scipy(), lp.q, A.to_scipy(), lp.b, cones, settings)
+    solution = solver.solve()
+    x = np.asarray(solution.x, dtype=float)
+    y = x if x.size == lp.q.size and np.isfinite(x).all() else None
+    return y, str(solution.status), int(solution.iterations)
 
 
 class ConvexBackend:
@@ -81,46 +169,13 @@ class ConvexBackend:
         self._data = ca.Function("lp_data", [z, p], [nlp["f"], grad, g, ca.jacobian(g, zl) if g.numel() else ca.SX(0, zl.numel())])
         h = np.array(ca.Function("lp_hess", [z, p], [hess])(np.zeros(self.n), np.zeros(int(p.numel()))), dtype=float)
         self.hessian = 0.5 * (h + h.T)
-        if np.abs(self.hessian).max(initial=0.0) > 0 and np.linalg.eigvalsh(self.hessian).min() < -1e-12 * max(1.0, np.abs(self.hessian).max()):
+        scale = np.abs(self.hessian).max(initial=0.0)
+        if scale > 0 and np.linalg.eigvalsh(self.hessian).min() < -NONCONVEX_TOLERANCE * max(1.0, scale):
             raise ValueError("the objective is not convex in the linear variables")
         self.options = {**CLARABEL_DEFAULTS, **(options or {})}
-        self._problems: dict[tuple[Any, ...], tuple[Any, ...]] = {}
 
-    # -- building --------------------------------------------------------------------
-    def _problem(self, eq: np.ndarray, ge: np.ndarray, le: np.ndarray) -> tuple[Any, ...]:
-        """The parametrised cvxpy problem for one pattern of equality/inequality rows."""
-        key = (eq.tobytes(), ge.tobytes(), le.tobytes())
-        if key in self._problems:
-            return self._problems[key]
-        import cvxpy as cp
-
-        m = len(self.linear)
-        y = cp.Variable(m)
-        c = cp.Parameter(m)
-        lo, hi = cp.Parameter(m), cp.Parameter(m)
-        cons = [y >= lo, y <= hi]
-        params: dict[str, Any] = {"c": c, "lo": lo, "hi": hi}
-        if eq.any():
-            a_eq, b_eq = cp.Parameter((int(eq.sum()), m)), cp.Parameter(int(eq.sum()))
-            cons.append(a_eq @ y == b_eq)
-            params.update(a_eq=a_eq, b_eq=b_eq)
-        n_in = int(ge.sum() + le.sum())
-        if n_in:
-            a_in, b_in = cp.Parameter((n_in, m)), cp.Parameter(n_in)
-            cons.append(a_in @ y >= b_in)
-            params.update(a_in=a_in, b_in=b_in)
-        objective = c @ y
-        if np.abs(self.hessian).max(initial=0.0) > 0:
-            objective = objective + 0.5 * cp.quad_form(y, cp.psd_wrap(self.hessian))
-        problem = cp.Problem(cp.Minimize(objective), cons)
-        self._problems[key] = (problem, y, params)
-        return self._problems[key]
-
-    # -- one call --------------------------------------------------------------------
-    def solve(self, z0: np.ndarray, p: np.ndarray, bounds: Bounds) -> SolverOutput:
-        import cvxpy as cp
-
-        t0 = time.perf_counter()
+    def program(self, z0: np.ndarray, p: np.ndarray, bounds: Bounds) -> tuple[ConeProgram, np.ndarray]:
+        """The cone program of one call, and the reference point (the fixed variables set)."""
         lbz, ubz = np.asarray(bounds.lbz, dtype=float), np.asarray(bounds.ubz, dtype=float)
         fixed = np.ones(self.n, dtype=bool)
         fixed[self.linear] = False
@@ -128,35 +183,36 @@ class ConvexBackend:
             raise ValueError("variables outside the linear set must be fixed (lower == upper) in a convex call")
         zref = np.clip(np.asarray(z0, dtype=float).reshape(-1), lbz, ubz)
         zref[fixed] = lbz[fixed]
-        f0, grad, g0, jac = (np.array(v, dtype=float) for v in self._data(zref, p))
-        grad = grad.reshape(-1)
-        g0 = g0.reshape(-1)
-        jac = jac.reshape(g0.size, len(self.linear))
+        _, grad, g0, jac = (np.array(v, dtype=float) for v in self._data(zref, p))
+        m = len(self.linear)
+        grad, g0 = grad.reshape(-1), g0.reshape(-1)
+        jac = jac.reshape(g0.size, m)
         y0 = zref[self.linear]
         const = g0 - jac @ y0  # g(y) = const + jac @ y exactly (g is affine in y)
         lbg, ubg = np.asarray(bounds.lbg, dtype=float), np.asarray(bounds.ubg, dtype=float)
-        eq = np.isfinite(lbg) & (lbg == ubg)
-        ge = np.isfinite(lbg) & ~eq
-        le = np.isfinite(ubg) & ~eq
-        problem, y, params = self._problem(eq, ge, le)
-        # linear term of f around y0: f(y) = f0 + grad·(y - y0) + ½ (y - y0)ᵀ H (y - y0)
-        params["c"].value = grad - self.hessian @ y0
-        params["lo"].value, params["hi"].value = lbz[self.linear], ubz[self.linear]
-        if "a_eq" in params:
-            params["a_eq"].value, params["b_eq"].value = jac[eq], lbg[eq] - const[eq]
-        if "a_in" in params:
-            params["a_in"].value = np.vstack([jac[ge], -jac[le]])
-            params["b_in"].value = np.concatenate([lbg[ge] - const[ge], const[le] - ubg[le]])
-        try:
-            problem.solve(solver="CLARABEL", **self.options)
-            code = str(problem.status)
-        except cp.error.SolverError as exc:
-            code = f"solver_error: {exc}"
-        z = zref.copy()
-        if y.value is not None and np.all(np.isfinite(y.value)):
-            z[self.linear] = np.clip(np.asarray(y.value, dtype=float), lbz[self.linear], ubz[self.linear])
-        stats = problem.solver_stats
-        iterations = int(getattr(stats, "num_iters", 0) or 0) if stats is not None else 0
+        lo, hi = lbz[self.linear], ubz[self.linear]
+        eye = np.eye(m)
+        # equalities: g rows with lbg == ubg, variables with lo == hi
+        eq, fix = np.isfinite(lbg) & (lbg == ubg), np.isfinite(lo) & (lo == hi)
+        # inequalities as A y ≤ b: lbg ≤ g, g ≤ ubg, lo ≤ y, y ≤ hi (finite sides only)
+        ge, le = np.isfinite(lbg) & ~eq, np.isfinite(ubg) & ~eq
+        below, above = np.isfinite(lo) & ~fix, np.isfinite(hi) & ~fix
+        A = np.vstack([jac[eq], eye[fix], -jac[ge], jac[le], -eye[below], eye[above]])
+        b = np.concatenate([lbg[eq] - const[eq], lo[fix], const[ge] - lbg[ge], ubg[le] - const[le], -lo[below], hi[above]])
+        # f(y) = f0 + grad·(y - y0) + ½ (y - y0)ᵀ H (y - y0): linear term grad - H y0
+        program = ConeProgram(self.hessian, grad - self.hessian @ y0, A, b, int(eq.sum() + fix.sum()), int(b.size - eq.sum() - fix.sum()))
+        return program, zref
+
+    def solve(self, z0: np.ndarray, p: np.ndarray, bounds: Bounds) -> SolverOutput:
+        t0 = time.perf_counter()
+        program, z = self.program(z0, p, bounds)
+        if program.finite():
+            y, code, iterations = solve_cone_program(program, self.options)
+        else:
+            y, code, iterations = None, f"{INVALID_DATA}: NaN or inf in the problem's coefficients", 0
+        if y is not None:
+            lo, hi = np.asarray(bounds.lbz, dtype=float)[self.linear], np.asarray(bounds.ubz, dtype=float)[self.linear]
+            z[self.linear] = np.clip(y, lo, hi)
         return SolverOutput(
             z=z,
             status=map_status(code),

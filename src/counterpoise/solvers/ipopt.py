@@ -62,22 +62,34 @@ def map_status(return_status: str) -> Status:
 
 
 class IpoptBackend:
-    """``nlp`` is CasADi's dict {x, p, f, g} of SX expressions; the solver is built here once."""
+    """``nlp`` is CasADi's dict {x, p, f, g} of SX expressions; the solver is built once,
+    on the first call (:attr:`solver`): a designer that solves its problem as an LP never
+    calls IPOPT, and building it loads the IPOPT plugin (~8 ms for the hybrid)."""
 
     name = "ipopt"
 
     def __init__(self, nlp: Mapping[str, Any], options: Mapping[str, Any], label: str = "design") -> None:
-        import casadi as ca
-
         self.options = dict(options)
-        self.solver = ca.nlpsol(label, "ipopt", dict(nlp), {"print_time": False, "ipopt": self.options})
+        self.label = label
+        self._nlp = dict(nlp)
+        self._solver: Any = None
+
+    @property
+    def solver(self) -> Any:
+        """CasADi's ``nlpsol`` for this NLP, built on first use."""
+        if self._solver is None:
+            import casadi as ca
+
+            self._solver = ca.nlpsol(self.label, "ipopt", self._nlp, {"print_time": False, "ipopt": self.options})
+        return self._solver
 
     def solve(self, z0: np.ndarray, p: np.ndarray, bounds: Bounds) -> SolverOutput:
+        solver = self.solver
         t0 = time.perf_counter()
         with _quiet_warnings():
-            out = self.solver(x0=z0, p=p, lbx=bounds.lbz, ubx=bounds.ubz, lbg=bounds.lbg, ubg=bounds.ubg)
+            out = solver(x0=z0, p=p, lbx=bounds.lbz, ubx=bounds.ubz, lbg=bounds.lbg, ubg=bounds.ubg)
         elapsed = time.perf_counter() - t0
-        stats = self.solver.stats()
+        stats = solver.stats()
         code = str(stats.get("return_status", "unknown"))
         return SolverOutput(
             z=np.array(out["x"], dtype=float).reshape(-1),
