@@ -19,6 +19,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any, Protocol
 
 from ..model.problem import Problem
@@ -62,9 +63,14 @@ class StudyTask:
             designer.convex.options["time_limit"] = float(self.time_limit)
         return designer
 
-    @property
-    def key(self) -> int:
-        return hash((self.problem.name, self.problem.path, tuple(sorted(self.ipopt_options.items())), self.time_limit, self.backend))
+    @cached_property
+    def key(self) -> str:
+        """Cache key of the designers built from this task: the problem's *content*
+        (:func:`~counterpoise.model.digest.content_key`) and the solver options, never its
+        name or path (two problems of one file with different ``--set`` values differ)."""
+        from ..model.digest import content_key, digest
+
+        return digest((content_key(self.problem), sorted((str(k), repr(v)) for k, v in self.ipopt_options.items()), self.time_limit, self.backend))
 
 
 @dataclass(frozen=True)
