@@ -158,11 +158,12 @@ def solve(
             worst = max(worst, 1)
             continue
         try:
-            folder = write_reports(result, out)
+            extra = None
             if plot:
                 from ..plots import energy_plot
 
-                energy_plot(result, folder)
+                extra = lambda folder, result=result: energy_plot(result, folder)  # noqa: E731 - in the folder before it appears
+            folder = write_reports(result, out, extra)
         except OSError as exc:
             err_console.print(f"{problem.path}: cannot write reports to {out}: {exc.strerror or exc}", markup=False)
             worst = max(worst, 1)
