@@ -255,6 +255,8 @@ def study(
     options = StudyOptions(tuple(vary), samples, method, seed, out, jobs, scheduler, scheduler_timeout, resume, time_limit, batch_size, plot)
     try:
         outcome = run_study_command(problem, options, err_console)
+    except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM: workers stopped, finished batches kept
+        _study_interrupted(problem, out, exc)
     except ProblemFileError as exc:
         err_console.print(str(exc), markup=False)
         raise typer.Exit(2) from None
@@ -264,6 +266,24 @@ def study(
     counts = ", ".join(f"{n} {s}" for s, n in sorted(outcome.counts.items()))
     skipped = f", {outcome.skipped} already done" if outcome.skipped else ""
     out_console.print(f"{problem.name}: {outcome.run} points run ({counts or 'none'}){skipped} in {outcome.wall_time:.1f} s; study in {outcome.folder}/", markup=False)
+
+
+#: exit status of an interrupted study: 128 + the signal number, as shells report it
+EXIT_SIGINT, EXIT_SIGTERM = 130, 143
+
+
+def _study_interrupted(problem, out: Path, exc: KeyboardInterrupt) -> None:  # type: ignore[no-untyped-def]
+    from ..studies.command import StudyTerminated
+    from ..studies.study import study_folder
+
+    folder = study_folder(problem, out)
+    what = "terminated" if isinstance(exc, StudyTerminated) else "interrupted"
+    err_console.print(
+        f"{problem.path}: {what}; the finished points are in {folder / 'study.csv'}; "
+        "run the same command with --resume to continue",
+        markup=False,
+    )
+    raise typer.Exit(EXIT_SIGTERM if isinstance(exc, StudyTerminated) else EXIT_SIGINT)
 
 
 @app.command()

@@ -8,7 +8,11 @@ it and exits 2. A finished study exits 0 whatever its points' statuses (they are
 from __future__ import annotations
 
 import os
+import signal
+import threading
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -58,8 +62,35 @@ def make_runner(options: StudyOptions, label: str) -> Runner:
     return SerialRunner(tune=True) if jobs == 1 else ProcessRunner(jobs)
 
 
+class StudyTerminated(KeyboardInterrupt):
+    """SIGTERM during a study: handled like Ctrl-C (workers stopped, finished batches kept)."""
+
+
+@contextmanager
+def terminate_as_interrupt() -> Iterator[None]:
+    """Within: SIGTERM raises :class:`StudyTerminated` in the main thread, so the study's
+    clean-up runs (workers terminated, finished rows written) instead of the process
+    vanishing and leaving its pool workers orphaned."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def _raise(signum: int, frame: Any) -> None:
+        raise StudyTerminated()
+
+    previous = signal.signal(signal.SIGTERM, _raise)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 def run_study_command(problem: Problem, options: StudyOptions, console: Any) -> StudyOutcome:
-    """Plan, run (with a progress bar on ``console``), and plot a study."""
+    """Plan, run (with a progress bar on ``console``), and plot a study.
+
+    Ctrl-C (KeyboardInterrupt) and SIGTERM (:class:`StudyTerminated`, a KeyboardInterrupt)
+    propagate after the clean-up: every finished batch is in ``study.csv`` and no worker
+    is left running; ``--resume`` continues."""
     label = problem.path or problem.name
     plan = plan_study(problem, list(options.vary), label, options.samples, options.method, options.seed)
     if options.time_limit is not None and not options.time_limit > 0:
@@ -69,7 +100,8 @@ def run_study_command(problem: Problem, options: StudyOptions, console: Any) -> 
     runner = make_runner(options, label)
     task = StudyTask(problem, time_limit=options.time_limit)
     try:
-        outcome = _run(problem, plan, options, runner, task, console)
+        with terminate_as_interrupt():
+            outcome = _run(problem, plan, options, runner, task, console)
     finally:
         close = getattr(runner, "close", None)
         if close is not None:
