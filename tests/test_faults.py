@@ -55,3 +55,38 @@ def test_a_signalled_study_stops_its_workers_and_says_how_to_resume(tmp_path, si
     assert "Traceback" not in err
     time.sleep(0.5)
     assert [p for p in workers if Path(f"/proc/{p}").exists() and "Z" not in (Path(f"/proc/{p}/stat").read_text().rsplit(")", 1)[1].split()[0])] == []
+
+
+def _cli(args, capsys):
+    from counterpoise.cli.app import main
+
+    with pytest.raises(SystemExit) as exit_info:
+        main(args)
+    return exit_info.value.code, capsys.readouterr()
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--vary", "m_c=-400 g:400 g:5"], "--vary m_c: '-400 g' is not allowed: bodies.tip.mass: a mass must not be negative"),
+        (["--vary", "M_c.upper=-1 g:400 g:3"], "--vary M_c.upper: '-1 g' is not allowed: variables.M_c: lower bound 0 g is greater than upper bound -1 g"),
+        (["--vary", "mass_weight=1:-2:3"], "--vary objective.mass_weight: '-2' is not allowed"),
+        (["--vary", "m_c=1 g:2 g:3", "--scheduler", "tls://127.0.0.1:1", "--scheduler-timeout", "1"], "--scheduler: cannot connect to tls://127.0.0.1:1: tls:// needs the Dask TLS configuration"),
+    ],
+)
+def test_varied_values_and_schedulers_are_checked_before_any_work(tmp_path, capsys, args, message):
+    if "scheduler" in args:
+        pytest.importorskip("distributed")
+    file = str(PROBLEMS / "yasir2019_counter_mass.toml")
+    code, out = _cli(["study", file, "--out", str(tmp_path), "--jobs", "1", "--no-plot", *args], capsys)
+    lines = out.err.strip().splitlines()
+    assert code == 2 and len(lines) == 1 and lines[0].startswith(f"{file}: {message}"), out.err
+    assert not any(tmp_path.iterdir())
+
+
+def test_varied_values_are_checked_with_the_set_overrides(tmp_path, capsys):
+    # with M_c.lower raised to 300 g by --set, an upper bound of 200 g is inverted
+    file = str(PROBLEMS / "yasir2019_counter_mass.toml")
+    code, out = _cli(["study", file, "--out", str(tmp_path), "--jobs", "1", "--no-plot", "--set", "variables.M_c.lower=300 g",
+                      "--vary", "M_c.upper=200 g:900 g:2"], capsys)
+    assert code == 2 and "--vary M_c.upper: '200 g' is not allowed" in out.err

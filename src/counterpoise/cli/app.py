@@ -251,8 +251,10 @@ def study(
     """Solve a problem over a grid or a Latin hypercube of parameters, bounds or weights."""
     from ..studies.command import StudyOptions, run_study_command
 
-    problem = _load_all([file], _overrides(set_))[0]
-    options = StudyOptions(tuple(vary), samples, method, seed, out, jobs, scheduler, scheduler_timeout, resume, time_limit, batch_size, plot)
+    overrides = _overrides(set_)
+    problem = _load_all([file], overrides)[0]
+    options = StudyOptions(tuple(vary), samples, method, seed, out, jobs, scheduler, scheduler_timeout, resume, time_limit, batch_size, plot,
+                           overrides=tuple(overrides.items()))
     try:
         outcome = run_study_command(problem, options, err_console)
     except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM: workers stopped, finished batches kept

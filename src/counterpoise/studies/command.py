@@ -20,7 +20,7 @@ from typing import Any
 from ..errors import ProblemFileError
 from ..model.problem import Problem
 from .runners import PointResult, ProcessRunner, Runner, SerialRunner, StudyTask
-from .spec import plan_study
+from .spec import StudyPlan, plan_study
 from .study import StudyOutcome, run_study
 
 
@@ -39,6 +39,8 @@ class StudyOptions:
     batch_size: int = 16
     plot: bool = True
     progress: bool = True
+    #: the --set overrides the problem was loaded with (varied values are checked with them)
+    overrides: tuple[tuple[str, Any], ...] = ()
 
 
 def make_runner(options: StudyOptions, label: str) -> Runner:
@@ -60,6 +62,36 @@ def make_runner(options: StudyOptions, label: str) -> Runner:
         return runner
     jobs = jobs or os.cpu_count() or 1
     return SerialRunner(tune=True) if jobs == 1 else ProcessRunner(jobs)
+
+
+def override_key(key: str) -> str:
+    """The problem-file key (for ``--set``) of a study point key."""
+    if key.startswith("objective."):
+        return key
+    if key.endswith((".lower", ".upper")):
+        return f"variables.{key}"
+    return f"parameters.{key}"
+
+
+def check_varied_values(problem: Problem, plan: StudyPlan, overrides: dict[str, Any]) -> None:
+    """Both ends of every ``--vary`` range pass the checks a problem file gets: the file is
+    loaded again with each end as a ``--set`` override (a negative mass, an inverted bound
+    or a weight of the wrong sign is an input error naming the --vary key, before any
+    work). Points lie between the ends, and what the checks reject (a negative mass, a
+    bound outside another) is a bound on the value, so the ends stand for the range.
+    Problems not read from a file (the Python API) are not re-read."""
+    from ..io.loader import load_problem
+
+    label = problem.path or problem.name
+    if not problem.path or not Path(problem.path).is_file():
+        return
+    for v in plan.varies:
+        ends = [t.strip() for t in v.text.partition("=")[2].split(":")[:2]]
+        for text in dict.fromkeys(ends):
+            try:
+                load_problem(problem.path, {**overrides, override_key(v.key): text})
+            except ProblemFileError as exc:
+                raise ProblemFileError(label, f"--vary {v.key}", f"'{text}' is not allowed: {exc.key}: {exc.message}") from None
 
 
 class StudyTerminated(KeyboardInterrupt):
@@ -93,6 +125,7 @@ def run_study_command(problem: Problem, options: StudyOptions, console: Any) -> 
     is left running; ``--resume`` continues."""
     label = problem.path or problem.name
     plan = plan_study(problem, list(options.vary), label, options.samples, options.method, options.seed)
+    check_varied_values(problem, plan, dict(options.overrides))
     if options.time_limit is not None and not options.time_limit > 0:
         raise ProblemFileError(label, "--time-limit", f"must be positive, got {options.time_limit}")
     if options.batch_size < 1:
