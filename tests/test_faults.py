@@ -90,3 +90,28 @@ def test_varied_values_are_checked_with_the_set_overrides(tmp_path, capsys):
     code, out = _cli(["study", file, "--out", str(tmp_path), "--jobs", "1", "--no-plot", "--set", "variables.M_c.lower=300 g",
                       "--vary", "M_c.upper=200 g:900 g:2"], capsys)
     assert code == 2 and "--vary M_c.upper: '200 g' is not allowed" in out.err
+
+
+def _chain_text(frames: int) -> str:
+    lines = ['[problem]', 'name = "chain"', 'title = "a long chain"', 'source = "fault campaign"',
+             '[gravity]', 'acceleration = "9.81 m/s^2"', 'direction = [0, -1, 0]',
+             '[subsystems.arm]', 'coordinates.q = { range = ["0 deg", "90 deg"] }',
+             '[frames.f0]', 'parent = "ground"', 'transforms = [{ rotate = "z", angle = "q" }]']
+    for i in range(1, frames):
+        lines += [f'[frames.f{i}]', f'parent = "f{i - 1}"', 'transforms = [{ translate = ["1 mm", 0, 0] }]']
+    lines += ['[bodies.tip]', f'frame = "f{frames - 1}"', 'mass = "1 kg"', 'com = [0, 0, 0]',
+              '[variables.M]', 'lower = "0 kg"', 'upper = "100 kg"',
+              '[counter_masses.M]', 'frame = "f0"', 'mass = "M"', 'position = ["-100 mm", 0, 0]',
+              '[objective]', 'mass_weight = 1', 'inertia_weight = "0 1/m^2"']
+    return "\n".join(lines) + "\n"
+
+
+def test_a_chain_of_a_thousand_frames_is_designed_without_deep_recursion():
+    from counterpoise.io.loader import load_problem_text
+    from counterpoise.pipeline import design
+
+    frames = 1000
+    result = design(load_problem_text(_chain_text(frames), "chain.toml"))
+    # M × 100 mm = 1 kg × (frames - 1) mm
+    assert result.optimal
+    assert result.solution.values[next(iter(result.solution.values))] == pytest.approx((frames - 1) / 100, rel=1e-9)
