@@ -115,3 +115,13 @@ def test_a_chain_of_a_thousand_frames_is_designed_without_deep_recursion():
     # M × 100 mm = 1 kg × (frames - 1) mm
     assert result.optimal
     assert result.solution.values[next(iter(result.solution.values))] == pytest.approx((frames - 1) / 100, rel=1e-9)
+
+
+def test_a_huge_bound_gives_one_line_and_no_python_warning(tmp_path):
+    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
+    file = str(PROBLEMS / "yasir2019_counter_mass.toml")
+    done = subprocess.run([sys.executable, "-c", "from counterpoise.cli import main; main()", "solve", file, "--out", str(tmp_path),
+                           "--set", "variables.M_a.upper=1e308 kg"], capture_output=True, text=True, env=env, timeout=START_WAIT_S)
+    assert done.returncode == 1
+    assert done.stderr.strip().splitlines() == [f"{file}: the balance residual is not a finite number at some designs within the bounds "
+                                                "(a bound too large to compute with, or expressions such as sqrt or log of a variable)"]

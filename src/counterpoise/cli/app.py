@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import sys
 import time
+import warnings
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -360,7 +361,10 @@ def main(argv: list[str] | None = None) -> None:
     if debug:
         args.remove("--debug")
     try:
-        app(args=args, prog_name="counterpoise")  # exits by itself: 0/1/2 as documented, 2 for usage errors
+        with warnings.catch_warnings():
+            if not debug:  # a library's warning (with its source path) is no message for a user
+                warnings.simplefilter("ignore")
+            app(args=args, prog_name="counterpoise")  # exits by itself: 0/1/2 as documented, 2 for usage errors
     except KeyboardInterrupt:
         err_console.print("interrupted", markup=False)
         sys.exit(130)
