@@ -125,3 +125,18 @@ def test_a_huge_bound_gives_one_line_and_no_python_warning(tmp_path):
     assert done.returncode == 1
     assert done.stderr.strip().splitlines() == [f"{file}: the balance residual is not a finite number at some designs within the bounds "
                                                 "(a bound too large to compute with, or expressions such as sqrt or log of a variable)"]
+
+
+def test_an_absurd_payload_is_rejected_up_front(capsys):
+    file = str(PROBLEMS / "woo2019_hybrid.toml")
+    code, out = _cli(["schedule", file, "--payload", "1e200 g"], capsys)
+    lines = out.err.strip().splitlines()
+    assert code == 2 and lines == [f"{file}: --payload: '1e200 g' is more than 100 times the upper end of the declared range (0 g to 122 g)"]
+
+
+def test_every_ipopt_solve_has_a_time_limit():
+    from counterpoise.designer.designer import Designer
+    from counterpoise.io.loader import load_problem
+
+    designer = Designer(load_problem(PROBLEMS / "yasir2019_free_extensions.toml"), backend="ipopt")
+    assert 0 < designer.options["max_wall_time"] < float("inf")

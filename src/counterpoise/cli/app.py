@@ -180,6 +180,11 @@ def solve(
     raise typer.Exit(worst)
 
 
+#: ``schedule --payload`` beyond this multiple of the declared range's upper end is an
+#: input error (a typo such as '1e200 g' kept IPOPT busy for minutes)
+PAYLOAD_FACTOR = 100.0
+
+
 @app.command()
 def schedule(
     file: Annotated[Path, typer.Argument(help="Problem file with a payload range.", show_default=False)],
@@ -204,6 +209,14 @@ def schedule(
         raise typer.Exit(2)
     if mass.si < 0:
         err_console.print(f"{file}: --payload: a payload mass must not be negative ('{payload}')", markup=False)
+        raise typer.Exit(2)
+    declared = max(problem.payloads, key=lambda p: p.upper)
+    if mass.si > PAYLOAD_FACTOR * max(declared.upper, declared.unit.to_si):
+        err_console.print(
+            f"{file}: --payload: '{clip(payload)}' is more than {PAYLOAD_FACTOR:g} times the upper end of the declared range "
+            f"({declared.label(declared.lower)} to {declared.label(declared.upper)})",
+            markup=False,
+        )
         raise typer.Exit(2)
     from ..payload import settings_for
 
