@@ -140,3 +140,23 @@ def test_every_ipopt_solve_has_a_time_limit():
 
     designer = Designer(load_problem(PROBLEMS / "yasir2019_free_extensions.toml"), backend="ipopt")
     assert 0 < designer.options["max_wall_time"] < float("inf")
+
+
+def test_reading_a_large_catalogue_prints_progress(tmp_path):
+    from counterpoise import progress
+    from counterpoise.catalogue import read_catalogue
+    from counterpoise.catalogue.reader import shipped_catalogue_path
+
+    lines = shipped_catalogue_path().read_text(encoding="utf-8").splitlines()
+    header, body = lines[0], lines[1:]
+    rows = [f"BIG-{i:06d}," + body[i % len(body)].split(",", 1)[1] for i in range(progress.LARGE_STEP + 1)]
+    path = tmp_path / "big.csv"
+    path.write_text("\n".join([header, *rows]) + "\n", encoding="utf-8")
+    notes: list[str] = []
+    with progress.sink(notes.append):
+        catalogue = read_catalogue(path)
+    assert len(catalogue) == len(rows)
+    assert notes and notes[0] == f"reading catalogue {path}: rows: {len(rows):,} to go"
+    with progress.sink(notes.append):
+        read_catalogue("shipped")  # a small one says nothing
+    assert len(notes) == 1

@@ -11,6 +11,8 @@ import csv
 import math
 from pathlib import Path
 
+from ..progress import counter
+
 from ..errors import ProblemFileError
 from ..model.parts import Catalogue
 from .columns import ColumnMapping, mapping_from
@@ -71,7 +73,9 @@ def read_catalogue(
     )}
     seen: dict[str, int] = {}
     number = 0
+    tick = counter(f"reading catalogue {label}: rows", len(rows) - 1)
     for line, cells in enumerate(rows[1:], start=2):
+        tick(line - 1)
         if not any(c.strip() for c in cells):
             continue  # blank line
         number += 1

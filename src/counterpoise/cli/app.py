@@ -20,6 +20,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from .. import progress
 from ..errors import CounterpoiseError, ProblemFileError, clip
 
 app = typer.Typer(
@@ -374,7 +375,7 @@ def main(argv: list[str] | None = None) -> None:
     if debug:
         args.remove("--debug")
     try:
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), progress.sink(lambda line: err_console.print(line, markup=False)):
             if not debug:  # a library's warning (with its source path) is no message for a user
                 warnings.simplefilter("ignore")
             app(args=args, prog_name="counterpoise")  # exits by itself: 0/1/2 as documented, 2 for usage errors
