@@ -86,3 +86,40 @@ def test_concurrent_writers_each_leave_a_whole_folder(tmp_path, two_results):
     found = {p.name: p.read_text() for p in folder.iterdir()}
     assert found in texts
     assert sorted(p.name for p in tmp_path.iterdir()) == [folder.name]
+
+
+def test_worst_configuration_names_its_coordinates(two_results):
+    from counterpoise.report.rows import verification_rows
+
+    rows = verification_rows(two_results[0])
+    cells = rows[0]["worst_configuration"].split("; ")
+    assert [c.split("=")[0] for c in cells] == ["theta_a", "theta_b", "theta_c"]
+    assert all(c.endswith(" deg") for c in cells)
+
+
+def test_the_energy_plot_legend_lists_the_unbalanced_curves_once(tmp_path, two_results, monkeypatch):
+    from counterpoise.plots import energy as energy_module
+
+    legends = []
+
+    def keep(fig, path):
+        legends.append([t.get_text() for legend in fig.legends for t in legend.get_texts()])
+        energy_module.pyplot().close(fig)
+
+    monkeypatch.setattr(energy_module, "save", keep)
+    energy_module.energy_plot(two_results[0], tmp_path)
+    assert sum("(unbalanced)" in text for text in legends[0]) == 1
+
+
+def test_the_solve_table_shows_summary_csv_solve_time(tmp_path, capsys):
+    import csv
+
+    from counterpoise.cli.app import main
+
+    with pytest.raises(SystemExit):
+        main(["solve", str(FILE), "--out", str(tmp_path)])
+    out = capsys.readouterr().out
+    summary = next(csv.DictReader((tmp_path / "yasir2019_counter_mass" / "summary.csv").open()))
+    assert "solve (s)" in out and "total (s)" in out
+    row = next(line for line in out.splitlines() if "yasir2019_counter_mass" in line and "optimal" in line)
+    assert f"{float(summary['solve_time_s']):.3f}" in row
