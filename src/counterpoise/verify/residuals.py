@@ -310,7 +310,7 @@ def energy_scale(
 #: The reference of the residual ratios is the largest |gravity torque| over the *box* of
 #: coordinates, not over the samples: the best samples are refined by projected Newton
 #: steps on exact CasADi derivatives until the value gains less than this (relative).
-BOX_MAXIMUM_TOLERANCE = 1e-9
+BOX_MAXIMUM_TOLERANCE = 1e-8
 #: samples (the largest |torque| of each coordinate) from which the maximum is refined
 BOX_MAXIMUM_STARTS = 1
 #: Newton iterations per start; and halvings of a step that does not increase the value
@@ -403,20 +403,25 @@ class BoxMaximum:
         return torque[coordinate, np.arange(m)]
 
     def _climb(self, columns: np.ndarray, coordinate: np.ndarray, args: tuple[np.ndarray, ...]) -> np.ndarray:
-        """Projected Newton ascent of |torque c_i| from column i, all columns at once."""
+        """Projected Newton ascent of |torque c_i| from column i, all columns at once (one
+        CasADi call per step: the trial point's derivatives serve the next step)."""
         lo, hi = self.lower, self.upper
         width = np.where(hi > lo, hi - lo, 0.0)
         n, m = columns.shape
+        derivatives = self._mapped("derivatives", self._derivatives, m)
+
+        def evaluate(q: np.ndarray) -> list[np.ndarray]:
+            return [np.asarray(x) for x in derivatives(q, *args)]
+
         q = columns.copy()
-        start = self._values(q, coordinate, args)
+        out = evaluate(q)
+        start = out[0][coordinate, np.arange(m)]
         sign = np.where(start >= 0, 1.0, -1.0)
         f = sign * start
         active = np.isfinite(f)
-        derivatives = self._mapped("derivatives", self._derivatives, m)
         for _ in range(BOX_MAXIMUM_ITERATIONS):
             if not active.any():
                 break
-            out = [np.asarray(x) for x in derivatives(q, *args)]
             steps = np.zeros_like(q)
             for i in np.flatnonzero(active):
                 j = coordinate[i]
@@ -451,10 +456,15 @@ class BoxMaximum:
                 if not searching.any():
                     break
                 trial = np.clip(q + alpha * steps, lo[:, None], hi[:, None])
-                value = sign * self._values(trial, coordinate, args)
+                trial_out = evaluate(trial)
+                value = sign * trial_out[0][coordinate, np.arange(m)]
                 better = searching & (value > f)
                 gain = np.where(better, value - f, 0.0)
-                q[:, better] = trial[:, better]
+                for c in np.flatnonzero(better):
+                    q[:, c] = trial[:, c]
+                    out[0][:, c] = trial_out[0][:, c]
+                    for block in range(1, len(out)):
+                        out[block][:, c * n : (c + 1) * n] = trial_out[block][:, c * n : (c + 1) * n]
                 f = np.where(better, value, f)
                 active &= ~(better & (gain <= BOX_MAXIMUM_TOLERANCE * np.abs(f)))
                 searching &= ~better
