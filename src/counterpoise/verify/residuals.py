@@ -179,9 +179,10 @@ class SubsystemResiduals:
         self.per_design = [e for e in self.elements if not e.separable]
         n, n_q = q.shape
         self.chunks = [slice(i, min(i + CHUNK_CONFIGURATIONS, n)) for i in range(0, n, CHUNK_CONFIGURATIONS)] if n_q else []
-        size = (len(self.separable) + 2) * n * n_q * 8
+        size = (len(self.constant) + 2 * len(self.separable) + 2) * n * n_q * 8  # per element, and composed
         self._arrays: list[tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None
-        self._arrays_key: tuple[Any, ...] | None = None
+        self._element_parameters: list[tuple[str, ...]] | None = None
+        self._element_arrays: list[Any] = []
         self.cache = cache and size <= CACHE_BYTES
 
     # -- complex step --------------------------------------------------------------
@@ -220,22 +221,46 @@ class SubsystemResiduals:
                     out[slots[k]][:, j] += np.imag(energy) / STEP
         return out
 
-    def _fixed_arrays(self, base: Mapping[str, float], gravity: Sequence[float], rows: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Per chunk: (literal-factor bodies, literal-factor balancers, one array per other separable element)."""
+    def _element_columns(self, elements: Sequence[_Element], base: Mapping[str, float], gravity: Sequence[float], rows: slice) -> np.ndarray:
+        """∂(energy)/∂q of each of ``elements`` at the configurations ``rows``, per unit
+        factor except for literal-factor ones: (len(elements), n, n_q)."""
         # the design's variables do not enter these arrays: any value will do
         variables = {v.name: v.initial for v in self.problem.variables}
-        elements = [*self.constant, *self.separable]
-        slots = [0 if e.is_body else 1 for e in self.constant] + list(range(2, 2 + len(self.separable)))
-        columns = self._columns(elements, variables, base, gravity, rows, [not e.constant for e in elements], slots, 2 + len(self.separable))
-        return columns[0], columns[1], columns[2:]
+        return self._columns(elements, variables, base, gravity, rows, [not e.constant for e in elements], list(range(len(elements))), len(elements))
+
+    def _fixed_arrays(self, base: Mapping[str, float], gravity: Sequence[float], rows: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per chunk: (literal-factor bodies, literal-factor balancers, one array per other separable element)."""
+        columns = self._element_columns([*self.constant, *self.separable], base, gravity, rows)
+        return self._compose(list(columns), rows)
+
+    def _compose(self, arrays: Sequence[np.ndarray], rows: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(Σ literal-factor bodies, Σ literal-factor balancers, stack of the others) from one
+        array per element of ``[*self.constant, *self.separable]``."""
+        n_constant = len(self.constant)
+        shape = (rows.stop - rows.start, len(self.names))
+        bodies, balancers = np.zeros(shape), np.zeros(shape)
+        for e, array in zip(self.constant, arrays[:n_constant]):
+            (bodies if e.is_body else balancers).__iadd__(array)
+        rest = arrays[n_constant:]
+        return bodies, balancers, (np.stack(rest) if rest else np.zeros((0, *shape)))
 
     def _arrays_of(self, index: int, base: Mapping[str, float], gravity: Sequence[float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if not self.cache:
             return self._fixed_arrays(base, gravity, self.chunks[index])
-        key = (tuple(gravity), tuple(base[name] for name in self.geometry_parameters))
-        if self._arrays is None or key != self._arrays_key:
-            self._arrays = [self._fixed_arrays(base, gravity, r) for r in self.chunks]
-            self._arrays_key = key
+        elements = [*self.constant, *self.separable]
+        if self._element_parameters is None:
+            self._element_parameters = [_base_parameters(self.problem, e.geometry) for e in elements]
+            self._element_arrays = [None] * len(elements)
+        # each element's arrays are rebuilt only when gravity or a parameter of its own
+        # geometry changes: a study of one link's length rebuilds that link's elements only
+        keys = [(tuple(gravity), tuple(base[name] for name in names)) for names in self._element_parameters]
+        stale = [k for k, key in enumerate(keys) if self._element_arrays[k] is None or self._element_arrays[k][0] != key]
+        if stale or self._arrays is None:
+            if stale:
+                fresh = [self._element_columns([elements[k] for k in stale], base, gravity, rows) for rows in self.chunks]
+                for position, k in enumerate(stale):
+                    self._element_arrays[k] = (keys[k], [chunk[position] for chunk in fresh])
+            self._arrays = [self._compose([self._element_arrays[k][1][c] for k in range(len(elements))], rows) for c, rows in enumerate(self.chunks)]
         return self._arrays[index]
 
     # -- one design ----------------------------------------------------------------
