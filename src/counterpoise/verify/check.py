@@ -147,7 +147,12 @@ def _box_loads(
         else:
             k = min(BOX_MAXIMUM_STARTS, t.shape[0])
             best = np.argpartition(magnitude, t.shape[0] - k, axis=0)[-k:]  # (K, n): the best samples of each coordinate
-        refined = state["maximum"].refine(evaluator.q[best], variables, base, gravity, np.flatnonzero(candidates))
+        starts = evaluator.q[best]
+        previous = state.setdefault("maximisers", {}).get((scenario, tuple(candidates)))
+        if previous is not None:  # where the maximum was for the previous values: usually one Newton step away
+            starts = np.concatenate([starts, np.nan_to_num(previous.T, nan=0.0)[None]])
+        refined, where = state["maximum"].refine(starts, variables, base, gravity, np.flatnonzero(candidates))
+        state["maximisers"][(scenario, tuple(candidates))] = where
         loads = sampled.copy()
         ok = candidates & np.isfinite(refined)
         loads[ok] = np.maximum(sampled[ok], refined[ok])

@@ -336,7 +336,8 @@ def energy_scale(
 #: coordinates, not over the samples: the best samples are refined by projected Newton
 #: steps on exact CasADi derivatives until the value gains less than this (relative).
 BOX_MAXIMUM_TOLERANCE = 1e-8
-#: samples (the largest |torque| of each coordinate) from which the maximum is refined
+#: samples (the largest |torque| of each coordinate) from which the maximum is refined; in a
+#: study the maximiser found for the previous values is a further start (the better climbs)
 BOX_MAXIMUM_STARTS = 1
 #: Newton iterations per start; and halvings of a step that does not increase the value
 BOX_MAXIMUM_ITERATIONS = 30
@@ -402,18 +403,26 @@ class BoxMaximum:
 
     def refine(
         self, starts: np.ndarray, variables: Mapping[str, float], base: Mapping[str, float], gravity: Sequence[float], which: Sequence[int] | None = None
-    ) -> np.ndarray:
-        """The largest |torque j| reached from ``starts[k, j]`` (configuration k of coordinate j,
-        shape (K, n, n)), for the coordinates ``which`` (all by default) at once: at least
-        the starts' values; NaN for the others."""
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The largest |torque j| reached from the starts ``starts[k, j]`` (configuration k of
+        coordinate j, shape (K, n, n)), for the coordinates ``which`` (all by default) at
+        once: at least the best start's value (NaN for the others); and where it is reached,
+        (n, n) with column j for coordinate j. Only the best start of each coordinate climbs."""
         args = self._arguments(variables, base, gravity)
         k, n = starts.shape[0], starts.shape[1]
         which = np.arange(n) if which is None else np.asarray(which, dtype=int)
         columns = np.clip(np.concatenate([starts[i][which].T for i in range(k)], axis=1), self.lower[:, None], self.upper[:, None])
         coordinate = np.tile(which, k)  # the coordinate each column climbs
         with np.errstate(all="ignore"):
-            values = self._climb(columns, coordinate, args)
-        return np.array([np.nanmax(values[coordinate == j]) if np.isfinite(values[coordinate == j]).any() else np.nan for j in range(n)])
+            values, reached = self._climb(columns, coordinate, args)
+        best = np.full(n, np.nan)
+        where = np.full((n, n), np.nan)
+        for j in which:
+            mine = np.flatnonzero((coordinate == j) & np.isfinite(values))
+            if mine.size:
+                i = mine[np.argmax(values[mine])]
+                best[j], where[:, j] = values[i], reached[:, i]
+        return best, where
 
     def _mapped(self, name: str, function: Any, m: int) -> Any:
         """``function`` evaluated at m columns in one call (built once per width)."""
@@ -444,6 +453,10 @@ class BoxMaximum:
         sign = np.where(start >= 0, 1.0, -1.0)
         f = sign * start
         active = np.isfinite(f)
+        for c in np.unique(coordinate):  # several starts of one coordinate: the best one climbs
+            mine = np.flatnonzero((coordinate == c) & active)
+            if mine.size > 1:
+                active[np.setdiff1d(mine, mine[np.argmax(f[mine])])] = False
         for _ in range(BOX_MAXIMUM_ITERATIONS):
             if not active.any():
                 break
@@ -495,4 +508,4 @@ class BoxMaximum:
                 searching &= ~better
                 alpha = np.where(searching, alpha * 0.5, alpha)
             active &= ~searching  # no increase along the step: done
-        return f
+        return f, q
