@@ -112,6 +112,7 @@ MANIFEST: dict[str, Expect] = {
     # objective weights: finite, and a zero still has to have the right dimension
     "mass_weight_inf.toml": Expect("objective.mass_weight", "must be a finite number, got 'inf'"),
     "mass_weight_nan.toml": Expect("objective.mass_weight", "must be a finite number, got 'nan'"),
+    "mass_weight_too_large.toml": Expect("objective.mass_weight", "'1e+308' is too large: weights above 1e+12 (SI) overflow"),
     "inertia_weight_zero_acceleration.toml": Expect(
         "objective.inertia_weight", "expected an inverse area (1/length^2), got an acceleration ('0 m/s^2')"
     ),

@@ -101,7 +101,8 @@ def test_a_study_of_masses_reuses_the_arrays_and_matches_a_fresh_check():
         r, t = residuals(problem, subsystem, evaluator.q, solution.variable_values(scenario), base, gravity)
         check = verification.checks[0]
         assert check.max_residual == pytest.approx(float(np.abs(r[:, 0]).max()), rel=1e-9, abs=1e-14)
-        assert check.max_gravity_torque == pytest.approx(float(np.abs(t[:, 0]).max()), rel=1e-12)
+        # the sampled maximum, refined to the box maximum (verify.checks): never below it, and close
+        assert float(np.abs(t[:, 0]).max()) <= check.max_gravity_torque <= float(np.abs(t[:, 0]).max()) * (1 + 1e-2)
 
 
 def test_light_help_lists_the_apps_commands():

@@ -12,6 +12,8 @@ import math
 import statistics
 from pathlib import Path
 
+from ..progress import counter
+
 from ..errors import ProblemFileError
 from ..model.parts import Catalogue
 from .columns import FIELDS, PLAUSIBLE, PLAUSIBLE_TEXT, TYPICAL, UNIT_SYSTEMS, ColumnMapping, mapping_from
@@ -77,7 +79,9 @@ def read_catalogue(
     )}
     seen: dict[str, int] = {}
     number = 0
+    tick = counter(f"reading catalogue {label}: rows", len(rows) - 1)
     for line, cells in enumerate(rows[1:], start=2):
+        tick(line - 1)
         if not any(c.strip() for c in cells):
             continue  # blank line
         number += 1

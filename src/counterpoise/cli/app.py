@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import sys
 import time
+import warnings
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -19,6 +20,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from .. import progress
 from ..errors import CounterpoiseError, ProblemFileError, clip
 
 app = typer.Typer(
@@ -63,33 +65,16 @@ def _coerce(value: str) -> object:
 
 
 def _load_all(files: list[Path], overrides: dict[str, str]) -> list:
-    from ..io.loader import load_problem
-    from ..mechanics.closure import check_assembly
+    from .run import load_all
 
-    problems, errors = [], []
-    seen: dict[str, Path] = {}
-    for path in files:
-        try:
-            problem = load_problem(path, overrides)
-            check_assembly(problem)  # closed loops: closes at home, assembles over the ranges (docs/loops.md)
-        except ProblemFileError as exc:
-            errors.append(str(exc))
-            continue
-        if problem.name in seen:
-            errors.append(f"{path}: problem.name: '{problem.name}' is also the name of {seen[problem.name]} (both would write results/{problem.name})")
-            continue
-        seen[problem.name] = path
-        problems.append(problem)
-    if errors:
-        for line in errors:
-            err_console.print(line, markup=False)
+    problems = load_all(files, overrides, _err_line)
+    if problems is None:
         raise typer.Exit(2)
-    from ..formulation.assumptions import degeneracies
-
-    for problem in problems:  # nothing to balance: say so, the design would be "optimal" anyway
-        for warning in degeneracies(problem):
-            err_console.print(f"{problem.path}: warning: {warning}", markup=False)
     return problems
+
+
+def _err_line(line: str) -> None:
+    err_console.print(line, markup=False)
 
 
 @app.command()
@@ -147,45 +132,20 @@ def solve(
     starts: Annotated[int, typer.Option("--starts", help="Seeded multi-start over the free geometry: number of starts.")] = 1,
 ) -> None:
     """Solve problem files and write their reports."""
-    from ..pipeline import design
-    from ..report.files import write_reports
-    from ..report.rows import summary_row
+    from .run import solve_all
 
     if starts < 1:
         err_console.print(f"--starts: must be at least 1, got {starts}", markup=False)
         raise typer.Exit(2)
     problems = _load_all(files, _overrides(set_))
-    rows, worst = [], 0
-    for problem in problems:
-        t0 = time.perf_counter()
-        try:
-            result = design(problem, starts=starts)
-        except CounterpoiseError as exc:
-            err_console.print(f"{problem.path}: {exc}", markup=False)
-            worst = max(worst, 1)
-            continue
-        try:
-            folder = write_reports(result, out)
-            if plot:
-                from ..plots import energy_plot
-
-                energy_plot(result, folder)
-                from ..plots.mechanism import design_mechanism_plot
-
-                design_mechanism_plot(result, folder)
-        except OSError as exc:
-            err_console.print(f"{problem.path}: cannot write reports to {out}: {exc.strerror or exc}", markup=False)
-            worst = max(worst, 1)
-            continue
-        row = summary_row(result)
-        row["wall_s"] = time.perf_counter() - t0
-        row["folder"] = str(folder)
-        row["message"] = result.message
-        rows.append(row)
-        if not result.optimal:
-            worst = max(worst, 1)
+    rows, worst = solve_all(problems, out, plot, starts, _err_line)
     _print_summary(rows)
     raise typer.Exit(worst)
+
+
+#: ``schedule --payload`` beyond this multiple of the declared range's upper end is an
+#: input error (a typo such as '1e200 g' kept IPOPT busy for minutes)
+PAYLOAD_FACTOR = 100.0
 
 
 @app.command()
@@ -212,6 +172,14 @@ def schedule(
         raise typer.Exit(2)
     if mass.si < 0:
         err_console.print(f"{file}: --payload: a payload mass must not be negative ('{payload}')", markup=False)
+        raise typer.Exit(2)
+    declared = max(problem.payloads, key=lambda p: p.upper)
+    if mass.si > PAYLOAD_FACTOR * max(declared.upper, declared.unit.to_si):
+        err_console.print(
+            f"{file}: --payload: '{clip(payload)}' is more than {PAYLOAD_FACTOR:g} times the upper end of the declared range "
+            f"({declared.label(declared.lower)} to {declared.label(declared.upper)})",
+            markup=False,
+        )
         raise typer.Exit(2)
     from ..pipeline import operator_settings
 
@@ -262,10 +230,14 @@ def study(
     """Solve a problem over a grid or a Latin hypercube of parameters, bounds or weights."""
     from ..studies.command import StudyOptions, run_study_command
 
-    problem = _load_all([file], _overrides(set_))[0]
-    options = StudyOptions(tuple(vary), samples, method, seed, out, jobs, scheduler, scheduler_timeout, resume, time_limit, batch_size, plot)
+    overrides = _overrides(set_)
+    problem = _load_all([file], overrides)[0]
+    options = StudyOptions(tuple(vary), samples, method, seed, out, jobs, scheduler, scheduler_timeout, resume, time_limit, batch_size, plot,
+                           overrides=tuple(overrides.items()))
     try:
         outcome = run_study_command(problem, options, err_console)
+    except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM: workers stopped, finished batches kept
+        _study_interrupted(problem, out, exc)
     except ProblemFileError as exc:
         err_console.print(str(exc), markup=False)
         raise typer.Exit(2) from None
@@ -275,6 +247,24 @@ def study(
     counts = ", ".join(f"{n} {s}" for s, n in sorted(outcome.counts.items()))
     skipped = f", {outcome.skipped} already done" if outcome.skipped else ""
     out_console.print(f"{problem.name}: {outcome.run} points run ({counts or 'none'}){skipped} in {outcome.wall_time:.1f} s; study in {outcome.folder}/", markup=False)
+
+
+#: exit status of an interrupted study: 128 + the signal number, as shells report it
+EXIT_SIGINT, EXIT_SIGTERM = 130, 143
+
+
+def _study_interrupted(problem, out: Path, exc: KeyboardInterrupt) -> None:  # type: ignore[no-untyped-def]
+    from ..studies.command import StudyTerminated
+    from ..studies.study import study_folder
+
+    folder = study_folder(problem, out)
+    what = "terminated" if isinstance(exc, StudyTerminated) else "interrupted"
+    err_console.print(
+        f"{problem.path}: {what}; the finished points are in {folder / 'study.csv'}; "
+        "run the same command with --resume to continue",
+        markup=False,
+    )
+    raise typer.Exit(EXIT_SIGTERM if isinstance(exc, StudyTerminated) else EXIT_SIGINT)
 
 
 @app.command()
@@ -363,7 +353,8 @@ def _print_summary(rows: list[dict]) -> None:
         ("objective", "right"),
         ("residual ratio", "right"),
         ("configs", "right"),
-        ("time (s)", "right"),
+        ("solve (s)", "right"),
+        ("total (s)", "right"),
     ]:
         table.add_column(col, justify=justify)  # type: ignore[arg-type]
     for r in rows:
@@ -376,7 +367,8 @@ def _print_summary(rows: list[dict]) -> None:
             f"{r['objective']:.6g}",
             f"{r['residual_ratio']:.2e}",
             str(r["checked_configurations"]),
-            f"{r['wall_s']:.3f}",
+            f"{r['solve_time_s']:.3f}",  # summary.csv's solve_time_s
+            f"{r['wall_s']:.3f}",  # design, verification and reports of this problem
         )
     out_console.print(table)
     for r in rows:
@@ -396,7 +388,10 @@ def main(argv: list[str] | None = None) -> None:
     if debug:
         args.remove("--debug")
     try:
-        app(args=args, prog_name="counterpoise")  # exits by itself: 0/1/2 as documented, 2 for usage errors
+        with warnings.catch_warnings(), progress.sink(lambda line: err_console.print(line, markup=False)):
+            if not debug:  # a library's warning (with its source path) is no message for a user
+                warnings.simplefilter("ignore")
+            app(args=args, prog_name="counterpoise")  # exits by itself: 0/1/2 as documented, 2 for usage errors
     except KeyboardInterrupt:
         err_console.print("interrupted", markup=False)
         sys.exit(130)

@@ -230,58 +230,20 @@ def coerce(value: str) -> object:
 def _run(a: SolveArgs, paused_gc: bool = False) -> int:
     from pathlib import Path
 
-    from ..errors import CounterpoiseError, ProblemFileError
-    from ..io.loader import load_problem
-    from ..pipeline import design
-    from ..report.files import write_reports
-    from ..report.rows import summary_row
+    from .run import load_all, solve_all
 
     sets = overrides(a.sets)
     if sets is None:
         raise _Defer
-    problems, seen = [], set()
-    for file in a.files:
-        try:
-            problem = load_problem(Path(file), sets)
-        except ProblemFileError:
-            raise _Defer from None  # the app reports every file's error
-        if problem.name in seen:
-            raise _Defer
-        seen.add(problem.name)
-        problems.append(problem)
+    problems = load_all([Path(f) for f in a.files], sets, _err)
+    if problems is None:
+        return 2
     if paused_gc:
         import gc
 
         gc.freeze()
         gc.enable()
-
-    out = Path(a.out)
-    rows, worst = [], 0
-    for problem in problems:
-        t0 = time.perf_counter()
-        try:
-            result = design(problem, starts=a.starts)
-        except CounterpoiseError as exc:
-            _err(f"{problem.path}: {exc}")
-            worst = max(worst, 1)
-            continue
-        try:
-            folder = write_reports(result, out)
-            if a.plot:
-                from ..plots import energy_plot
-
-                energy_plot(result, folder)
-        except OSError as exc:
-            _err(f"{problem.path}: cannot write reports to {out}: {exc.strerror or exc}")
-            worst = max(worst, 1)
-            continue
-        row = summary_row(result)
-        row["wall_s"] = time.perf_counter() - t0
-        row["folder"] = str(folder)
-        row["message"] = result.message
-        rows.append(row)
-        if not result.optimal:
-            worst = max(worst, 1)
+    rows, worst = solve_all(problems, Path(a.out), a.plot, a.starts, _err)
     print_summary(rows)
     return worst
 

@@ -91,7 +91,10 @@ def compress(samples: np.ndarray, tolerance: float | None = None, energy_scale: 
     if samples.size == 0:
         return Compression(np.zeros(0, dtype=int), np.zeros((0, 0)), np.zeros(0))
     if not np.isfinite(samples).all():  # the loader checks the box, but only on samples
-        raise SolverError("the balance residual is not a finite number at some designs within the bounds (check expressions such as sqrt or log of a variable)")
+        raise SolverError(
+            "the balance residual is not a finite number at some designs within the bounds "
+            "(a bound too large to compute with, or expressions such as sqrt or log of a variable)"
+        )
     u, s, _ = np.linalg.svd(samples, full_matrices=False)
     r = numerical_rank(s, tolerance, noise_floor(samples, energy_scale))
     basis = u[:, :r]

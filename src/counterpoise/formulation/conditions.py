@@ -48,7 +48,8 @@ class BalanceConditions:
                 z = self._random_designs(n_design, rng)
                 values = _sample_residuals(block.residual, q, z, parameters)
                 weights = _coordinate_weights(values, n_q, NOISE_TOLERANCE * _largest(block.magnitude, q, z, parameters))
-                return values * np.tile(weights, n_conf)[:, None], (q, weights), 0.0
+                with np.errstate(over="ignore", invalid="ignore"):  # huge bounds: compress() reports the overflow
+                    return values * np.tile(weights, n_conf)[:, None], (q, weights), 0.0
 
             # at least as many designs as a residual affine in the design variables needs (2·rank + 8), so that
             # a long chain is sampled once rather than twice

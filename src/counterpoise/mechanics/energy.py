@@ -70,6 +70,13 @@ class Mechanics:
         if upto is None and frame in self._poses:
             return self._poses[frame]
         f = self.problem.frame[frame]
+        # ancestors first, root down, so that a long chain never recurses deeply
+        chain, parent = [], f.parent
+        while parent is not None and parent != GROUND and parent not in self._poses:
+            chain.append(parent)
+            parent = self.problem.frame[parent].parent
+        for name in reversed(chain):
+            self.pose(name)
         rot, origin = self.pose(f.parent) if f.parent is not None else (IDENTITY, [0.0, 0.0, 0.0])
         for i, t in enumerate(f.transforms[:upto]):
             if isinstance(t, Rotation):

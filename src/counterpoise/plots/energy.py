@@ -23,6 +23,8 @@ if TYPE_CHECKING:
     from ..pipeline import DesignResult
 
 SAMPLES = 181
+#: one legend entry for the red dashed curves of both columns (energy left, torque right)
+UNBALANCED = "given bodies alone (unbalanced): gravity energy, left; gravity torque, right"
 
 
 def _energies(problem, subsystem: str, coords: dict, variables: dict, base: dict, gravity) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # type: ignore[no-untyped-def]
@@ -74,7 +76,7 @@ def energy_plot(result: "DesignResult", folder: str | Path) -> list[Path]:
             x = coord.unit.from_si(q)
             xlabel = f"{name} [{coord.unit.label}]"
             ax = axes[r, 0]
-            ax.plot(x, bodies, label="gravity of the bodies alone (unbalanced)", color="tab:red", linestyle="--", linewidth=1)
+            ax.plot(x, bodies, label=UNBALANCED, color="tab:red", linestyle="--", linewidth=1)
             ax.plot(x, grav, label="gravity (bodies + counter-masses)", color="tab:blue", linewidth=3.5, alpha=0.6)
             if problem.springs and any(s.subsystem == sub.name for s in problem.springs):
                 ax.plot(x, spring, label="springs", color="tab:orange")
@@ -94,7 +96,7 @@ def energy_plot(result: "DesignResult", folder: str | Path) -> list[Path]:
             j = sub.coordinates.index(name)
             unit = "N·m" if coord.unit.dimension == "" else "N"
             ax = axes[r, 1]
-            ax.plot(x, torque[:, j], label="gravity torque of the bodies alone (unbalanced)", color="tab:red", linestyle="--", linewidth=1)
+            ax.plot(x, torque[:, j], label=UNBALANCED, color="tab:red", linestyle="--", linewidth=1)
             ax.plot(x, res[:, j], label="residual ∂V/∂q of the design", color="black", linewidth=2)
             ax.set_xlabel(xlabel)
             ax.set_ylabel(f"∂V/∂{name} [{unit}]")

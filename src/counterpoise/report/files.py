@@ -9,11 +9,13 @@ value (None, NaN) is an empty cell.
 from __future__ import annotations
 
 import csv
+import errno
 import io
 import math
 import os
+import shutil
 import tempfile
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 
 from ..pipeline import DesignResult
@@ -52,16 +54,69 @@ def csv_text(rows: Iterable[Row], columns: Sequence[str]) -> str:
     return buffer.getvalue()
 
 
+def umask() -> int:
+    """The process's file-creation mask (read without changing it for long)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def respect_umask(path: str | Path, directory: bool = False) -> None:
+    """Give a file made by :func:`tempfile.mkstemp` (0600) or a folder made by
+    :func:`tempfile.mkdtemp` (0700) the mode an ordinary ``open``/``mkdir`` would give it."""
+    os.chmod(path, (0o777 if directory else 0o666) & ~umask())
+
+
 def atomic_write_text(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file and a rename."""
+    """Write ``text`` to ``path`` through a temporary file and a rename (mode from the umask)."""
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
         with os.fdopen(fd, "w", encoding="utf-8", newline="") as handle:
             handle.write(text)
+        respect_umask(tmp)
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+#: attempts at moving a finished folder into place while other runs do the same
+SWAP_ATTEMPTS = 20
+
+
+def atomic_folder(folder: Path, fill: Callable[[Path], None]) -> Path:
+    """Make ``folder`` whole or not at all: ``fill(temp)`` writes every file into a temporary
+    folder beside it, which then replaces ``folder`` by renames. What was there stays until
+    the new folder is complete; if ``fill`` fails (a full disk), it stays as it was. Two runs
+    writing the same folder at once each leave a whole folder, the last one to finish wins.
+    """
+    folder.parent.mkdir(parents=True, exist_ok=True)
+    temp = Path(tempfile.mkdtemp(prefix=f".{folder.name}.", suffix=".new", dir=folder.parent))
+    try:
+        fill(temp)
+        respect_umask(temp, directory=True)
+        for _ in range(SWAP_ATTEMPTS):
+            old = None
+            if folder.exists():
+                old = Path(tempfile.mkdtemp(prefix=f".{folder.name}.", suffix=".old", dir=folder.parent))
+                try:
+                    os.replace(folder, old / folder.name)
+                except FileNotFoundError:  # another run moved it first
+                    pass
+            try:
+                os.rename(temp, folder)
+            except OSError as exc:
+                if exc.errno not in (errno.ENOTEMPTY, errno.EEXIST):
+                    raise
+                continue  # another run put its folder there in between: move it aside again
+            finally:
+                if old is not None:
+                    shutil.rmtree(old, ignore_errors=True)
+            return folder
+        raise OSError(errno.EBUSY, f"other runs keep replacing {folder}")
+    except BaseException:
+        shutil.rmtree(temp, ignore_errors=True)
         raise
 
 
@@ -92,13 +147,20 @@ def report_texts(result: DesignResult) -> dict[str, str]:
     return texts
 
 
-def write_reports(result: DesignResult, out_dir: str | Path) -> Path:
+def write_reports(result: DesignResult, out_dir: str | Path, extra: Callable[[Path], object] | None = None) -> Path:
     """Write every report of ``result`` into ``out_dir/<problem name>/``; returns that folder.
 
-    All texts are built before the first file is written, so a failure while building
-    leaves the folder as it was.
+    The folder appears whole or not at all (:func:`atomic_folder`): it replaces what was
+    there (reports of an earlier run included) only once every file is written.
+    ``extra(folder)`` writes more files into it first (the CLI's ``--plot``).
     """
-    folder = Path(out_dir) / result.problem.name
-    for name, text in report_texts(result).items():
-        atomic_write_text(folder / name, text)
-    return folder
+    texts = report_texts(result)  # built before anything is written
+
+    def fill(temp: Path) -> None:
+        for name, text in texts.items():
+            with (temp / name).open("w", encoding="utf-8", newline="") as handle:
+                handle.write(text)
+        if extra is not None:
+            extra(temp)
+
+    return atomic_folder(Path(out_dir) / result.problem.name, fill)

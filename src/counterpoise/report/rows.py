@@ -154,8 +154,9 @@ def verification_rows(result: DesignResult) -> list[Row]:
                 "residual_ratio": verification.ratio(c),
                 "unit": c.unit,
                 "configurations": c.configurations,
-                "worst_configuration": " ".join(
-                    f"{k.unit.from_si(x):.6g}" for k, x in zip(problem.subsystem_coordinates(c.subsystem), c.worst_configuration)
+                "worst_configuration": "; ".join(
+                    f"{k.name}={k.unit.from_si(x):.6g} {k.unit.label}".rstrip()
+                    for k, x in zip(problem.subsystem_coordinates(c.subsystem), c.worst_configuration)
                 ),
             }
         )

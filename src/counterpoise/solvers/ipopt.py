@@ -24,6 +24,7 @@ IPOPT_DEFAULTS: Mapping[str, Any] = {
     "bound_relax_factor": 0.0,
     "honor_original_bounds": "yes",
     "mu_strategy": "adaptive",
+    "max_wall_time": 120.0,  # seconds per solve: no input keeps a solve running for ever (Ipopt status Maximum_WallTime_Exceeded)
 }
 
 #: IPOPT return codes and what they mean for a design.

@@ -27,6 +27,17 @@ HOW_TO_START = (
 WORKER_ENVIRON = {"OMP_NUM_THREADS": 1, "MKL_NUM_THREADS": 1, "OPENBLAS_NUM_THREADS": 1}
 
 
+#: address schemes that need certificates (Dask's ``distributed.comm.tls`` configuration)
+SECURE_SCHEMES = ("tls", "wss")
+TLS_KEYS = "distributed.comm.tls.ca-file, distributed.comm.tls.client.cert and .key"
+#: longest piece of a Dask error repeated in a message
+REASON_LIMIT = 200
+
+
+def _reason(exc: BaseException) -> str:
+    return (" ".join(str(exc).split()) or type(exc).__name__)[:REASON_LIMIT]
+
+
 class SchedulerError(CounterpoiseError):
     """The Dask scheduler cannot be reached (or Dask is not installed)."""
 
@@ -72,11 +83,15 @@ class DaskRunner:
             with dask.config.set({"distributed.nanny.pre-spawn-environ": WORKER_ENVIRON}):
                 cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None)
             return Client(cluster), cluster
+        scheme = self.scheduler.partition("://")[0].lower()
         try:
             return Client(self.scheduler, timeout=f"{self.timeout}s"), None
-        except (OSError, TimeoutError, ValueError) as exc:
-            reason = " ".join(str(exc).split()) or type(exc).__name__
-            raise SchedulerError(f"cannot reach the Dask scheduler at {self.scheduler} ({reason[:200]}); {HOW_TO_START}") from None
+        except TypeError as exc:  # Dask's connectors raise TypeError for a comm they cannot set up
+            if scheme in SECURE_SCHEMES:
+                raise SchedulerError(f"cannot connect to {self.scheduler}: {scheme}:// needs the Dask TLS configuration ({TLS_KEYS}), and none is set; or use tcp://") from None
+            raise SchedulerError(f"cannot connect to {self.scheduler}: Dask cannot use {scheme}:// here ({_reason(exc)}); use tcp://") from None
+        except (OSError, TimeoutError, ValueError, ImportError, RuntimeError) as exc:
+            raise SchedulerError(f"cannot reach the Dask scheduler at {self.scheduler} ({_reason(exc)}); {HOW_TO_START}") from None
 
     def map_batches(self, task: StudyTask, batches: Sequence[Sequence[Point]]) -> Iterator[list[PointResult]]:
         owned = self._connection is None

@@ -8,7 +8,11 @@ it and exits 2. A finished study exits 0 whatever its points' statuses (they are
 from __future__ import annotations
 
 import os
+import signal
+import threading
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -16,7 +20,7 @@ from typing import Any
 from ..errors import ProblemFileError
 from ..model.problem import Problem
 from .runners import PointResult, ProcessRunner, Runner, SerialRunner, StudyTask
-from .spec import plan_study
+from .spec import StudyPlan, plan_study
 from .study import StudyOutcome, run_study
 
 
@@ -35,6 +39,8 @@ class StudyOptions:
     batch_size: int = 16
     plot: bool = True
     progress: bool = True
+    #: the --set overrides the problem was loaded with (varied values are checked with them)
+    overrides: tuple[tuple[str, Any], ...] = ()
 
 
 def make_runner(options: StudyOptions, label: str) -> Runner:
@@ -58,10 +64,68 @@ def make_runner(options: StudyOptions, label: str) -> Runner:
     return SerialRunner(tune=True) if jobs == 1 else ProcessRunner(jobs)
 
 
+def override_key(key: str) -> str:
+    """The problem-file key (for ``--set``) of a study point key."""
+    if key.startswith("objective."):
+        return key
+    if key.endswith((".lower", ".upper")):
+        return f"variables.{key}"
+    return f"parameters.{key}"
+
+
+def check_varied_values(problem: Problem, plan: StudyPlan, overrides: dict[str, Any]) -> None:
+    """Both ends of every ``--vary`` range pass the checks a problem file gets: the file is
+    loaded again with each end as a ``--set`` override (a negative mass, an inverted bound
+    or a weight of the wrong sign is an input error naming the --vary key, before any
+    work). Points lie between the ends, and what the checks reject (a negative mass, a
+    bound outside another) is a bound on the value, so the ends stand for the range.
+    Problems not read from a file (the Python API) are not re-read."""
+    from ..io.loader import load_problem
+
+    label = problem.path or problem.name
+    if not problem.path or not Path(problem.path).is_file():
+        return
+    for v in plan.varies:
+        ends = [t.strip() for t in v.text.partition("=")[2].split(":")[:2]]
+        for text in dict.fromkeys(ends):
+            try:
+                load_problem(problem.path, {**overrides, override_key(v.key): text})
+            except ProblemFileError as exc:
+                raise ProblemFileError(label, f"--vary {v.key}", f"'{text}' is not allowed: {exc.key}: {exc.message}") from None
+
+
+class StudyTerminated(KeyboardInterrupt):
+    """SIGTERM during a study: handled like Ctrl-C (workers stopped, finished batches kept)."""
+
+
+@contextmanager
+def terminate_as_interrupt() -> Iterator[None]:
+    """Within: SIGTERM raises :class:`StudyTerminated` in the main thread, so the study's
+    clean-up runs (workers terminated, finished rows written) instead of the process
+    vanishing and leaving its pool workers orphaned."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def _raise(signum: int, frame: Any) -> None:
+        raise StudyTerminated()
+
+    previous = signal.signal(signal.SIGTERM, _raise)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 def run_study_command(problem: Problem, options: StudyOptions, console: Any) -> StudyOutcome:
-    """Plan, run (with a progress bar on ``console``), and plot a study."""
+    """Plan, run (with a progress bar on ``console``), and plot a study.
+
+    Ctrl-C (KeyboardInterrupt) and SIGTERM (:class:`StudyTerminated`, a KeyboardInterrupt)
+    propagate after the clean-up: every finished batch is in ``study.csv`` and no worker
+    is left running; ``--resume`` continues."""
     label = problem.path or problem.name
     plan = plan_study(problem, list(options.vary), label, options.samples, options.method, options.seed)
+    check_varied_values(problem, plan, dict(options.overrides))
     if options.time_limit is not None and not options.time_limit > 0:
         raise ProblemFileError(label, "--time-limit", f"must be positive, got {options.time_limit}")
     if options.batch_size < 1:
@@ -69,7 +133,8 @@ def run_study_command(problem: Problem, options: StudyOptions, console: Any) -> 
     runner = make_runner(options, label)
     task = StudyTask(problem, time_limit=options.time_limit)
     try:
-        outcome = _run(problem, plan, options, runner, task, console)
+        with terminate_as_interrupt():
+            outcome = _run(problem, plan, options, runner, task, console)
     finally:
         close = getattr(runner, "close", None)
         if close is not None:

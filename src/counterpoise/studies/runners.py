@@ -19,6 +19,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any, Protocol
 
 from ..model.problem import Problem
@@ -62,9 +63,14 @@ class StudyTask:
             designer.convex.options["time_limit"] = float(self.time_limit)
         return designer
 
-    @property
-    def key(self) -> int:
-        return hash((self.problem.name, self.problem.path, tuple(sorted(self.ipopt_options.items())), self.time_limit, self.backend))
+    @cached_property
+    def key(self) -> str:
+        """Cache key of the designers built from this task: the problem's *content*
+        (:func:`~counterpoise.model.digest.content_key`) and the solver options, never its
+        name or path (two problems of one file with different ``--set`` values differ)."""
+        from ..model.digest import content_key, digest
+
+        return digest((content_key(self.problem), sorted((str(k), repr(v)) for k, v in self.ipopt_options.items()), self.time_limit, self.backend))
 
 
 @dataclass(frozen=True)
@@ -246,7 +252,7 @@ class ProcessRunner:
         self.jobs = jobs or os.cpu_count() or 1
 
     def map_batches(self, task: StudyTask, batches: Sequence[Sequence[Point]]) -> Iterator[list[PointResult]]:
-        pool = ProcessPoolExecutor(max_workers=self.jobs, initializer=_single_threaded)
+        pool = ProcessPoolExecutor(max_workers=self.jobs, initializer=_pool_worker)
         finished = False
         try:
             futures = [pool.submit(solve_batch, task, batch) for batch in batches]
@@ -254,9 +260,30 @@ class ProcessRunner:
                 yield future.result()
             finished = True
         finally:
-            # interrupted (Ctrl-C, a failure): drop the batches not started instead of
-            # waiting for the whole study; the running ones end with their batch
-            pool.shutdown(wait=finished, cancel_futures=not finished)
+            # interrupted (Ctrl-C, SIGTERM, a failure): drop the batches not started and end
+            # the running ones now; no worker outlives the study
+            if not finished:
+                _terminate_workers(pool)
+            pool.shutdown(wait=True, cancel_futures=not finished)
+
+
+def _terminate_workers(pool: ProcessPoolExecutor) -> None:
+    """Stop every worker process of ``pool`` (``terminate_workers`` from Python 3.14 on)."""
+    terminate = getattr(pool, "terminate_workers", None)
+    if terminate is not None:  # pragma: no cover - Python >= 3.14
+        terminate()
+        return
+    for process in list((getattr(pool, "_processes", None) or {}).values()):
+        if process.is_alive():
+            process.terminate()
+    for process in list((getattr(pool, "_processes", None) or {}).values()):
+        process.join(WORKER_JOIN_SECONDS)
+
+
+#: how long an interrupted study waits for a terminated worker to end
+WORKER_JOIN_SECONDS = 5.0
+#: prctl(PR_SET_PDEATHSIG): Linux sends the worker this signal when its parent dies
+_PR_SET_PDEATHSIG = 1
 
 
 def _single_threaded() -> None:
@@ -265,6 +292,32 @@ def _single_threaded() -> None:
 
     limit_blas_threads()
     tune_allocator()
+
+
+def _pool_worker() -> None:
+    """Set-up of a :class:`ProcessRunner` worker: :func:`_single_threaded`, and signals.
+
+    A pool worker leaves Ctrl-C to the study (which terminates it: a terminal sends SIGINT
+    to the whole process group, and a worker's traceback would only add noise), and on
+    Linux it ends when its parent does, even one killed by SIGKILL: no worker is orphaned.
+    """
+    _single_threaded()
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the study's handler, inherited by fork
+    _die_with_parent()
+
+
+def _die_with_parent() -> None:
+    import ctypes
+    import ctypes.util
+
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
+        libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGTERM), 0, 0, 0)
+    except (OSError, AttributeError):  # not Linux: the study's own clean-up is the guard
+        return
+    if os.getppid() == 1:  # the parent died before prctl took effect
+        os._exit(1)
 
 
 #: glibc malloc settings of study workers: the dense verification allocates and frees

@@ -153,6 +153,7 @@ def run_study(
     rows = dict(done)
     atomic_write_text(csv_path, _csv([rows[i] for i in sorted(rows)], cols))
     task = task or StudyTask(problem)
+    task.key  # the content digest, computed once here: it travels with the task to every worker
     if started is not None:
         started(len(done))
     batches = batched(todo, batch_size)

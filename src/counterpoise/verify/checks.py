@@ -7,7 +7,13 @@ Definitions (the reports and messages use these and nothing else):
 - ``max_residual`` of a coordinate: the largest |∂V/∂q| of the balanced design over the
   checked configurations of its (subsystem, scenario).
 - ``max_gravity_torque`` of a coordinate: the same for the *unbalanced* mechanism (the given
-  bodies alone, no counter-masses or springs).
+  bodies alone, no counter-masses or springs), taken over the whole coordinate *box*, not
+  only the samples: the best sample is refined by projected Newton steps on exact
+  derivatives (:class:`~.residuals.BoxMaximum`) to the box maximum (relative accuracy
+  ``BOX_MAXIMUM_TOLERANCE``; a maximum inside the box is typically 0.2 % above the best of
+  10,000 samples). This is done for every coordinate that may set the reference (its
+  sampled value at least ``REFERENCE_CANDIDATE`` = 90 % of the largest of its kind); the
+  others keep their sampled maximum, a lower bound.
 - The *reference* of a kind: the largest ``max_gravity_torque`` over every coordinate of
   that kind in the problem (every subsystem and scenario). When gravity loads no
   coordinate of that kind (a yaw axis parallel to gravity, a horizontal mechanism), the

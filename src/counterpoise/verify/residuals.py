@@ -179,9 +179,10 @@ class SubsystemResiduals:
         self.per_design = [e for e in self.elements if not e.separable]
         n, n_q = q.shape
         self.chunks = [slice(i, min(i + CHUNK_CONFIGURATIONS, n)) for i in range(0, n, CHUNK_CONFIGURATIONS)] if n_q else []
-        size = (len(self.separable) + 2) * n * n_q * 8
+        size = (len(self.constant) + 2 * len(self.separable) + 2) * n * n_q * 8  # per element, and composed
         self._arrays: list[tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None
-        self._arrays_key: tuple[Any, ...] | None = None
+        self._element_parameters: list[tuple[str, ...]] | None = None
+        self._element_arrays: list[Any] = []
         self.cache = cache and size <= CACHE_BYTES
 
     # -- complex step --------------------------------------------------------------
@@ -220,22 +221,46 @@ class SubsystemResiduals:
                     out[slots[k]][:, j] += np.imag(energy) / STEP
         return out
 
-    def _fixed_arrays(self, base: Mapping[str, float], gravity: Sequence[float], rows: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Per chunk: (literal-factor bodies, literal-factor balancers, one array per other separable element)."""
+    def _element_columns(self, elements: Sequence[_Element], base: Mapping[str, float], gravity: Sequence[float], rows: slice) -> np.ndarray:
+        """∂(energy)/∂q of each of ``elements`` at the configurations ``rows``, per unit
+        factor except for literal-factor ones: (len(elements), n, n_q)."""
         # the design's variables do not enter these arrays: any value will do
         variables = {v.name: v.initial for v in self.problem.variables}
-        elements = [*self.constant, *self.separable]
-        slots = [0 if e.is_body else 1 for e in self.constant] + list(range(2, 2 + len(self.separable)))
-        columns = self._columns(elements, variables, base, gravity, rows, [not e.constant for e in elements], slots, 2 + len(self.separable))
-        return columns[0], columns[1], columns[2:]
+        return self._columns(elements, variables, base, gravity, rows, [not e.constant for e in elements], list(range(len(elements))), len(elements))
+
+    def _fixed_arrays(self, base: Mapping[str, float], gravity: Sequence[float], rows: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per chunk: (literal-factor bodies, literal-factor balancers, one array per other separable element)."""
+        columns = self._element_columns([*self.constant, *self.separable], base, gravity, rows)
+        return self._compose(list(columns), rows)
+
+    def _compose(self, arrays: Sequence[np.ndarray], rows: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(Σ literal-factor bodies, Σ literal-factor balancers, stack of the others) from one
+        array per element of ``[*self.constant, *self.separable]``."""
+        n_constant = len(self.constant)
+        shape = (rows.stop - rows.start, len(self.names))
+        bodies, balancers = np.zeros(shape), np.zeros(shape)
+        for e, array in zip(self.constant, arrays[:n_constant]):
+            (bodies if e.is_body else balancers).__iadd__(array)
+        rest = arrays[n_constant:]
+        return bodies, balancers, (np.stack(rest) if rest else np.zeros((0, *shape)))
 
     def _arrays_of(self, index: int, base: Mapping[str, float], gravity: Sequence[float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if not self.cache:
             return self._fixed_arrays(base, gravity, self.chunks[index])
-        key = (tuple(gravity), tuple(base[name] for name in self.geometry_parameters))
-        if self._arrays is None or key != self._arrays_key:
-            self._arrays = [self._fixed_arrays(base, gravity, r) for r in self.chunks]
-            self._arrays_key = key
+        elements = [*self.constant, *self.separable]
+        if self._element_parameters is None:
+            self._element_parameters = [_base_parameters(self.problem, e.geometry) for e in elements]
+            self._element_arrays = [None] * len(elements)
+        # each element's arrays are rebuilt only when gravity or a parameter of its own
+        # geometry changes: a study of one link's length rebuilds that link's elements only
+        keys = [(tuple(gravity), tuple(base[name] for name in names)) for names in self._element_parameters]
+        stale = [k for k, key in enumerate(keys) if self._element_arrays[k] is None or self._element_arrays[k][0] != key]
+        if stale or self._arrays is None:
+            if stale:
+                fresh = [self._element_columns([elements[k] for k in stale], base, gravity, rows) for rows in self.chunks]
+                for position, k in enumerate(stale):
+                    self._element_arrays[k] = (keys[k], [chunk[position] for chunk in fresh])
+            self._arrays = [self._compose([self._element_arrays[k][1][c] for k in range(len(elements))], rows) for c, rows in enumerate(self.chunks)]
         return self._arrays[index]
 
     # -- one design ----------------------------------------------------------------
@@ -305,3 +330,182 @@ def energy_scale(
         values = np.abs(np.asarray(Mechanics(problem, base, variables, coords, gravity, NUMPY_FUNCTIONS).energy_magnitude(subsystem), dtype=float))
     finite = values[np.isfinite(values)]
     return float(finite.max(initial=0.0))
+
+
+#: The reference of the residual ratios is the largest |gravity torque| over the *box* of
+#: coordinates, not over the samples: the best samples are refined by projected Newton
+#: steps on exact CasADi derivatives until the value gains less than this (relative).
+BOX_MAXIMUM_TOLERANCE = 1e-8
+#: samples (the largest |torque| of each coordinate) from which the maximum is refined; in a
+#: study the maximiser found for the previous values is a further start (the better climbs)
+BOX_MAXIMUM_STARTS = 1
+#: Newton iterations per start; and halvings of a step that does not increase the value
+BOX_MAXIMUM_ITERATIONS = 30
+BOX_MAXIMUM_HALVINGS = 20
+#: above this many coordinates in a subsystem, third derivatives are skipped (projected
+#: gradient steps instead of Newton steps)
+BOX_MAXIMUM_NEWTON_COORDINATES = 12
+#: a curvature below this share of the largest is flat (a ridge of maxima)
+CURVATURE_FLOOR = 1e-9
+
+
+class BoxMaximum:
+    """The largest |∂V/∂q_j| of the given bodies alone (the unbalanced mechanism) over the
+    coordinate box of one subsystem, for each coordinate j.
+
+    Built once per problem and subsystem: the body energy as a CasADi expression of the
+    coordinates, the design variables, the base parameters and gravity, with its first,
+    second and (for up to :data:`BOX_MAXIMUM_NEWTON_COORDINATES` coordinates) third
+    derivatives in the coordinates. :meth:`refine` climbs from given starting
+    configurations (the best samples) by projected Newton steps with a backtracking line
+    search, so the result is never below the starts and is the box maximum (a local one
+    near the best sample) to :data:`BOX_MAXIMUM_TOLERANCE`.
+    """
+
+    def __init__(self, problem: Problem, subsystem: str) -> None:
+        import casadi as ca
+
+        from ..model.functions import casadi_functions
+
+        coords = problem.subsystem_coordinates(subsystem)
+        self.lower = np.array([c.lower for c in coords], dtype=float)
+        self.upper = np.array([c.upper for c in coords], dtype=float)
+        self.base_names = [p.name for p in problem.base_parameters]
+        self.variable_names = [v.name for v in problem.variables]
+        n = len(coords)
+        q = ca.SX.sym("q", n)
+        z = ca.SX.sym("z", len(self.variable_names))
+        p = ca.SX.sym("p", len(self.base_names))
+        g = ca.SX.sym("g", 3)
+        mech = Mechanics(
+            problem,
+            {name: p[i] for i, name in enumerate(self.base_names)},
+            {name: z[i] for i, name in enumerate(self.variable_names)},
+            {c.name: q[i] for i, c in enumerate(coords)},
+            [g[0], g[1], g[2]],
+            casadi_functions(),
+        )
+        bodies, _ = mech.energy_terms(subsystem)
+        torque = ca.gradient(ca.SX(bodies), q) if n else ca.SX(0, 1)
+        hessian = ca.jacobian(torque, q)
+        outputs = [torque, hessian]
+        self.newton = 0 < n <= BOX_MAXIMUM_NEWTON_COORDINATES
+        if self.newton:
+            outputs += [ca.jacobian(hessian[j, :].T, q) for j in range(n)]
+        self._torque = ca.Function("torque", [q, z, p, g], [torque])
+        self._derivatives = ca.Function("torque_derivatives", [q, z, p, g], outputs)
+        self._maps: dict[tuple[str, int], Any] = {}
+
+    def _arguments(self, variables: Mapping[str, float], base: Mapping[str, float], gravity: Sequence[float]) -> tuple[np.ndarray, ...]:
+        z = np.array([float(variables[name]) for name in self.variable_names])
+        p = np.array([float(base[name]) for name in self.base_names])
+        return z, p, np.asarray(gravity, dtype=float)
+
+    def refine(
+        self, starts: np.ndarray, variables: Mapping[str, float], base: Mapping[str, float], gravity: Sequence[float], which: Sequence[int] | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The largest |torque j| reached from the starts ``starts[k, j]`` (configuration k of
+        coordinate j, shape (K, n, n)), for the coordinates ``which`` (all by default) at
+        once: at least the best start's value (NaN for the others); and where it is reached,
+        (n, n) with column j for coordinate j. Only the best start of each coordinate climbs."""
+        args = self._arguments(variables, base, gravity)
+        k, n = starts.shape[0], starts.shape[1]
+        which = np.arange(n) if which is None else np.asarray(which, dtype=int)
+        columns = np.clip(np.concatenate([starts[i][which].T for i in range(k)], axis=1), self.lower[:, None], self.upper[:, None])
+        coordinate = np.tile(which, k)  # the coordinate each column climbs
+        with np.errstate(all="ignore"):
+            values, reached = self._climb(columns, coordinate, args)
+        best = np.full(n, np.nan)
+        where = np.full((n, n), np.nan)
+        for j in which:
+            mine = np.flatnonzero((coordinate == j) & np.isfinite(values))
+            if mine.size:
+                i = mine[np.argmax(values[mine])]
+                best[j], where[:, j] = values[i], reached[:, i]
+        return best, where
+
+    def _mapped(self, name: str, function: Any, m: int) -> Any:
+        """``function`` evaluated at m columns in one call (built once per width)."""
+        key = (name, m)
+        if key not in self._maps:
+            self._maps[key] = function.map(m)
+        return self._maps[key]
+
+    def _values(self, columns: np.ndarray, coordinate: np.ndarray, args: tuple[np.ndarray, ...]) -> np.ndarray:
+        m = columns.shape[1]
+        torque = np.asarray(self._mapped("torque", self._torque, m)(columns, *args)).reshape(-1, m)
+        return torque[coordinate, np.arange(m)]
+
+    def _climb(self, columns: np.ndarray, coordinate: np.ndarray, args: tuple[np.ndarray, ...]) -> np.ndarray:
+        """Projected Newton ascent of |torque c_i| from column i, all columns at once (one
+        CasADi call per step: the trial point's derivatives serve the next step)."""
+        lo, hi = self.lower, self.upper
+        width = np.where(hi > lo, hi - lo, 0.0)
+        n, m = columns.shape
+        derivatives = self._mapped("derivatives", self._derivatives, m)
+
+        def evaluate(q: np.ndarray) -> list[np.ndarray]:
+            return [np.asarray(x) for x in derivatives(q, *args)]
+
+        q = columns.copy()
+        out = evaluate(q)
+        start = out[0][coordinate, np.arange(m)]
+        sign = np.where(start >= 0, 1.0, -1.0)
+        f = sign * start
+        active = np.isfinite(f)
+        for c in np.unique(coordinate):  # several starts of one coordinate: the best one climbs
+            mine = np.flatnonzero((coordinate == c) & active)
+            if mine.size > 1:
+                active[np.setdiff1d(mine, mine[np.argmax(f[mine])])] = False
+        for _ in range(BOX_MAXIMUM_ITERATIONS):
+            if not active.any():
+                break
+            steps = np.zeros_like(q)
+            for i in np.flatnonzero(active):
+                j = coordinate[i]
+                gradient = sign[i] * out[1][j, i * n : (i + 1) * n]
+                x = q[:, i]
+                held = ((x <= lo) & (gradient <= 0)) | ((x >= hi) & (gradient >= 0)) | (width == 0)
+                free = ~held
+                if not free.any() or not np.any(gradient[free]):
+                    active[i] = False
+                    continue
+                g_free = gradient[free]
+                step = np.zeros(n)
+                if self.newton:
+                    # Newton on the curved directions; along flat or upward-curved ones (a ridge
+                    # of maxima: a torque that depends on a sum of angles) a gradient step of
+                    # the largest curvature's scale
+                    curvature = -sign[i] * out[2 + j][:, i * n : (i + 1) * n][np.ix_(free, free)]
+                    w, v = np.linalg.eigh(0.5 * (curvature + curvature.T))
+                    scale = max(float(np.abs(w).max()), np.finfo(float).tiny)
+                    along = v.T @ g_free
+                    step[free] = v @ np.where(w > CURVATURE_FLOOR * scale, along / np.where(w > 0, w, 1.0), along / scale)
+                    if 0.5 * float(g_free @ step[free]) <= BOX_MAXIMUM_TOLERANCE * abs(f[i]):
+                        active[i] = False  # the quadratic model gains less than the tolerance: converged
+                        continue
+                else:  # ascent along the gradient, scaled to the box
+                    step[free] = g_free * width[free] / np.abs(g_free).max()
+                steps[:, i] = step
+            # backtracking line search, every climbing column at once
+            alpha = np.where(active, 1.0, 0.0)
+            searching = active.copy()
+            for _ in range(BOX_MAXIMUM_HALVINGS):
+                if not searching.any():
+                    break
+                trial = np.clip(q + alpha * steps, lo[:, None], hi[:, None])
+                trial_out = evaluate(trial)
+                value = sign * trial_out[0][coordinate, np.arange(m)]
+                better = searching & (value > f)
+                gain = np.where(better, value - f, 0.0)
+                for c in np.flatnonzero(better):
+                    q[:, c] = trial[:, c]
+                    out[0][:, c] = trial_out[0][:, c]
+                    for block in range(1, len(out)):
+                        out[block][:, c * n : (c + 1) * n] = trial_out[block][:, c * n : (c + 1) * n]
+                f = np.where(better, value, f)
+                active &= ~(better & (gain <= BOX_MAXIMUM_TOLERANCE * np.abs(f)))
+                searching &= ~better
+                alpha = np.where(searching, alpha * 0.5, alpha)
+            active &= ~searching  # no increase along the step: done
+        return f, q

@@ -223,6 +223,13 @@ def check_scenario_values(ctx: Context, values: Mapping[str, float], key: str) -
         ctx.symbol_value = saved
 
 
+#: Largest objective weight (SI): the convex path's scaled LP data stop being accurate
+#: beyond ~1e20 (Clarabel reports a feasible LP infeasible at 1e40, fails at 1e200, and a
+#: weight of 1e308 makes the data infinite), while a weight's size alone never changes the
+#: design (only the weights' ratio does).
+MAX_OBJECTIVE_WEIGHT = 1e12
+
+
 def objective(ctx: Context) -> Objective:
     o = ctx.spec.objective
     if isinstance(o, str):  # objective = "max_payload_range"
@@ -241,6 +248,10 @@ def objective(ctx: Context) -> Objective:
             check_dimension(ws.dimension, COMPLIANCE_MASS, f"'{o.stiffness_weight}'")
     if ws.si < 0:
         raise ctx.fail(skey, "must not be negative")
+    for wkey, value, raw in (("objective.mass_weight", o.mass_weight, o.mass_weight), (key, w.si, o.inertia_weight), (skey, ws.si, o.stiffness_weight)):
+        if value > MAX_OBJECTIVE_WEIGHT:
+            raise ctx.fail(wkey, f"'{raw}' is too large: weights above {MAX_OBJECTIVE_WEIGHT:g} (SI) overflow the solvers' scaled data; "
+                                 "only the ratio of the weights changes the design, so scale them all down")
     return Objective(o.mass_weight, w.si, ws.si)
 
 

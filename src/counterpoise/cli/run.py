@@ -1,0 +1,87 @@
+"""What ``load`` and ``solve`` do, written once for the typer app (:mod:`.app`) and the
+light path (:mod:`.light`): neither typer nor rich is imported here, and every message
+goes through the caller's ``err`` (one line each)."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any
+
+Err = Callable[[str], None]
+
+
+def load_all(files: list[Path], overrides: Mapping[str, object], err: Err) -> list[Any] | None:
+    """Every file loaded and checked (closed loops assemble), or None after printing every
+    error (the caller exits 2); a problem with nothing to balance gets a warning line."""
+    from ..errors import ProblemFileError
+    from ..io.loader import load_problem
+    from ..mechanics.closure import check_assembly
+
+    problems, errors = [], []
+    seen: dict[str, Path] = {}
+    for path in files:
+        try:
+            problem = load_problem(path, overrides)  # type: ignore[arg-type]
+            check_assembly(problem)  # closed loops: closes at home, assembles over the ranges (docs/loops.md)
+        except ProblemFileError as exc:
+            errors.append(str(exc))
+            continue
+        if problem.name in seen:
+            errors.append(f"{path}: problem.name: '{problem.name}' is also the name of {seen[problem.name]} (both would write results/{problem.name})")
+            continue
+        seen[problem.name] = path
+        problems.append(problem)
+    if errors:
+        for line in errors:
+            err(line)
+        return None
+    from ..formulation.assumptions import degeneracies
+
+    for problem in problems:  # nothing to balance: say so, the design would be "optimal" anyway
+        for warning in degeneracies(problem):
+            err(f"{problem.path}: warning: {warning}")
+    return problems
+
+
+def solve_all(problems: list[Any], out: Path, plot: bool, starts: int, err: Err) -> tuple[list[dict[str, Any]], int]:
+    """Design, verify and write every problem (``plot``: energy.png and mechanism.png in its
+    folder before the folder appears); the summary rows and the worst exit status."""
+    from ..errors import CounterpoiseError
+    from ..pipeline import design
+    from ..report.files import write_reports
+    from ..report.rows import summary_row
+
+    rows, worst = [], 0
+    for problem in problems:
+        t0 = time.perf_counter()
+        try:
+            result = design(problem, starts=starts)
+        except CounterpoiseError as exc:
+            err(f"{problem.path}: {exc}")
+            worst = max(worst, 1)
+            continue
+        try:
+            extra = None
+            if plot:
+                from ..plots import energy_plot
+                from ..plots.mechanism import design_mechanism_plot
+
+                def extra(folder: Path, result: Any = result) -> None:
+                    energy_plot(result, folder)
+                    design_mechanism_plot(result, folder)
+
+            folder = write_reports(result, out, extra)
+        except OSError as exc:
+            err(f"{problem.path}: cannot write reports to {out}: {exc.strerror or exc}")
+            worst = max(worst, 1)
+            continue
+        row = summary_row(result)
+        row["wall_s"] = time.perf_counter() - t0
+        row["folder"] = str(folder)
+        row["message"] = result.message
+        rows.append(row)
+        if not result.optimal:
+            worst = max(worst, 1)
+    return rows, worst

@@ -1,0 +1,177 @@
+"""The fault campaign of issue 13: signals, absurd input, deep chains, overflow (each reproduced)."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from conftest import PROBLEMS, ROOT
+
+#: how long the signal tests wait for a study's pool workers to start (a loaded machine is slow)
+START_WAIT_S = 120
+
+
+def _children(pid: int) -> list[int]:
+    out = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                fields = (entry / "stat").read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            if int(fields[1]) == pid:
+                out.append(int(entry.name))
+    return out
+
+
+@pytest.mark.skipif(not Path("/proc").exists(), reason="reads /proc")
+@pytest.mark.parametrize(("sig", "status", "word"), [(signal.SIGTERM, 143, "terminated"), (signal.SIGINT, 130, "interrupted")])
+def test_a_signalled_study_stops_its_workers_and_says_how_to_resume(tmp_path, sig, status, word):
+    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
+    args = [sys.executable, "-c", "from counterpoise.cli import main; main()", "study", str(PROBLEMS / "yasir2019_hybrid.toml"),
+            "--vary", "m_endo=400 g:1000 g:100000", "--jobs", "2", "--out", str(tmp_path), "--no-plot"]
+    process = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    try:
+        deadline = time.monotonic() + START_WAIT_S
+        while len(workers := _children(process.pid)) < 2 and time.monotonic() < deadline and process.poll() is None:
+            time.sleep(0.2)
+        assert len(workers) == 2
+        time.sleep(1.0)  # workers past their set-up
+        process.send_signal(sig)
+        _, err = process.communicate(timeout=START_WAIT_S)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+    assert process.returncode == status
+    last = err.strip().splitlines()[-1]
+    assert word in last and "--resume" in last and "study.csv" in last
+    assert "Traceback" not in err
+    time.sleep(0.5)
+    assert [p for p in workers if Path(f"/proc/{p}").exists() and "Z" not in (Path(f"/proc/{p}/stat").read_text().rsplit(")", 1)[1].split()[0])] == []
+
+
+def _cli(args, capsys):
+    from counterpoise.cli.app import main
+
+    with pytest.raises(SystemExit) as exit_info:
+        main(args)
+    return exit_info.value.code, capsys.readouterr()
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--vary", "m_c=-400 g:400 g:5"], "--vary m_c: '-400 g' is not allowed: bodies.tip.mass: a mass must not be negative"),
+        (["--vary", "M_c.upper=-1 g:400 g:3"], "--vary M_c.upper: '-1 g' is not allowed: variables.M_c: lower bound 0 g is greater than upper bound -1 g"),
+        (["--vary", "mass_weight=1:-2:3"], "--vary objective.mass_weight: '-2' is not allowed"),
+        (["--vary", "m_c=1 g:2 g:3", "--scheduler", "tls://127.0.0.1:1", "--scheduler-timeout", "1"], "--scheduler: cannot connect to tls://127.0.0.1:1: tls:// needs the Dask TLS configuration"),
+    ],
+)
+def test_varied_values_and_schedulers_are_checked_before_any_work(tmp_path, capsys, args, message):
+    if "scheduler" in args:
+        pytest.importorskip("distributed")
+    file = str(PROBLEMS / "yasir2019_counter_mass.toml")
+    code, out = _cli(["study", file, "--out", str(tmp_path), "--jobs", "1", "--no-plot", *args], capsys)
+    lines = out.err.strip().splitlines()
+    assert code == 2 and len(lines) == 1 and lines[0].startswith(f"{file}: {message}"), out.err
+    assert not any(tmp_path.iterdir())
+
+
+def test_varied_values_are_checked_with_the_set_overrides(tmp_path, capsys):
+    # with M_c.lower raised to 300 g by --set, an upper bound of 200 g is inverted
+    file = str(PROBLEMS / "yasir2019_counter_mass.toml")
+    code, out = _cli(["study", file, "--out", str(tmp_path), "--jobs", "1", "--no-plot", "--set", "variables.M_c.lower=300 g",
+                      "--vary", "M_c.upper=200 g:900 g:2"], capsys)
+    assert code == 2 and "--vary M_c.upper: '200 g' is not allowed" in out.err
+
+
+def _chain_text(frames: int) -> str:
+    lines = ['[problem]', 'name = "chain"', 'title = "a long chain"', 'source = "fault campaign"',
+             '[gravity]', 'acceleration = "9.81 m/s^2"', 'direction = [0, -1, 0]',
+             '[subsystems.arm]', 'coordinates.q = { range = ["0 deg", "90 deg"] }',
+             '[frames.f0]', 'parent = "ground"', 'transforms = [{ rotate = "z", angle = "q" }]']
+    for i in range(1, frames):
+        lines += [f'[frames.f{i}]', f'parent = "f{i - 1}"', 'transforms = [{ translate = ["1 mm", 0, 0] }]']
+    lines += ['[bodies.tip]', f'frame = "f{frames - 1}"', 'mass = "1 kg"', 'com = [0, 0, 0]',
+              '[variables.M]', 'lower = "0 kg"', 'upper = "100 kg"',
+              '[counter_masses.M]', 'frame = "f0"', 'mass = "M"', 'position = ["-100 mm", 0, 0]',
+              '[objective]', 'mass_weight = 1', 'inertia_weight = "0 1/m^2"']
+    return "\n".join(lines) + "\n"
+
+
+def test_a_chain_of_a_thousand_frames_is_designed_without_deep_recursion():
+    from counterpoise.io.loader import load_problem_text
+    from counterpoise.pipeline import design
+
+    frames = 1000
+    result = design(load_problem_text(_chain_text(frames), "chain.toml"))
+    # M × 100 mm = 1 kg × (frames - 1) mm
+    assert result.optimal
+    assert result.solution.values[next(iter(result.solution.values))] == pytest.approx((frames - 1) / 100, rel=1e-9)
+
+
+def test_a_huge_bound_gives_one_line_and_no_python_warning(tmp_path):
+    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
+    file = str(PROBLEMS / "yasir2019_counter_mass.toml")
+    done = subprocess.run([sys.executable, "-c", "from counterpoise.cli import main; main()", "solve", file, "--out", str(tmp_path),
+                           "--set", "variables.M_a.upper=1e308 kg"], capture_output=True, text=True, env=env, timeout=START_WAIT_S)
+    assert done.returncode == 1
+    assert done.stderr.strip().splitlines() == [f"{file}: the balance residual is not a finite number at some designs within the bounds "
+                                                "(a bound too large to compute with, or expressions such as sqrt or log of a variable)"]
+
+
+def test_an_absurd_payload_is_rejected_up_front(capsys):
+    file = str(PROBLEMS / "woo2019_hybrid.toml")
+    code, out = _cli(["schedule", file, "--payload", "1e200 g"], capsys)
+    lines = out.err.strip().splitlines()
+    assert code == 2 and lines == [f"{file}: --payload: '1e200 g' is more than 100 times the upper end of the declared range (0 g to 122 g)"]
+
+
+def test_every_ipopt_solve_has_a_time_limit():
+    from counterpoise.designer.designer import Designer
+    from counterpoise.io.loader import load_problem
+
+    designer = Designer(load_problem(PROBLEMS / "yasir2019_free_extensions.toml"), backend="ipopt")
+    assert 0 < designer.options["max_wall_time"] < float("inf")
+
+
+def test_reading_a_large_catalogue_prints_progress(tmp_path):
+    from counterpoise import progress
+    from counterpoise.catalogue import read_catalogue
+    from counterpoise.catalogue.reader import shipped_catalogue_path
+
+    lines = shipped_catalogue_path().read_text(encoding="utf-8").splitlines()
+    header, body = lines[0], lines[1:]
+    rows = [f"BIG-{i:06d}," + body[i % len(body)].split(",", 1)[1] for i in range(progress.LARGE_STEP + 1)]
+    path = tmp_path / "big.csv"
+    path.write_text("\n".join([header, *rows]) + "\n", encoding="utf-8")
+    notes: list[str] = []
+    with progress.sink(notes.append):
+        catalogue = read_catalogue(path)
+    assert len(catalogue) == len(rows)
+    assert notes and notes[0] == f"reading catalogue {path}: rows: {len(rows):,} to go"
+    with progress.sink(notes.append):
+        read_catalogue("shipped")  # a small one says nothing
+    assert len(notes) == 1
+
+
+def test_the_reference_torque_is_the_box_maximum_not_the_sampled_one():
+    """Seed 001's leg: the largest torque about the base joint is m g (r_a + r_b + r_c), with the
+    leg stretched horizontally, inside the box of theta_a; random samples miss it by ~0.2 %."""
+    from counterpoise.designer.designer import Designer
+    from counterpoise.io.loader import load_problem
+    from counterpoise.verify.check import verify
+
+    problem = load_problem(PROBLEMS / "yasir2019_counter_mass.toml")
+    verification = verify(Designer(problem).solve())
+    check = next(c for c in verification.checks if c.coordinate == "theta_a")
+    exact = 0.4 * 9.81 * (0.135 + 0.195 + 0.200)
+    assert check.max_gravity_torque == pytest.approx(exact, rel=1e-6)
+    assert verification.reference(check.kind) == pytest.approx(exact, rel=1e-6)

@@ -1,0 +1,50 @@
+"""Designer caches are keyed on the problem's content, never on its name or path (issue 13)."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+
+from conftest import PROBLEMS
+from counterpoise.io.loader import load_problem
+from counterpoise.model.digest import content_key
+from counterpoise.studies.runners import StudyTask
+from counterpoise.studies.spec import plan_study
+from counterpoise.studies.study import read_rows, run_study
+
+FILE = PROBLEMS / "yasir2019_counter_mass.toml"
+
+
+def test_content_key_differs_for_a_set_value_and_matches_for_equal_content():
+    a = load_problem(FILE, {"parameters.m_c": "400 g"})
+    b = load_problem(FILE, {"parameters.m_c": "800 g"})
+    again = load_problem(FILE, {"parameters.m_c": "400 g"})
+    assert (a.name, a.path) == (b.name, b.path)
+    assert content_key(a) != content_key(b)
+    assert content_key(a) == content_key(again)
+    assert StudyTask(a).key != StudyTask(b).key
+    assert StudyTask(a).key == StudyTask(again).key
+    edited = dataclasses.replace(a, settings=dataclasses.replace(a.settings, verify_samples=a.settings.verify_samples + 1))
+    assert content_key(edited) != content_key(a)
+
+
+def test_two_studies_of_one_file_with_different_set_values_on_one_cluster(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    from counterpoise.studies.cluster import DaskRunner
+
+    rows = {}
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        for grams in (400, 800):
+            problem = load_problem(FILE, {"parameters.m_c": f"{grams} g"})
+            plan = plan_study(problem, ["r_a=130 mm:140 mm:3"], "f")
+            runner = DaskRunner(cluster.scheduler_address, 1)
+            try:
+                outcome = run_study(problem, plan, tmp_path / str(grams), runner, batch_size=3)
+            finally:
+                runner.close()
+            rows[grams] = read_rows(outcome.folder / "study.csv")
+    for grams, found in rows.items():
+        assert [r["status"] for r in found] == ["optimal"] * 3
+        # the tip mass is balanced by M_c (seed 001's design: M_c equals the tip mass)
+        assert [float(r["M_c [g]"]) for r in found] == pytest.approx([grams] * 3, rel=1e-6)
