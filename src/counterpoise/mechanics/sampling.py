@@ -14,6 +14,9 @@ from ..model.problem import Problem
 
 #: the corners of a box are added while there are at most this many (12 coordinates)
 MAX_CORNERS = 4096
+#: complex step of every derivative by complex-step differentiation (the dense check, the
+#: catalogue screening): any tiny value works, there is no subtractive cancellation
+STEP = 1e-30
 
 
 def configurations(problem: Problem, subsystem: str, samples: int, rng: np.random.Generator) -> np.ndarray:

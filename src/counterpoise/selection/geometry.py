@@ -14,7 +14,7 @@ import numpy as np
 from ..mechanics import NUMPY_FUNCTIONS, Mechanics
 from ..mechanics.kinematics import dot, sub
 from ..model.problem import Problem
-from ..verify.residuals import STEP, configurations
+from ..mechanics.sampling import STEP, configurations
 
 Gravity3 = tuple[float, float, float]
 

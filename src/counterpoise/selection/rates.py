@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from ..catalogue.limits import LIMITS, margins, violation
-from ..verify.residuals import MAX_CORNERS
+from ..mechanics.sampling import MAX_CORNERS
 from .geometry import spring_lengths
 from .screening import energy_arrays
 

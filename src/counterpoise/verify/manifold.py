@@ -20,7 +20,8 @@ import numpy as np
 
 from ..mechanics.closure import ManifoldPoints, closure, scenario_base
 from ..model.problem import Problem
-from .residuals import MAX_CORNERS, SubsystemResiduals
+from ..mechanics.sampling import MAX_CORNERS
+from .residuals import SubsystemResiduals
 
 
 class ManifoldResiduals:

@@ -19,19 +19,17 @@ B are kept only while they fit in :data:`CACHE_BYTES`.
 
 from __future__ import annotations
 
-import itertools
 from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
 from ..mechanics import NUMPY_FUNCTIONS, Mechanics
+from ..mechanics.sampling import MAX_CORNERS, STEP, configurations  # noqa: F401 - re-exported
 from ..model import expr as ex
 from ..model.mechanism import GROUND, Point, Rotation
 from ..model.problem import Problem
 
-STEP = 1e-30  # complex step; any tiny value works, there is no subtractive cancellation
-MAX_CORNERS = 4096
 #: configurations evaluated at once (one coordinate perturbed at a time)
 CHUNK_CONFIGURATIONS = 4096
 #: the per-element arrays of one subsystem are kept between designs up to this size
@@ -74,18 +72,6 @@ def _complex_step(name: str, z: np.ndarray) -> np.ndarray:
     if name == "sin":
         return np.sin(a) + 1j * (b * np.cos(a))
     return np.cos(a) - 1j * (b * np.sin(a))
-
-
-def configurations(problem: Problem, subsystem: str, samples: int, rng: np.random.Generator) -> np.ndarray:
-    """Random configurations of a subsystem plus the corners of its box: (N, n_q)."""
-    coords = problem.subsystem_coordinates(subsystem)
-    lo = np.array([c.lower for c in coords])
-    hi = np.array([c.upper for c in coords])
-    q = lo + (hi - lo) * rng.random((samples, len(coords)))
-    if 2 ** len(coords) <= MAX_CORNERS:
-        corners = np.array(list(itertools.product(*zip(lo, hi))), dtype=float).reshape(-1, len(coords))
-        q = np.vstack([q, corners])
-    return q
 
 
 class _Element:
