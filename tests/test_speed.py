@@ -281,7 +281,7 @@ def test_light_coerce_matches_the_app():
 
 
 def _rows():
-    base = {"added_inertia_kg_m2": 0.0665714, "objective": 5.753, "residual_ratio": 1.23e-15, "checked_configurations": 30024}
+    base = {"added_inertia_kg_m2": 0.0665714, "objective": 5.753, "residual_ratio": 1.23e-15, "checked_configurations": 30024, "solve_time_s": 0.0123}
     return [
         {**base, "problem": "yasir2019_hybrid", "status": "optimal", "added_mass_kg": 5.753, "wall_s": 0.151, "folder": "out/yasir2019_hybrid", "message": "ok"},
         {**base, "problem": "p", "status": "infeasible", "added_mass_kg": -123456789.0, "wall_s": 1234.5, "folder": "out/p", "message": "balance cannot be met: M at its upper bound"},

@@ -344,38 +344,9 @@ def draw(
 
 
 def _print_summary(rows: list[dict]) -> None:
-    table = Table(title="counterpoise: designs", show_lines=False)
-    for col, justify in [
-        ("problem", "left"),
-        ("status", "left"),
-        ("added mass (kg)", "right"),
-        ("added inertia (kg m²)", "right"),
-        ("objective", "right"),
-        ("residual ratio", "right"),
-        ("configs", "right"),
-        ("solve (s)", "right"),
-        ("total (s)", "right"),
-    ]:
-        table.add_column(col, justify=justify)  # type: ignore[arg-type]
-    for r in rows:
-        style = "green" if r["status"] == "optimal" else "red"
-        table.add_row(
-            str(r["problem"]),
-            f"[{style}]{r['status']}[/{style}]",
-            f"{r['added_mass_kg']:.6g}",
-            f"{r['added_inertia_kg_m2']:.6g}",
-            f"{r['objective']:.6g}",
-            f"{r['residual_ratio']:.2e}",
-            str(r["checked_configurations"]),
-            f"{r['solve_time_s']:.3f}",  # summary.csv's solve_time_s
-            f"{r['wall_s']:.3f}",  # design, verification and reports of this problem
-        )
-    out_console.print(table)
-    for r in rows:
-        if r["status"] != "optimal":
-            out_console.print(f"{r['problem']}: {r['message']}", markup=False)
-    if rows:
-        out_console.print(f"reports in {Path(rows[0]['folder']).parent}/<problem>/", markup=False)
+    from .light import rich_summary
+
+    rich_summary(rows, out_console)  # one table for both paths (see .light)
 
 
 INTERNAL_ERROR = 3

@@ -26,8 +26,6 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from scipy.spatial.transform import Rotation as SciRotation
-
 from ...model import expr as ex
 from ...model.functions import NUMPY_FUNCTIONS
 from ...model.mechanism import GROUND, Body, Frame, Point, Rotation
@@ -159,6 +157,8 @@ def _home_pose(frame: str, frames: Mapping[str, Frame], env: Mapping[str, float]
         if isinstance(t, Rotation):
             axis = np.array([float(ex.evaluate(c, env, NUMPY_FUNCTIONS)) for c in t.axis])
             angle = float(ex.evaluate(t.angle, env, NUMPY_FUNCTIONS))
+            from scipy.spatial.transform import Rotation as SciRotation  # here: only substitutions pay its import
+
             rot = rot @ SciRotation.from_rotvec(axis / np.linalg.norm(axis) * angle).as_matrix()
         else:
             origin = origin + rot @ np.array([float(ex.evaluate(c, env, NUMPY_FUNCTIONS)) for c in t.vector])
