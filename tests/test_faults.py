@@ -36,7 +36,12 @@ def test_a_signalled_study_stops_its_workers_and_says_how_to_resume(tmp_path, si
     env = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
     args = [sys.executable, "-c", "from counterpoise.cli import main; main()", "study", str(PROBLEMS / "yasir2019_hybrid.toml"),
             "--vary", "m_endo=400 g:1000 g:100000", "--jobs", "2", "--out", str(tmp_path), "--no-plot"]
-    process = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    # a job started in the background by a non-interactive shell (as CI may start the test
+    # suite) inherits SIGINT ignored, and Python then keeps it ignored: give the study the
+    # disposition a terminal's Ctrl-C meets
+    process = subprocess.Popen(
+        args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL)
+    )
     try:
         deadline = time.monotonic() + START_WAIT_S
         while len(workers := _children(process.pid)) < 2 and time.monotonic() < deadline and process.poll() is None:
