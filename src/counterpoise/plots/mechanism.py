@@ -53,16 +53,48 @@ def _poses(problem: Problem, chosen: Mapping[str, float] | None) -> tuple[dict[s
     main = dict(chosen) if chosen is not None else home
     ghosts: list[dict[str, float]] = []
     for sub in problem.subsystems:
-        coords = [problem.coordinate[n] for n in sub.coordinates]
-        if 2 ** len(coords) <= MAX_CORNERS:
-            corners = itertools.product(*[(c.lower, c.upper) for c in coords])
+        coords = [problem.coordinate[n] for n in sub.coordinates if not problem.coordinate[n].dependent]
+        ends = [_range_poses(c) for c in coords]
+        if math.prod(len(e) for e in ends) <= MAX_CORNERS:
+            corners = itertools.product(*ends)
             ghosts += [{**main, **{c.name: v for c, v in zip(coords, corner)}} for corner in corners]
         else:
-            ghosts += [{**main, c.name: v} for c in coords for v in (c.lower, c.upper)]
+            ghosts += [{**main, c.name: v} for c, values in zip(coords, ends) for v in values]
     if len(ghosts) > MAX_GHOSTS:
         step = len(ghosts) / MAX_GHOSTS
         ghosts = [ghosts[int(i * step)] for i in range(MAX_GHOSTS)]
-    return main, ghosts
+    return _closed(problem, main), [_closed(problem, g) for g in ghosts]
+
+
+def _range_poses(c: Any) -> tuple[float, ...]:
+    """The values a coordinate is drawn at besides home: its range's ends, or three points
+    of a full turn (whose ends are one and the same pose)."""
+    span = c.upper - c.lower
+    if c.unit.dimension == "" and span >= 2 * math.pi * (1 - 1e-9):
+        return tuple(c.lower + span * k / 4 for k in (1, 2, 3))
+    return (c.lower, c.upper)
+
+
+def _closed(problem: Problem, pose: dict[str, float]) -> dict[str, float]:
+    """``pose`` with every closed loop's dependent coordinates solved from its independent
+    ones (on the home configuration's branch, :mod:`counterpoise.mechanics.closure`)."""
+    subsystems = [sub for sub in problem.subsystems if problem.subsystem_loops(sub.name)]
+    if not subsystems:
+        return pose
+    from ..errors import ProblemFileError
+    from ..mechanics.closure import closure, scenario_base
+
+    out = dict(pose)
+    base = scenario_base(problem, problem.scenarios[0].name)
+    for sub in subsystems:
+        c = closure(problem, sub.name, base)
+        qi = np.array([[pose[c.names[i]] for i in c.independent]])
+        try:
+            q = c.solve(qi).q[0]
+        except ProblemFileError:  # beyond the mechanism's mobility: drawn as given
+            continue
+        out.update({c.names[i]: float(q[i]) for i in c.dependent})
+    return out
 
 
 def _basis(problem: Problem, clouds: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray | None]:
@@ -144,6 +176,7 @@ def mechanism_plot(
     heaviest = max(masses) if masses and max(masses) > 0 else 1.0
     payloads = {p.name for p in problem.payloads}
     joints = _joint_positions(problem, _joint_frames(problem), main, design)
+    closing = _loop_segments(problem, main, design)
 
     width = 7.5 if len(views) == 1 else 15.0
     fig, axes = plt.subplots(1, len(views), figsize=(width, 6.2), squeeze=False, layout="constrained")
@@ -153,9 +186,9 @@ def mechanism_plot(
             q = np.asarray(p, dtype=float)
             return np.array([q @ h, q @ v]) / unit_scale
 
-        for items in placed_ghosts:
-            _draw(ax, problem, items, xy, ghost=True, joints=joints)
-        _draw(ax, problem, placed_main, xy, ghost=False, joints=joints, cmap=cmap, norm=norm, heaviest=heaviest, payloads=payloads)
+        for items, pose in zip(placed_ghosts, ghosts):
+            _draw(ax, problem, items, xy, ghost=True, joints=joints, closing=_loop_segments(problem, pose, design))
+        _draw(ax, problem, placed_main, xy, ghost=False, joints=joints, closing=closing, cmap=cmap, norm=norm, heaviest=heaviest, payloads=payloads)
         ax.set_aspect("equal", adjustable="datalim")
         ax.grid(alpha=0.25)
         ax.set_xlabel(f"{_axis_name(h)} [{unit}]")
@@ -214,10 +247,31 @@ def _joint_positions(problem: Problem, joints: dict[str, int], coordinates: Mapp
     return {name: [float(c) for c in mech.pose(name, upto=i)[1]] for name, i in joints.items()}
 
 
-def _draw(ax: Any, problem: Problem, placed: list[Placed], xy: Any, ghost: bool, joints: Mapping[str, Any], **style: Any) -> None:
+def _loop_segments(problem: Problem, coordinates: Mapping[str, float], variables: Mapping[str, float]) -> list[tuple[Any, ...]]:
+    """Each closed loop's two half-links (frame a's origin to point a, frame b's origin to
+    point b) and the joint that closes it, in world coordinates."""
+    if not problem.loops:
+        return []
+    from ..mechanics.poses import mechanics
+
+    mech = mechanics(problem, coordinates, variables)
+    world = lambda v: np.array([float(np.ravel(c)[0]) for c in v])  # noqa: E731
+    return [(world(mech.pose(loop.a.frame)[1]), world(mech.position(loop.a)), world(mech.pose(loop.b.frame)[1]), world(mech.position(loop.b))) for loop in problem.loops]
+
+
+def _draw(
+    ax: Any, problem: Problem, placed: list[Placed], xy: Any, ghost: bool, joints: Mapping[str, Any], closing: Any = (), **style: Any
+) -> None:
     frames = {p.name: p for p in placed if p.kind == "frame"}
     origin = np.zeros(3)
     link_color, alpha, z = ("0.6", 0.35, 1) if ghost else ("0.15", 1.0, 3)
+    for oa, pa_, ob, pb_ in closing:  # the links of a closed loop, to the joint where it was opened
+        for o, p in ((oa, pa_), (ob, pb_)):
+            q0, q1 = xy(o), xy(p)
+            ax.plot([q0[0], q1[0]], [q0[1], q1[1]], color=link_color, linewidth=2.5 if not ghost else 1.5, alpha=alpha, zorder=z, solid_capstyle="round")
+        if not ghost:
+            j = xy(pa_)
+            ax.plot(*j, marker="o", markersize=7, markerfacecolor="white", markeredgecolor="0.15", zorder=6, linestyle="none")
     for f in problem.frames:
         a = frames[f.parent].position if f.parent in frames else origin
         b = frames[f.name].position
