@@ -1,4 +1,4 @@
-"""The convex path of the designer, the certificate gap of a general design, and multi-start.
+"""The convex path of the designer and the certificate gap of a general design.
 
 - **Convex path.** When every design variable enters the balance conditions, the sign
   constraints and the objective linearly (a fixed geometry: only masses, stiffnesses and
@@ -10,8 +10,8 @@
   IPOPT's answer, the best linear variables are an LP; ``certificate_gap`` = IPOPT's
   objective − that LP's optimum, in kg: how much lighter the design could be at the same
   geometry. It is 0 (to rounding) at a true optimum, and 0 by construction on the convex path.
-- **Multi-start** (:func:`multistart`): seeded random initial geometries; the best optimal
-  design wins and the count of starts that reached its objective is reported.
+
+Multi-start is a design method of its own (:class:`counterpoise.designer.methods.MultiStart`).
 """
 
 from __future__ import annotations
@@ -27,7 +27,6 @@ from ..solvers.base import Bounds, SolverOutput, Status
 
 if TYPE_CHECKING:
     from .designer import Designer
-    from .solution import Solution
 
 #: two objectives agree (multi-start) when within this relative distance
 SAME_OBJECTIVE = 1e-7
@@ -138,18 +137,3 @@ class Certificate:
             return float("nan")
         best = float(self.formulation.report_function(cert.z, p)[0])
         return objective - best
-
-
-def certificate_gap(designer: "Designer", z: np.ndarray, p: np.ndarray, b: Bounds, solver: str, objective: float) -> float:
-    """Objective minus the LP optimum at the geometry of ``z`` (kg); see the module docstring."""
-    return designer.certificate.gap(z, p, b, solver, objective)
-
-
-def multistart(designer: "Designer", starts: int, seed: int, **solve_options: Any) -> "Solution":
-    """Solve from the file's initial design and ``starts - 1`` seeded random geometries
-    (:class:`counterpoise.designer.methods.MultiStart` around the designer)."""
-    from .methods import MultiStart, Plain
-
-    if starts < 1:
-        raise ValueError("starts must be at least 1")
-    return MultiStart(Plain(designer), starts, seed).solve(**solve_options)
