@@ -28,8 +28,6 @@ from ..solvers.base import Bounds, SolverOutput, Status
 if TYPE_CHECKING:
     from .designer import Designer
 
-#: two objectives agree (multi-start) when within this relative distance
-SAME_OBJECTIVE = 1e-7
 
 
 def geometric_variables(problem: Problem) -> set[str]:
