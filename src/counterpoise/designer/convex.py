@@ -29,7 +29,6 @@ if TYPE_CHECKING:
     from .designer import Designer
 
 
-
 def geometric_variables(problem: Problem) -> set[str]:
     """Variables that appear in a position: a frame transform, a body's centre of mass, a
     counter-mass position or a spring end."""
