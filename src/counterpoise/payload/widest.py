@@ -20,6 +20,10 @@ MAX_DOUBLINGS = 30
 SCAN = 16
 #: two payloads closer than this share of the display unit are the same (bisection ends)
 PAYLOAD_RESOLUTION = 1e-9
+#: the first step beyond a range of zero width: this share of the display unit, at least
+#: FIRST_STEP_FLOOR kg
+FIRST_STEP_SHARE = 1e-3
+FIRST_STEP_FLOOR = 1e-6
 
 
 @dataclass(frozen=True)
@@ -52,7 +56,7 @@ def widest_range(solver: AdjustmentSolver, plan: Schedule) -> tuple[WidestRange,
     ``counterpoise schedule`` and a declared range too wide all use this one definition."""
     payload = solver.payload
     lower, a = plan.rows[0].payload, plan.rows[-1].payload
-    step = max(a - lower, 1e-3 * payload.unit.to_si, 1e-6)
+    step = max(a - lower, FIRST_STEP_SHARE * payload.unit.to_si, FIRST_STEP_FLOOR)
     last = plan.rows[-1]
     upper_bad: Setting | None = None
     for _ in range(MAX_DOUBLINGS):
@@ -101,10 +105,19 @@ def _limit_text(solver: AdjustmentSolver, limit: tuple[str, str, float] | None, 
 
 def _lowest(solver: AdjustmentSolver, first: Setting) -> tuple[float, Setting | None]:
     """The smallest payload (≥ 0) down to which the design balances, from a feasible one,
-    and its setting when a limit stops it above 0 (None: it reaches 0)."""
-    if first.payload <= 0 or solver.at(0.0).feasible:
-        return min(first.payload, 0.0), None
-    return _bisect(solver, first.payload, first, 0.0)
+    and its setting when a limit stops it above 0 (None: it reaches 0). The way down is
+    scanned for holes (:data:`SCAN` payloads), as the way up is: a design that balances 0 g
+    and the first payload need not balance every payload between them."""
+    if first.payload <= 0:
+        return first.payload, None
+    good, good_setting = first.payload, first
+    for i in range(1, SCAN + 1):
+        t = first.payload * (1 - i / SCAN)
+        s = solver.at(t)
+        if not s.feasible:
+            return _bisect(solver, good, good_setting, t)
+        good, good_setting = t, s
+    return 0.0, None
 
 
 def _bisect(solver: AdjustmentSolver, good: float, good_setting: Setting, bad: float) -> tuple[float, Setting]:
