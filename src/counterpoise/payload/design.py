@@ -147,6 +147,7 @@ def design_payloads(
     parameters: Mapping[str, float] | None = None,
     bounds: Mapping[Any, tuple[float, float]] | None = None,
     initial: Mapping[Slot, float] | None = None,
+    certify: bool = True,
 ) -> PayloadDesign:
     """Design ``problem`` for its payload range (see the module docstring).
 
@@ -158,7 +159,7 @@ def design_payloads(
     core = core or (lambda p: Plain(Designer(p)))
     masses = {payload.lower, payload.nominal, payload.upper}
     for _ in range(REFINEMENTS + 1):
-        sampled, solution, verification, status, message = _solve_samples(problem, core, masses, parameters, bounds, initial)
+        sampled, solution, verification, status, message = _solve_samples(problem, core, masses, parameters, bounds, initial, certify)
         solver = AdjustmentSolver(problem, _shared(solution), parameters, adjustment_bounds(problem, bounds))
         plan = schedule(solver, payload.lower, payload.upper)
         failure = plan.first_failure

@@ -32,7 +32,7 @@ class PayloadMethod:
 
     def core(self, sampled: Problem) -> DesignMethod:
         """The inner method of a sampled problem (built once per set of samples)."""
-        key = tuple(s.name for s in sampled.scenarios)
+        key = tuple((s.name, tuple(sorted(s.parameters.items()))) for s in sampled.scenarios)  # the exact masses
         if key not in self._built:
             self._built[key] = self._core(sampled)
         return self._built[key]
@@ -44,9 +44,13 @@ class PayloadMethod:
         return sampled_problem(self.problem, (p.lower, p.nominal, p.upper, *extra)).problem
 
     def design(
-        self, parameters: Mapping[str, float] | None = None, bounds: Mapping[Any, tuple[float, float]] | None = None, initial: Mapping[Slot, float] | None = None
+        self,
+        parameters: Mapping[str, float] | None = None,
+        bounds: Mapping[Any, tuple[float, float]] | None = None,
+        initial: Mapping[Slot, float] | None = None,
+        certify: bool = True,
     ) -> PayloadDesign:
-        return design_payloads(self.problem, self.core, parameters, bounds, initial)
+        return design_payloads(self.problem, self.core, parameters, bounds, initial, certify)
 
     def solve(
         self,
@@ -56,7 +60,7 @@ class PayloadMethod:
         *,
         certify: bool = True,
     ) -> Solution:
-        outcome = self.design(parameters, bounds, initial)
+        outcome = self.design(parameters, bounds, initial, certify)
         return replace(outcome.solution, verdict=(outcome.status, outcome.message), verification=outcome.verification, payload=outcome)
 
     def __repr__(self) -> str:
