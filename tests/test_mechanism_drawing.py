@@ -24,3 +24,17 @@ def test_every_pose_of_a_four_bar_is_assembled():
         assert np.abs(c.gaps(q)).max() <= 1e-9
         for _, a, _, b in _loop_segments(problem, pose, {v.name: v.initial for v in problem.variables}):
             assert np.linalg.norm(a - b) <= 1e-9  # the two half-links meet at the opened joint
+
+
+def test_frames_at_a_crank_angle_solve_the_loop_and_refuse_a_dependent_coordinate():
+    import pytest
+
+    from counterpoise.cli.mechanism import AtError, parse_at
+
+    problem = load_problem(PROBLEMS / "fourbar_counter_mass.toml")
+    coordinates, variables = parse_at(problem, ["theta2=90 deg"])
+    assert coordinates["theta2"] == pytest.approx(math.pi / 2)
+    for _, a, _, b in _loop_segments(problem, coordinates, variables):
+        assert np.linalg.norm(a - b) <= 1e-9
+    with pytest.raises(AtError, match="'theta3' is a dependent coordinate of a closed loop"):
+        parse_at(problem, ["theta3=10 deg"])

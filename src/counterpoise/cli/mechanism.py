@@ -2,6 +2,7 @@
 
 ``--at NAME=VALUE`` sets a coordinate (or a design variable) for the table or the
 drawing; the others stay at home (coordinates) and at their initial values (variables).
+A closed loop's dependent coordinates are solved from the independent ones (never given).
 Values need their unit, like in a problem file ("30 deg", "120 mm").
 """
 
@@ -12,8 +13,8 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from ..errors import InputError
-from ..mechanics.poses import Placed, default_values, place
+from ..errors import InputError, ProblemFileError
+from ..mechanics.poses import Placed, assembled, default_values, place
 from ..model.problem import Problem
 from ..model.units import LENGTH, DisplayUnit, canonical_dimension, dimension_name, display_unit, parse_quantity
 
@@ -33,6 +34,8 @@ def parse_at(problem: Problem, items: Sequence[str] | None) -> tuple[dict[str, f
             raise AtError(f"--at {item}: expected NAME=VALUE, e.g. 'elbow_joint=30 deg'")
         if name not in units:
             raise AtError(f"--at {item}: '{name}' is neither a coordinate nor a design variable (coordinates: {', '.join(coordinates)})")
+        if name in coordinates and problem.coordinate[name].dependent:
+            raise AtError(f"--at {item}: '{name}' is a dependent coordinate of a closed loop: it is solved from the independent ones, give those")
         try:
             q = parse_quantity(raw.strip())
         except InputError as exc:
@@ -40,7 +43,10 @@ def parse_at(problem: Problem, items: Sequence[str] | None) -> tuple[dict[str, f
         if q.dimension != units[name].dimension:
             raise AtError(f"--at {item}: expected {dimension_name(units[name].dimension)}, got {dimension_name(q.dimension)}")
         (coordinates if name in coordinates else variables)[name] = q.si
-    return coordinates, variables
+    try:
+        return assembled(problem, coordinates), variables
+    except ProblemFileError as exc:
+        raise AtError(f"--at: {exc}") from None
 
 
 def length_unit(problem: Problem) -> DisplayUnit:

@@ -76,3 +76,24 @@ def place(problem: Problem, coordinates: Mapping[str, float], variables: Mapping
 
 def ground_row() -> Placed:
     return Placed("frame", GROUND, GROUND, (0.0, 0.0, 0.0), None, rotation=((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)))
+
+
+def assembled(problem: Problem, coordinates: Mapping[str, float]) -> dict[str, float]:
+    """``coordinates`` with every closed loop's dependent coordinates solved from its
+    independent ones, on the home configuration's branch (:mod:`.closure`); a configuration
+    that cannot be assembled raises ProblemFileError naming it."""
+    out = dict(coordinates)
+    subsystems = [sub for sub in problem.subsystems if problem.subsystem_loops(sub.name)]
+    if not subsystems:
+        return out
+    import numpy as np
+
+    from .closure import closure, scenario_base
+
+    base = scenario_base(problem, problem.scenarios[0].name)
+    for sub in subsystems:
+        c = closure(problem, sub.name, base)
+        q = c.solve(np.array([[out[c.names[i]] for i in c.independent]])).q[0]
+        out.update({c.names[i]: float(q[i]) for i in c.dependent})
+    return out
+

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..mechanics.poses import Placed, default_values, place
+from ..mechanics.poses import Placed, assembled, default_values, place
 from ..model.mechanism import GROUND
 from ..model.problem import Problem
 from ._mpl import pyplot, save
@@ -63,7 +63,7 @@ def _poses(problem: Problem, chosen: Mapping[str, float] | None) -> tuple[dict[s
     if len(ghosts) > MAX_GHOSTS:
         step = len(ghosts) / MAX_GHOSTS
         ghosts = [ghosts[int(i * step)] for i in range(MAX_GHOSTS)]
-    return _closed(problem, main), [_closed(problem, g) for g in ghosts]
+    return assembled(problem, main), [assembled(problem, g) for g in ghosts]  # closed loops: every pose assembled
 
 
 def _range_poses(c: Any) -> tuple[float, ...]:
@@ -73,28 +73,6 @@ def _range_poses(c: Any) -> tuple[float, ...]:
     if c.unit.dimension == "" and span >= 2 * math.pi * (1 - 1e-9):
         return tuple(c.lower + span * k / 4 for k in (1, 2, 3))
     return (c.lower, c.upper)
-
-
-def _closed(problem: Problem, pose: dict[str, float]) -> dict[str, float]:
-    """``pose`` with every closed loop's dependent coordinates solved from its independent
-    ones (on the home configuration's branch, :mod:`counterpoise.mechanics.closure`)."""
-    subsystems = [sub for sub in problem.subsystems if problem.subsystem_loops(sub.name)]
-    if not subsystems:
-        return pose
-    from ..errors import ProblemFileError
-    from ..mechanics.closure import closure, scenario_base
-
-    out = dict(pose)
-    base = scenario_base(problem, problem.scenarios[0].name)
-    for sub in subsystems:
-        c = closure(problem, sub.name, base)
-        qi = np.array([[pose[c.names[i]] for i in c.independent]])
-        try:
-            q = c.solve(qi).q[0]
-        except ProblemFileError:  # beyond the mechanism's mobility: drawn as given
-            continue
-        out.update({c.names[i]: float(q[i]) for i in c.dependent})
-    return out
 
 
 def _basis(problem: Problem, clouds: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray | None]:
