@@ -29,7 +29,7 @@ def load_all(files: list[Path], overrides: Mapping[str, object], err: Err) -> li
             errors.append(str(exc))
             continue
         if problem.name in seen:
-            errors.append(f"{path}: problem.name: '{problem.name}' is also the name of {seen[problem.name]} (both would write results/{problem.name})")
+            errors.append(f"{path}: problem.name: '{problem.name}' is also the name of {seen[problem.name]} (both would write the report folder {problem.name})")
             continue
         seen[problem.name] = path
         problems.append(problem)
