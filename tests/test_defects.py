@@ -287,3 +287,16 @@ def test_readme_states_the_display_unit_fallback():
     assert problem.variable["M"].unit.symbol == "kg"
     reference = (ROOT / "problems" / "README.md").read_text(encoding="utf-8")
     assert "or `upper`'s when `lower` is a bare number" in " ".join(reference.split())
+
+
+def test_a_set_override_may_change_an_entry_not_create_one():
+    """Review finding: ``--set parameters.m_cc=3 g`` (a typo for m_c) added an unused
+    parameter and the solve went on with m_c unchanged."""
+    from counterpoise.errors import ProblemFileError
+    from counterpoise.io.loader import load_problem
+
+    path = ROOT / "problems" / "yasir2019_counter_mass.toml"
+    with pytest.raises(ProblemFileError, match=r"parameters.m_cc: the file has no parameters entry 'm_cc' to override \(did you mean 'm_c'\?\)"):
+        load_problem(path, {"parameters.m_cc": "3 g"})
+    assert {p.name: p.value for p in load_problem(path, {"parameters.m_c": "3 g"}).parameters}["m_c"] == pytest.approx(0.003)
+    assert load_problem(path, {"settings.verify_samples": 2000}).settings.verify_samples == 2000  # a key of a plain table: allowed

@@ -71,8 +71,10 @@ def load_problem_data(data: Mapping[str, Any], label: str = "<data>", overrides:
         raw = copy.deepcopy(dict(data))
     except RecursionError:
         raise ProblemFileError(label, "file", "arrays or tables nested too deeply") from None
-    for key, value in (overrides or {}).items():
-        _apply_override(raw, key, value, label)
+    if overrides:
+        known = _entry_names(raw, label)
+        for key, value in overrides.items():
+            _apply_override(raw, key, value, label, known)
     raw = expand_repeats(raw, label)
     from pydantic import ValidationError
 
@@ -83,8 +85,33 @@ def load_problem_data(data: Mapping[str, Any], label: str = "<data>", overrides:
     return resolve(spec, label)
 
 
-def _apply_override(raw: dict[str, Any], key: str, value: Any, label: str) -> None:
+#: tables of named entries: an override may change an entry, not create one (a typo in
+#: ``--set parameters.m_cc=...`` would otherwise add an unused entry and change nothing)
+NAMED_TABLES = frozenset(
+    {"parameters", "subsystems", "frames", "bodies", "counter_masses", "springs", "substitutions", "variables",
+     "report", "scenarios", "payloads", "catalogues", "slots", "repeat", "loops"}
+)
+
+
+def _entry_names(raw: dict[str, Any], label: str) -> dict[str, list[str]]:
+    """The names of every named table's entries, those a ``[repeat]`` makes included."""
+    import copy
+
+    try:
+        expanded = expand_repeats(copy.deepcopy(raw), label)
+    except ProblemFileError:
+        expanded = raw  # the file's own error is reported when it is loaded
+    return {t: list(expanded[t]) if isinstance(expanded.get(t), dict) else [] for t in NAMED_TABLES}
+
+
+def _apply_override(raw: dict[str, Any], key: str, value: Any, label: str, known: Mapping[str, list[str]] | None = None) -> None:
     parts = key.split(".")
+    if known is not None and len(parts) >= 2 and parts[0] in NAMED_TABLES:
+        names = known[parts[0]]
+        if parts[1] not in names:
+            close = ex.nearest(parts[1], names)
+            hint = f" (did you mean '{close}'?)" if close else (f" (it has: {', '.join(names[:12])})" if names else "")
+            raise ProblemFileError(label, key, f"the file has no {parts[0]} entry '{parts[1]}' to override{hint}")
     node: Any = raw
     for part in parts[:-1]:
         if not isinstance(node, dict):
