@@ -130,7 +130,11 @@ def coordinates(ctx: Context, model: RobotModel | None) -> tuple[tuple[Subsystem
         if not lo.si < hi.si:
             raise ctx.fail(f"{key}.range", f"empty range [{j.range[0]}, {j.range[1]}]: the lower end must be below the upper end")
         _within(ctx, joint, [lo.si, hi.si], lo.unit, f"{key}.range", f"range [{j.range[0]}, {j.range[1]}]")
-        home = ctx.literal(j.home, f"{key}.home").si if j.home is not None else 0.5 * (lo.si + hi.si)
+        home = 0.5 * (lo.si + hi.si)
+        if j.home is not None:
+            given = ctx.literal(j.home, f"{key}.home")
+            _check_dimension(ctx, joint, given.dimension, f"{key}.home", j.home)
+            home = given.si
         if not lo.si <= home <= hi.si:
             raise ctx.fail(f"{key}.home", "home lies outside the range")
         ctx.symbol_unit[name] = lo.unit
