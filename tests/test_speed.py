@@ -352,7 +352,7 @@ def _cli_runs(tmp_path, *args: str, env: dict[str, str] | None = None):
         out = tmp_path / name
         run = subprocess.run([sys.executable, "-c", code, "solve", *args, "--out", str(out)], capture_output=True, text=True, env=env, cwd=PROBLEMS.parent)
         text = run.stdout.replace(str(out), "OUT")
-        text = re.sub(r"\d+\.\d{3} (│)$", r"T \1", text, flags=re.M)  # the wall-time column
+        text = re.sub(r" +\d+\.\d{3} │ +\d+\.\d{3} │$", " T │ T │", text, flags=re.M)  # the two time columns (solve, total)
         runs.append((run.returncode, text, run.stderr.replace(str(out), "OUT"), out))
     return runs
 
@@ -379,13 +379,14 @@ def test_light_solve_prints_and_writes_what_the_app_does(tmp_path, args):
 
 def test_solve_imports_neither_typer_nor_rich_nor_cvxpy(tmp_path):
     """The light path in a fresh process: an LP design through Clarabel's own API, and no
-    typer, rich, cvxpy, scipy, pandas, matplotlib or dask on the way."""
+    typer, rich, cvxpy, scipy, pandas, matplotlib or dask on the way; without a [robot]
+    table, not the robot reader either (nor yourdfpy, trimesh, MuJoCo)."""
     out = _fresh(
         "import sys\n"
         "from counterpoise.cli import main\n"
         f"try:\n    main(['solve', {str(PROBLEMS / 'yasir2019_hybrid.toml')!r}, '--out', {str(tmp_path)!r}])\n"
         "except SystemExit as e:\n    code = e.code\n"
-        "heavy = sorted(m for m in ('typer', 'rich', 'cvxpy', 'scipy', 'pandas', 'matplotlib', 'dask') if m in sys.modules)\n"
+        "heavy = sorted(m for m in ('typer', 'rich', 'cvxpy', 'scipy', 'pandas', 'matplotlib', 'dask', 'counterpoise.io.robot', 'yourdfpy', 'trimesh', 'mujoco') if m in sys.modules)\n"
         "print(code, heavy, 'clarabel' in sys.modules)\n"
     )
     assert out.strip().splitlines()[-1] == "0 [] True"

@@ -13,14 +13,17 @@ from __future__ import annotations
 import math
 import re
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ...errors import InputError
 from ...model import expr as ex
 from ...model.mechanism import GROUND, Body, Coordinate, Frame, Point, Rotation, Subsystem, Transform, Translation
 from ...model.units import LENGTH, canonical_dimension, dimension_name
 from ..schema import RobotSpec
-from ..robot import RobotJoint, RobotModel, read_robot, rpy_from_matrix
 from .context import RESERVED, Context, suggest
+
+if TYPE_CHECKING:  # the reader (and its dataclasses) is imported only for a [robot] table
+    from ..robot import RobotJoint, RobotModel
 
 #: a joint range may pass the model's limits by this much (SI) without an error: limits are
 #: often written with fewer digits than the range (6.28318530718 for 2π)
@@ -41,6 +44,8 @@ def read(ctx: Context) -> RobotModel | None:
     raw = Path(getattr(spec, fmt))
     path = raw if raw.is_absolute() else Path(ctx.label).parent / raw
     try:
+        from ..robot import read_robot
+
         model = read_robot(path, fmt)
     except InputError as exc:
         raise ctx.fail(f"robot.{fmt}", str(exc)) from None
@@ -184,6 +189,8 @@ def _values(ctx: Context, model: RobotModel, spec: RobotSpec) -> dict[str, ex.Ex
 
 
 def _rotations(matrix: tuple) -> list[Transform]:
+    from ..robot import rpy_from_matrix
+
     roll, pitch, yaw = rpy_from_matrix(matrix)
     return [Rotation(axis, ex.Num(angle)) for axis, angle in ((Z, yaw), (Y, pitch), (X, roll)) if angle != 0.0]
 
