@@ -141,7 +141,7 @@ def _vectors(ctx: Any, q: np.ndarray, designs: Mapping[str, np.ndarray]) -> tupl
     return value, grad
 
 
-def part_bounds(ctx: Any, designer: Any, threshold: float, seconds: float, rows: np.ndarray | None = None) -> Bounds:
+def part_bounds(ctx: Any, designer: Any, threshold: float, seconds: float, rows: np.ndarray | None = None, max_depth: int | None = None) -> Bounds:
     """Certified lower bounds per part (see the module docstring), refined while a cell's
     bound is below ``threshold`` and for at most ``seconds``."""
     t0 = time.perf_counter()
@@ -245,7 +245,7 @@ def part_bounds(ctx: Any, designer: Any, threshold: float, seconds: float, rows:
         done = bound >= threshold
         np.minimum.at(closed, part[done], bound[done])
         part, centre, level, bound = part[~done], centre[~done], level[~done], bound[~done]
-        if not len(part) or not n_v or time.perf_counter() - t0 > seconds:
+        if not len(part) or not n_v or time.perf_counter() - t0 > seconds or (max_depth is not None and depth >= max_depth):
             break
         if len(part) * len(children) > BOUND_MAX_CELLS:
             keep = np.argsort(bound)[: BOUND_MAX_CELLS // len(children)]
