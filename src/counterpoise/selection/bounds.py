@@ -46,13 +46,13 @@ from ..verify.residuals import STEP, frame_names
 #: configurations per coordinate of the bound (a subset of the minimax designer's samples)
 BOUND_CONFIGURATIONS = 16
 #: initial cells per geometry axis
-BOUND_CELLS = 4
+BOUND_CELLS = 3
 #: bisection steps of the offset (the bound loses max|b| × the final half width)
 BOUND_BISECTION = 16
 #: (part, cell) pairs evaluated at once (memory bound)
 BOUND_CHUNK = 4000
 #: cells of all parts kept open at most (the lowest bounds are refined first beyond it)
-BOUND_MAX_CELLS = 400000
+BOUND_MAX_CELLS = 60000
 #: slack on lengths and cable bounds (m): the NLP meets its constraints to its tolerance
 LENGTH_SLACK = 1e-6
 #: relative safety on each bound (floating-point rounding of the affine reconstruction)
@@ -227,7 +227,7 @@ def part_bounds(ctx: Any, designer: Any, threshold: float, seconds: float, rows:
         cell = cell.ravel()
         out = parent.copy()
         for s in range(0, len(part), BOUND_CHUNK):
-            if time.perf_counter() - t0 > seconds and (s or level[0] > 0):
+            if time.perf_counter() - t0 > seconds and (s or level[0] > 0):  # the first chunk always runs
                 break
             sl = slice(s, s + BOUND_CHUNK)
             out[sl] = evaluate(part[sl], cell[sl], arrays)

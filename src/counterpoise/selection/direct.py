@@ -41,7 +41,7 @@ MIN_REFINED = 6
 #: at most this many parts are designed after screening
 MAX_REFINED = 40
 #: seconds of branch and bound on the geometry cells of the per-part lower bounds
-BOUND_SECONDS = 0.6
+BOUND_SECONDS = 0.4
 
 #: progress(done, total) callback; None: a one-line counter on stderr when it is a terminal
 Progress = Callable[[int, int], None]
