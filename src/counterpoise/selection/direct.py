@@ -9,9 +9,12 @@ residual ratio wins (ties: the cheaper).
 
 When the slot fits the screening (:mod:`.screening`: one slot, one scenario, one or two
 springs), every part is first screened at once on a geometry grid; parts are then designed
-most promising first, from their best screened design, and the search stops when no
-remaining part's screened ratio is within :data:`SCREEN_MARGIN` of the incumbent (or after
-:data:`MAX_REFINED` designs). Otherwise every combination of parts is designed.
+most promising first, from their best screened design. With one spring, once a design
+exists, every part gets a certified lower bound (:mod:`.bounds`); parts whose bound is at
+least the best ratio are skipped, and the search stops, certified, when every remaining
+part's is. Otherwise it stops when no remaining part's screened ratio is within
+:data:`SCREEN_MARGIN` of the incumbent (or after :data:`MAX_REFINED` designs). Without
+screening every combination of parts is designed.
 """
 
 from __future__ import annotations

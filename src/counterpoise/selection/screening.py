@@ -21,8 +21,8 @@ by box-constrained least squares (a feasible point: an upper estimate of that pa
 
 From each part's best grid design a compass search (vectorised over parts) improves its
 geometry. A part's *screened ratio* is that of a real design (its lengths within limits on
-the screening configurations), not a lower bound: the search built on it is a screened
-search, not a certificate (docs/catalogues.md says what it guarantees).
+the screening configurations), not a lower bound; the certified bound is :mod:`.bounds`
+(docs/catalogues.md says what each guarantees).
 """
 
 from __future__ import annotations
