@@ -17,7 +17,8 @@ box of z of half-widths h, |u − u_c| ≤ ρ = Σ_i |U_i| h_i and |u'_j − u'_
 (Dunkl–Williams: |u/|u| − v/|v|| ≤ 2 |u − v| / (|u| + |v|); infinite when ρ ≥ |u_c|). The offset T = k (c + L₀) − F₀
 lies in the interval the cable's bounds and the part's lengths on the bound's configurations
 allow (with d between |u_c| − ρ and |u_c| + ρ). Writing r_j = G_j + F B_j with F = k d − T the
-spring's force (|k |u_c| − T| ≤ F_lim = F₀ + k (L_max − L₀ + ρ) when the lengths hold),
+spring's force (|k |u_c| − T| ≤ F_lim, the least of F₀ + k (L_max − L₀ + ρ), the force at the
+longest length, and its largest value over the offset interval),
 |r_j| ≥ |a_j − T b_j| − E_j with a_j = G_j + k |u_c| B_c, b_j = B_c and
 E_j = k ρ (|B_c| + ΔB_j) + F_lim ΔB_j, and the cell's bound is min over that T interval of
 max_j (|a_j − T b_j| − E_j), a convex function of T: bisection, then the value at the
@@ -198,13 +199,14 @@ def part_bounds(ctx: Any, designer: Any, threshold: float, seconds: float, rows:
         c_lo = np.maximum(c_box[0], (nu - rho).max(axis=1) - lmax) - LENGTH_SLACK
         c_hi = np.minimum(c_box[1], (nu + rho).min(axis=1) - l0) + LENGTH_SLACK
         t_lo, t_hi = k * (c_lo + l0) - f0, k * (c_hi + l0) - f0
-        f_lim = f0 + k * (lmax - l0 + LENGTH_SLACK + rho.max(axis=1))
         kd = np.repeat(k[:, None] * nu, n_q, axis=1)  # (P, M), configuration-major like B
         rk = np.repeat(k[:, None] * rho, n_q, axis=1)
+        # |k d_c − T| over the offset interval, and at most the force at the longest length
+        f_lim = np.minimum((f0 + k * (lmax - l0 + LENGTH_SLACK))[:, None] + rk, np.maximum(np.abs(kd - t_lo[:, None]), np.abs(kd - t_hi[:, None])))
         a = G[None, :] + kd * B
         b = B
         with np.errstate(invalid="ignore"):
-            e = np.nan_to_num(rk * (np.abs(B) + eB) + f_lim[:, None] * eB, nan=np.inf)
+            e = np.nan_to_num(rk * (np.abs(B) + eB) + f_lim * eB, nan=np.inf)
         lo, hi = t_lo.copy(), np.maximum(t_lo, t_hi)
         idx = np.arange(len(part))
         for _ in range(BOUND_BISECTION):
@@ -261,4 +263,5 @@ def part_bounds(ctx: Any, designer: Any, threshold: float, seconds: float, rows:
         depth += 1
     value = closed.copy()
     np.minimum.at(value, part, bound)
+    value[np.setdiff1d(np.arange(n_parts), rows)] = np.nan  # not bounded
     return Bounds(value, evaluated, len(part), depth, time.perf_counter() - t0, n)
