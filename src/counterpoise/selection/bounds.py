@@ -142,9 +142,10 @@ def _vectors(ctx: Any, q: np.ndarray, designs: Mapping[str, np.ndarray]) -> tupl
     return value, grad
 
 
-def part_bounds(ctx: Any, designer: Any, threshold: float, seconds: float, rows: np.ndarray | None = None, max_depth: int | None = None) -> Bounds:
+def part_bounds(ctx: Any, designer: Any, threshold: float, budget: float, rows: np.ndarray | None = None, max_depth: int | None = None) -> Bounds:
     """Certified lower bounds per part (see the module docstring), refined while a cell's
-    bound is below ``threshold`` and for at most ``seconds``."""
+    bound is below ``threshold``, for at most ``budget`` (part, cell) bounds (deterministic,
+    unlike a time limit) and ``max_depth`` levels."""
     t0 = time.perf_counter()
     q = _samples(ctx, designer)
     n, n_q = q.shape
@@ -227,10 +228,12 @@ def part_bounds(ctx: Any, designer: Any, threshold: float, seconds: float, rows:
         _, first, cell = np.unique(np.column_stack([level, key]), axis=0, return_index=True, return_inverse=True)
         arrays = cell_arrays(centre[first], level[first])
         cell = cell.ravel()
+        nonlocal evaluated
         out = parent.copy()
         for s in range(0, len(part), BOUND_CHUNK):
-            if time.perf_counter() - t0 > seconds and (s or level[0] > 0):  # the first chunk always runs
+            if evaluated >= budget and (s or level[0] > 0):  # the first chunk always runs
                 break
+            evaluated += min(BOUND_CHUNK, len(part) - s)
             sl = slice(s, s + BOUND_CHUNK)
             out[sl] = evaluate(part[sl], cell[sl], arrays)
         return out
@@ -238,16 +241,16 @@ def part_bounds(ctx: Any, designer: Any, threshold: float, seconds: float, rows:
     part = np.repeat(rows, len(centres0))
     centre = np.tile(centres0, (len(rows), 1))
     level = np.zeros(len(part))
+    evaluated = 0
     bound = run(part, centre, level, np.zeros(len(part)))
     closed = np.full(n_parts, np.inf)  # least bound of each part's leaves at or above the threshold
-    evaluated = len(part)
     depth = 0
     children = np.array(np.meshgrid(*[[-0.5, 0.5]] * n_v, indexing="ij")).reshape(n_v, -1).T if n_v else np.zeros((1, 0))
     while True:
         done = bound >= threshold
         np.minimum.at(closed, part[done], bound[done])
         part, centre, level, bound = part[~done], centre[~done], level[~done], bound[~done]
-        if not len(part) or not n_v or time.perf_counter() - t0 > seconds or (max_depth is not None and depth >= max_depth):
+        if not len(part) or not n_v or evaluated >= budget or (max_depth is not None and depth >= max_depth):
             break
         if len(part) * len(children) > BOUND_MAX_CELLS:
             keep = np.argsort(bound)[: BOUND_MAX_CELLS // len(children)]
@@ -259,7 +262,6 @@ def part_bounds(ctx: Any, designer: Any, threshold: float, seconds: float, rows:
         part = np.repeat(part, len(children))
         level = np.repeat(level + 1, len(children))
         bound = run(part, centre, level, np.repeat(bound, len(children)))
-        evaluated += len(part)
         depth += 1
     value = closed.copy()
     np.minimum.at(value, part, bound)
