@@ -251,3 +251,50 @@ def test_search_evidence_reaches_status_and_summary(tmp_path):
     assert "group s: enumeration; every rate in the window solved" in text
     assert "pruned by the rate window" in text
     assert summary_row(result)["lower_bound_ratio"] == 0.0
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_direct_part_bounds_are_below_every_design(tmp_path, seed):
+    """The certified per-part lower bound (interval bound over geometry cells) is at most
+    the worst ratio of every design of that part (brute force: every part designed), some
+    part's bound is positive at three refinement levels (cells refined while below a ratio
+    of 1; the bound is first order in the cell size, so not on every random arm), and the
+    search's catalogue bound, when it reports one, is at most the brute-force best."""
+    from counterpoise.selection.bounds import certifiable, part_bounds
+    from counterpoise.selection.direct import part_parameters
+    from counterpoise.selection.screening import screen
+
+    rng = np.random.default_rng(30 + seed)
+    catalogue(tmp_path / "parts.csv", rng, 10, (200.0, 3000.0), (0.02, 0.06), (0.05, 0.2))
+    with open(tmp_path / "parts.csv", "a", encoding="utf-8") as fh:  # far too stiff
+        fh.write("STIFF,60000,0.04,5,2000,0.07,0.01,0.001,x\n")
+    text = ARM.format(mass=rng.uniform(0.3, 1.0), length=rng.uniform(0.2, 0.4), lo=-rng.uniform(20, 50), hi=rng.uniform(20, 50))
+    (tmp_path / "a.toml").write_text(text, encoding="utf-8")
+    problem = load_problem(tmp_path / "a.toml")
+    designer = MinimaxDesigner(problem)
+    brute = _enumerate(problem, designer, lambda done, total: None, 0.0, "test")
+    screened = screen(problem, designer, part_parameters(problem, {"s": 0}))
+    assert certifiable(screened.context) == ""
+    ratio = {c.parts["s"]: c.robust for c in brute.candidates}
+    assert ratio, "no part fits: the test checks nothing"
+    bounds = part_bounds(screened.context, designer, 1.0, math.inf, max_depth=3)
+    for row, value in ratio.items():
+        assert bounds.value[row] <= value
+    assert (bounds.value > 0).any()  # positive, or infinite (certified unable to stay within its lengths)
+    alone = part_bounds(screened.context, designer, 1.0, math.inf, rows=np.array([0]), max_depth=1)
+    assert np.isnan(alone.value[1:]).all() and alone.value[0] <= ratio.get(0, math.inf)
+    result = search_direct(problem, designer, lambda done, total: None)
+    assert math.isnan(result.lower_bound_ratio) or result.lower_bound_ratio <= min(ratio.values())
+
+
+def test_direct_slot_through_design(tmp_path):
+    """A directly attached slot through design() (the CLI's path): the search reads the
+    designer's formulation through the call's wrapper (it raised AttributeError)."""
+    from counterpoise import design
+
+    rng = np.random.default_rng(12)
+    catalogue(tmp_path / "parts.csv", rng, 8, (200.0, 3000.0), (0.02, 0.06), (0.05, 0.2))
+    (tmp_path / "a.toml").write_text(ARM.format(mass=0.6, length=0.3, lo=-40, hi=40), encoding="utf-8")
+    result = design(load_problem(tmp_path / "a.toml"))
+    assert result.parts is not None and result.parts.search.methods == ["screening"]
+    assert any(line.startswith("bound: ") for line in result.parts.search.evidence)

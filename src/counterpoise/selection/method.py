@@ -58,6 +58,10 @@ class _Given:
         self.parameters = dict(parameters or {})
         self.bounds = bounds
 
+    def __getattr__(self, name: str) -> Any:
+        # the screening reads the designer's formulation, reference and samples
+        return getattr(self.designer, name)
+
     def solve(self, initial: Any = None, parameters: Mapping[str, float] | None = None, bounds: Any = None) -> Solution:
         merged = {**self.parameters, **(parameters or {})}
         return self.designer.solve(initial=initial, parameters=merged, bounds=bounds or self.bounds)  # type: ignore[no-any-return]

@@ -21,8 +21,8 @@ by box-constrained least squares (a feasible point: an upper estimate of that pa
 
 From each part's best grid design a compass search (vectorised over parts) improves its
 geometry. A part's *screened ratio* is that of a real design (its lengths within limits on
-the screening configurations), not a lower bound: the search built on it is a screened
-search, not a certificate (docs/catalogues.md says what it guarantees).
+the screening configurations), not a lower bound; the certified bound is :mod:`.bounds`
+(docs/catalogues.md says what each guarantees).
 """
 
 from __future__ import annotations
@@ -74,6 +74,7 @@ class Screen:
     evaluated: int = 0  # (part, geometry) combinations screened
     infeasible: int = 0  # parts with no grid geometry within their lengths
     pruned_by: dict[str, int] = field(default_factory=dict)  # limit -> parts pruned by it (screening)
+    context: Any = None  # the screening's arrays and parts (for the bound of .bounds)
 
 
 def _names_of(problem: Problem, point: Any, frames: Mapping[str, frozenset[str]]) -> set[str]:
@@ -428,7 +429,7 @@ def _screen_one(ctx: _Context, n_parts: int) -> Screen:
     ratio, start = ctx.finish(live, centre, n_parts)
     dead = np.setdiff1d(rows, live)
     reasons = _prune_reasons(ctx.parts, dead, d.min(axis=1), d.max(axis=1), ctx.boxes[0])
-    return Screen(True, "", ratio, start, n_g, ctx.q.shape[0], False, int(len(pr)) + count, n_parts - len(live), reasons)
+    return Screen(True, "", ratio, start, n_g, ctx.q.shape[0], False, int(len(pr)) + count, n_parts - len(live), reasons, ctx)
 
 
 def _screen_pairs(ctx: _Context, own: list[list[str]], n_parts: int) -> Screen:
@@ -486,7 +487,7 @@ def _screen_pairs(ctx: _Context, own: list[list[str]], n_parts: int) -> Screen:
     ratio, start = ctx.finish(live, centre, n_parts)
     dead = np.setdiff1d(rows, live)
     reasons = _prune_reasons(ctx.parts, dead, d1.min(axis=1), d1.max(axis=1), ctx.boxes[0])
-    return Screen(True, "", ratio, start, len(i1), ctx.q.shape[0], True, evaluated + count, n_parts - len(live), reasons)
+    return Screen(True, "", ratio, start, len(i1), ctx.q.shape[0], True, evaluated + count, n_parts - len(live), reasons, ctx)
 
 
 def screened_order(screen: Screen) -> np.ndarray:
