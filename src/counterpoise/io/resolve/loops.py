@@ -94,7 +94,7 @@ def loops(ctx: Context, frames: Mapping[str, Frame], coordinates: tuple[Coordina
         if all(c.dependent for c in mine):
             raise ctx.fail(f"loops.{first.name}", f"every coordinate of subsystem '{sub}' is dependent: give at least one a range")
     if out:
-        for section in ("payloads", "slots"):
+        for section in ("slots",):
             if getattr(spec, section):
                 raise ctx.fail(section, f"closed loops cannot be combined with [{section}] yet (see docs/loops.md)")
         for sname, s in spec.springs.items():
