@@ -79,3 +79,60 @@ def test_a_payload_range_on_a_four_bar_is_scheduled_on_the_manifold():
     top_row = max(rows, key=lambda s: s.payload)
     assert top_row.payload == pytest.approx(top)
     assert top_row.values["dL4"] == pytest.approx(E4 * top * u * (C / B) / C4, rel=1e-9)  # 26.67 mm
+
+
+SPRINGS = (ROOT / "problems" / "fourbar_springs.toml").read_text(encoding="utf-8")
+#: fixed rates of the directly attached springs, and their free lengths (SI)
+K2, K4, L2, L4 = 100.0, 100.0, 0.040, 0.020
+R_CRANK, S_ROCKER = 0.060, 0.100
+
+
+def _direct_fourbar(rocker_max: str) -> str:
+    """fourbar_springs.toml with directly attached springs of fixed rates whose anchor
+    heights are designed; initial tension k·L0 makes each one act as a zero-free-length
+    spring while its length stays within [L0, L_max]. Where a rocker's spring passes its
+    shortest (the rocker upright), |h4 − s| ≥ L0 splits the anchors into two intervals; the
+    initial values pick the upper one."""
+    head, _ = SPRINGS.split("[variables]")
+    return head + f'''[variables]
+h2 = {{ lower = "50 mm", upper = "150 mm", initial = "110 mm" }}
+h4 = {{ lower = "50 mm", upper = "200 mm", initial = "140 mm" }}
+
+[springs.crank_spring]
+stiffness = "{K2} N/m"
+from = {{ frame = "ground", point = [0, "h2", 0] }}
+to = {{ frame = "crank", point = ["r", 0, 0] }}
+mount = "direct"
+free_length = "{L2 * 1000} mm"
+initial_tension = "{K2 * L2} N"
+max_length = "200 mm"
+
+[springs.rocker_spring]
+stiffness = "{K4} N/m"
+from = {{ frame = "ground", point = ["d", "h4", 0] }}
+to = {{ frame = "rocker", point = ["s", 0, 0] }}
+mount = "direct"
+free_length = "{L4 * 1000} mm"
+initial_tension = "{K4 * L4} N"
+max_length = "{rocker_max}"
+
+[objective]
+mass_weight = 0
+'''
+
+
+def test_directly_attached_springs_on_a_four_bar_are_designed_on_the_manifold():
+    # With F0 = k·L0 the energy is ½ k d² + const (a zero-free-length spring), so exact
+    # balance needs k h r = g C2 and k h s = g C4 (docs/loops.md), i.e. anchor heights
+    # h2 = 107.91 mm and h4 = 147.15 mm. On the manifold the rocker swings between 75.3° and
+    # 140.8°, so its spring (from h4 above O4 to s = 100 mm out) stays between h4 − s = 47 mm
+    # (at 90°) and 114 mm long (at 140.8°): an L_max of 130 mm holds there, whereas a full turn
+    # of the rocker (the open box) would reach h4 + s = 247 mm.
+    g = 9.81
+    r = design(load_problem_text(_direct_fourbar("130 mm"), "fourbar_direct.toml"))
+    assert r.optimal, r.message
+    values = {slot.variable: v for slot, v in r.solution.values.items()}
+    assert values["h2"] == pytest.approx(g * C2 / (K2 * R_CRANK), rel=1e-6)
+    assert values["h4"] == pytest.approx(g * C4 / (K4 * S_ROCKER), rel=1e-6)
+    assert r.verification.residual_ratio <= 1e-6
+    assert r.solution.sampled_ratio <= 1e-6

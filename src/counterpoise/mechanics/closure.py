@@ -487,6 +487,20 @@ def closure(problem: Problem, subsystem: str, base: Mapping[str, float]) -> Clos
     return found
 
 
+def manifold_configurations(problem: Problem, subsystem: str, samples: int, rng: np.random.Generator, base: Mapping[str, float]) -> ManifoldPoints:
+    """``samples`` random configurations of the independent coordinates plus the corners of
+    their box (while there are at most ``MAX_CORNERS``), solved on the branch of home at
+    ``base``: the manifold's counterpart of :func:`counterpoise.mechanics.sampling.configurations`."""
+    from .sampling import MAX_CORNERS
+
+    c = closure(problem, subsystem, base)
+    n_i = len(c.independent)
+    qi = c.lower + (c.upper - c.lower) * rng.random((samples, n_i))
+    if 2**n_i <= MAX_CORNERS:
+        qi = np.vstack([qi, c.corners()])
+    return c.solve(qi)
+
+
 def check_assembly(problem: Problem) -> None:
     """Input errors of the loops at the file's values: a loop that does not close at home,
     an edge of the box of ranges that cannot be assembled, a singular configuration on it.

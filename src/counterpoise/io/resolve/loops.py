@@ -97,9 +97,6 @@ def loops(ctx: Context, frames: Mapping[str, Frame], coordinates: tuple[Coordina
         for section in ("slots",):
             if getattr(spec, section):
                 raise ctx.fail(section, f"closed loops cannot be combined with [{section}] yet (see docs/loops.md)")
-        for sname, s in spec.springs.items():
-            if s.mount != "pulley":
-                raise ctx.fail(f"springs.{sname}.mount", "closed loops support zero-free-length springs only (mount = \"pulley\") yet")
     return tuple(out)
 
 
