@@ -136,3 +136,68 @@ def test_directly_attached_springs_on_a_four_bar_are_designed_on_the_manifold():
     assert values["h4"] == pytest.approx(g * C4 / (K4 * S_ROCKER), rel=1e-6)
     assert r.verification.residual_ratio <= 1e-6
     assert r.solution.sampled_ratio <= 1e-6
+
+
+HEADER = "part_number,rate_N_per_m,free_length_m,initial_tension_N,max_load_N,max_length_m,outer_diameter_m,wire_diameter_m,material,price_eur"
+#: A: 100 N/m, F0 2 N (its zero-free-length point 20 mm inside), F_max 15 N, L0 50 mm, L_max 200 mm.
+#: B: 200 N/m, cheaper, but F0/k = 50 mm. C: 500 N/m, outside the rate window of the anchor's bounds.
+PARTS = ["A,100,0.05,2,15,0.2,0.01,0.001,x,3", "B,200,0.05,10,40,0.2,0.01,0.001,x,1", "C,500,0.05,2,100,0.2,0.01,0.001,x,0.5"]
+
+
+def _slot_fourbar(catalogue: Path) -> str:
+    """fourbar_springs.toml whose rocker spring is a catalogue part behind a string, its
+    anchor height h4 above O4 designed."""
+    head, _ = SPRINGS.split("[variables]")
+    return head + f'''[catalogues.parts]
+file = "{catalogue.as_posix()}"
+
+[slots.rocker]
+catalogue = "parts"
+
+[variables]
+k_crank = {{ lower = "0 N/m", upper = "10000 N/m", initial = "100 N/m", unit = "N/m" }}
+h4 = {{ lower = "50 mm", upper = "200 mm", initial = "120 mm" }}
+
+[springs.crank_spring]
+stiffness = "k_crank"
+from = {{ frame = "ground", point = [0, "h", 0] }}
+to = {{ frame = "crank", point = ["r", 0, 0] }}
+
+[springs.rocker_spring]
+slot = "rocker"
+from = {{ frame = "ground", point = ["d", "h4", 0] }}
+to = {{ frame = "rocker", point = ["s", 0, 0] }}
+
+[objective]
+mass_weight = 0
+stiffness_weight = "1 kg/(N/m)"
+'''
+
+
+def test_a_catalogue_part_on_a_four_bar_is_checked_on_the_manifold(tmp_path):
+    # Balance needs k·h4·s = g C4 (docs/loops.md), so h4 ∈ [50, 200] mm admits rates in
+    # [73.6, 294.3] N/m: C (500 N/m) is outside. B would need h4 = 73.6 mm, where the ends
+    # come within |h4 − s| = 26.4 mm (rocker upright, 90° is on the manifold's 75.3°..140.8°)
+    # of each other, less than its F0/k = 50 mm: slack. A needs h4 = 147.15 mm; its ends
+    # then span 47.15 mm (at 90°) to 114.2 mm (at 140.8°): a load of 11.4 N ≤ 15 N on the
+    # manifold, where a full turn of the rocker (the open box) would reach 24.7 N.
+    g = 9.81
+    catalogue = tmp_path / "parts.csv"
+    catalogue.write_text(HEADER + "\n" + "\n".join(PARTS) + "\n", encoding="utf-8")
+    r = design(load_problem_text(_slot_fourbar(catalogue), str(tmp_path / "fourbar_slot.toml")))
+    assert r.optimal, r.message
+    assert r.parts is not None and r.parts.fits
+    (use,) = [u for u in r.parts.springs if u.spring == "rocker_spring"]
+    assert use.part_number == "A"
+    values = {slot.variable: v for slot, v in r.solution.values.items()}
+    h4 = g * C4 / (100.0 * 0.1)
+    assert values["h4"] == pytest.approx(h4, rel=1e-7)
+    assert values["k_crank"] == pytest.approx(g * C2 / (0.1 * 0.06), rel=1e-7)
+    assert r.verification.residual_ratio <= MANIFOLD_RATIO
+    assert r.parts.tolerance is not None and r.parts.tolerance.nominal <= MANIFOLD_RATIO
+    # the ends' distance over the manifold (s = 100 mm out on the rocker, theta4 in [75.3°, 140.8°])
+    theta = np.radians(140.80503)
+    d_max = np.sqrt(0.1**2 + h4**2 - 2 * 0.1 * h4 * np.sin(theta))
+    assert use.distance_max == pytest.approx(d_max, rel=1e-4)  # the open box would give h4 + s
+    assert use.distance_min == pytest.approx(h4 - 0.1, rel=1e-4)
+    assert use.force_max == pytest.approx(100.0 * d_max, rel=1e-4)

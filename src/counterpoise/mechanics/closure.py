@@ -501,6 +501,23 @@ def manifold_configurations(problem: Problem, subsystem: str, samples: int, rng:
     return c.solve(qi)
 
 
+def along_manifold(problem: Problem, subsystem: str, q: np.ndarray, base: Mapping[str, float], values: np.ndarray) -> np.ndarray:
+    """Generalized forces ``values`` (N, n) of every coordinate at the assembled
+    configurations ``q`` (N, n), projected along the manifold onto the independent
+    coordinates: (N, n_i), r_i = g_i + (dq_d/dq_i)ᵀ g_d. An open chain's are returned as is."""
+    if not problem.subsystem_loops(subsystem):
+        return values
+    c = closure(problem, subsystem, base)
+    _, jac = c.equations(np.asarray(q, dtype=float))
+    tangent, _ = c.tangent(jac)
+    return values[:, c.independent] + np.einsum("kdi,kd->ki", tangent, values[:, c.dependent])
+
+
+def independent_names(problem: Problem, subsystem: str) -> list[str]:
+    """The coordinates :func:`along_manifold` keeps (every one of an open chain)."""
+    return [c.name for c in problem.subsystem_coordinates(subsystem) if not c.dependent]
+
+
 def check_assembly(problem: Problem) -> None:
     """Input errors of the loops at the file's values: a loop that does not close at home,
     an edge of the box of ranges that cannot be assembled, a singular configuration on it.
