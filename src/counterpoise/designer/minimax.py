@@ -17,7 +17,8 @@ independent coordinates, r_i = ∂V/∂q_i + (dq_d/dq_i)ᵀ ∂V/∂q_d, as in t
 :mod:`counterpoise.verify.manifold`, and the spring lengths are those of the assembled
 configurations. The design is then checked on the dense verification sample like any other:
 the residual ratio reported is the dense one; ``Solution.sampled_ratio`` is t.
-Built once; :meth:`solve` takes parameters and bounds per call, like :class:`Designer`.
+Built once; :meth:`solve` takes parameters and bounds per call, like :class:`Designer`
+(and, like it, builds another for parameters that change a closed loop's geometry).
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ import numpy as np
 
 from ..formulation.formulation import Formulation
 from ..formulation.layout import Slot
+from ..formulation.manifold import for_geometry
 from ..mechanics import Mechanics, casadi_functions
 from ..mechanics.closure import manifold_configurations
 from ..mechanics.kinematics import dot, sub
@@ -84,6 +86,7 @@ class MinimaxDesigner:
 
         limit_blas_threads()
         self.problem = problem
+        self._ipopt_options = dict(ipopt_options or {})
         self.formulation = f = Formulation(problem)
         self.parameters = f.parameters.values()
         rng = np.random.default_rng(problem.settings.seed + 5)
@@ -156,6 +159,9 @@ class MinimaxDesigner:
         parameters: Mapping[str, float] | None = None,
         bounds: Mapping[Slot | str, tuple[float, float]] | None = None,
     ) -> Solution:
+        other = for_geometry(self, parameters, lambda problem: MinimaxDesigner(problem, self._ipopt_options))
+        if other is not self:  # closed loops: a new geometry is sampled on its own manifold
+            return other.solve(initial, parameters, bounds)  # type: ignore[no-any-return]
         f = self.formulation
         d = f.design
         p = f.parameters.values(parameters) if parameters else self.parameters
