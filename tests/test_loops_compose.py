@@ -231,3 +231,28 @@ def test_the_minimax_designer_samples_the_manifold_of_the_geometry_it_is_given()
     values = {slot.variable: v for slot, v in s.values.items()}
     assert values["h2"] == pytest.approx(g * (M2 * P2 + M3 * a * (1 - P3 / B)) / (K2 * R_CRANK), rel=1e-6)
     assert s.sampled_ratio <= 1e-6
+
+
+def test_a_catalogue_part_holds_its_limits_over_a_payload_range_on_the_manifold(tmp_path):
+    # A payload P at B (u = b) adds P·c e^{iθ4} to the first moment: k·h4·s = g (C4 + P c),
+    # so with part A (100 N/m) h4(P) = g (C4 + P c)/(k s): 147.15 mm at 0 g, 171.675 mm at 100 g.
+    # The part's ends then come as close as h4(P) − s (rocker upright) at every payload.
+    g = 9.81
+    catalogue = tmp_path / "parts.csv"
+    catalogue.write_text(HEADER + "\n" + "\n".join(PARTS) + "\n", encoding="utf-8")
+    text = _slot_fourbar(catalogue).replace(
+        'h4 = { lower = "50 mm", upper = "200 mm", initial = "120 mm" }',
+        'h4 = { lower = "50 mm", upper = "200 mm", initial = "120 mm", adjustable = true, nominal = "147.15 mm", travel = "100 mm" }',
+    )
+    text = text.replace("[catalogues.parts]", '[payloads.tool]\nframe = "coupler"\nposition = ["b", 0, 0]\nrange = ["0 g", "100 g"]\n\n[catalogues.parts]')
+    r = design(load_problem_text(text, str(tmp_path / "fourbar_slot_payload.toml")))
+    assert r.optimal, r.message
+    assert {u.part_number for u in r.parts.by_scenario} == {"A"}
+    assert all(u.fits for u in r.parts.by_scenario)
+    for row in r.payload.schedule.rows + r.payload.schedule.between:
+        assert row.feasible, row.message
+        assert row.values["h4"] == pytest.approx(g * (C4 + row.payload * C) / (100.0 * 0.1), rel=1e-7)
+    closest = sorted(u.distance_min for u in r.parts.by_scenario)  # one use per payload of the schedule
+    assert len(closest) > 50
+    assert closest[0] == pytest.approx(g * C4 / 10.0 - 0.1, rel=1e-4)
+    assert closest[-1] == pytest.approx(g * (C4 + 0.1 * C) / 10.0 - 0.1, rel=1e-4)
