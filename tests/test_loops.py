@@ -277,6 +277,7 @@ BAD_LOOPS = {
     "loop_unknown_frame.toml": ("loops.B.b.frame", "unknown frame 'roker' (did you mean 'rocker'?)"),
     "loop_unknown_joint.toml": ("loops.B.joint", "expected one of 'revolute' or 'spherical'"),
     "loop_variable_geometry.toml": ("loops.B", "depends on design variable 'M_crank'"),
+    "loop_direct_slot.toml": ("springs.rocker_spring.mount", "closed loops take catalogue parts behind a string only"),
 }
 
 

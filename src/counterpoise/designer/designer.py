@@ -20,6 +20,7 @@ import numpy as np
 from ..formulation.conditions import BalanceConditions
 from ..formulation.formulation import Formulation
 from ..formulation.layout import Slot
+from ..formulation.manifold import for_geometry
 from ..model.problem import BOUND_TOLERANCE, Problem
 from ..solvers.base import Bounds, SolverOutput, Status
 from ..solvers.ipopt import IPOPT_DEFAULTS, IpoptBackend
@@ -115,7 +116,9 @@ class Designer:
 
         ``initial`` overrides initial values (SI) of design-vector slots; ``parameters``
         overrides base parameters (SI) in every scenario; ``bounds`` maps a slot or a
-        variable name to (lower, upper) in SI for this call only. Nothing is rebuilt. The
+        variable name to (lower, upper) in SI for this call only. Nothing is rebuilt, except
+        for ``parameters`` that change a closed loop's geometry: the manifold equalities hold
+        on one geometry, so a designer of those values is built (and kept) for them. The
         compression was computed at the file's values; the dense verification of the
         result says whether it still holds (a parameter that was 0 at build time may have
         hidden a condition).
@@ -124,6 +127,9 @@ class Designer:
         callers that solve many times and report one design (part searches, schedules,
         multi-start) pass False and :meth:`certify` the one they report.
         """
+        other = for_geometry(self, parameters, lambda problem: Designer(problem, self._ipopt_options, self.backend_choice))
+        if other is not self:  # closed loops: a new geometry needs its own manifold equalities
+            return other.solve(initial, parameters, bounds, certify)  # type: ignore[no-any-return]
         d = self.formulation.design
         p = self.formulation.parameters.values(parameters) if parameters else self.parameters
         b = self.bounds(self.n_equalities, bounds)
@@ -135,6 +141,9 @@ class Designer:
 
     def certify(self, solution: Solution, parameters: Mapping[str, float] | None = None, bounds: BoundsOverride | None = None) -> Solution:
         """Set the certificate gap of ``solution`` (solved with these ``parameters`` and ``bounds``)."""
+        other = for_geometry(self, parameters, lambda problem: Designer(problem, self._ipopt_options, self.backend_choice))
+        if other is not self:
+            return other.certify(solution, parameters, bounds)  # type: ignore[no-any-return]
         p = self.formulation.parameters.values(parameters) if parameters else self.parameters
         solution.certificate_gap = self._certificate_gap(solution, p, self.bounds(self.n_equalities, bounds))
         return solution

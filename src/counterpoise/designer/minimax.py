@@ -10,9 +10,15 @@ epigraph form:
                               L0 ≤ d(q_s) − c ≤ L_max     for every directly attached spring,
 
 with T the largest unbalanced gravity torque over the samples (the verification's
-reference). The design is then checked on the dense verification sample like any other:
+reference). A subsystem with closed loops is sampled on its configuration manifold
+(:func:`counterpoise.mechanics.closure.manifold_configurations`, at the scenario's
+parameter values): r_j and the gravity torque are then the generalized forces along the
+independent coordinates, r_i = ∂V/∂q_i + (dq_d/dq_i)ᵀ ∂V/∂q_d, as in the dense check of
+:mod:`counterpoise.verify.manifold`, and the spring lengths are those of the assembled
+configurations. The design is then checked on the dense verification sample like any other:
 the residual ratio reported is the dense one; ``Solution.sampled_ratio`` is t.
-Built once; :meth:`solve` takes parameters and bounds per call, like :class:`Designer`.
+Built once; :meth:`solve` takes parameters and bounds per call, like :class:`Designer`
+(and, like it, builds another for parameters that change a closed loop's geometry).
 """
 
 from __future__ import annotations
@@ -24,7 +30,9 @@ import numpy as np
 
 from ..formulation.formulation import Formulation
 from ..formulation.layout import Slot
+from ..formulation.manifold import for_geometry
 from ..mechanics import Mechanics, casadi_functions
+from ..mechanics.closure import manifold_configurations
 from ..mechanics.kinematics import dot, sub
 from ..mechanics.sampling import configurations
 from ..model.problem import Problem
@@ -43,6 +51,33 @@ def has_direct_springs(problem: Problem) -> bool:
     return any(s.direct is not None for s in problem.springs)
 
 
+def _along(values: Any, tangent: tuple[np.ndarray, np.ndarray, np.ndarray] | None) -> Any:
+    """Generalized forces (n_q, N) projected along the manifold: (n_i, N); as is without loops.
+
+    ``values`` is a numpy array or a CasADi matrix; row j of the result is
+    values[ind_j] + Σ_d tangent[:, d, j] · values[dep_d] (dq_d/dq_i of each sample).
+    """
+    if tangent is None:
+        return values
+    import casadi as ca
+
+    ind, dep, t = tangent
+    numeric = isinstance(values, np.ndarray)
+    out = []
+    for j, i in enumerate(ind):
+        row = values[int(i), :]
+        for d, k in enumerate(dep):
+            w = t[:, d, j][None, :]
+            row = row + (w * values[int(k), :] if numeric else ca.times(ca.DM(w), values[int(k), :]))
+        out.append(row)
+    return np.vstack(out) if numeric else ca.vertcat(*out)
+
+
+def _independent(block: Any, tangent: tuple[np.ndarray, np.ndarray, np.ndarray] | None) -> list[str]:
+    """The coordinates whose residuals :func:`_along` returns."""
+    return list(block.coordinates) if tangent is None else [block.coordinates[int(i)] for i in tangent[0]]
+
+
 class MinimaxDesigner:
     """Smallest worst-case residual ratio on sampled configurations (see the module docstring)."""
 
@@ -51,6 +86,7 @@ class MinimaxDesigner:
 
         limit_blas_threads()
         self.problem = problem
+        self._ipopt_options = dict(ipopt_options or {})
         self.formulation = f = Formulation(problem)
         self.parameters = f.parameters.values()
         rng = np.random.default_rng(problem.settings.seed + 5)
@@ -59,18 +95,30 @@ class MinimaxDesigner:
         rows, lower = [], []
         torque = {True: 0.0, False: 0.0}
         samples: dict[tuple[str, str], np.ndarray] = {}
+        tangents: dict[tuple[str, str], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
         for block in f.blocks:
             n_q = len(block.coordinates)
-            q = configurations(problem, block.subsystem, SAMPLES_PER_COORDINATE * n_q, rng)
-            samples[(block.subsystem, block.scenario)] = q
-            for j, name in enumerate(block.coordinates):
+            key = (block.subsystem, block.scenario)
+            if problem.subsystem_loops(block.subsystem):  # closed loops: on the configuration manifold
+                coords = problem.subsystem_coordinates(block.subsystem)
+                ind = np.array([i for i, c in enumerate(coords) if not c.dependent], dtype=int)
+                dep = np.array([i for i, c in enumerate(coords) if c.dependent], dtype=int)
+                _, base = f.parameters.scenario_values(self.parameters)[block.scenario]
+                points = manifold_configurations(problem, block.subsystem, SAMPLES_PER_COORDINATE * len(ind), rng, base)
+                q = points.q
+                tangents[key] = (ind, dep, points.tangent)
+            else:
+                q = configurations(problem, block.subsystem, SAMPLES_PER_COORDINATE * n_q, rng)
+            samples[key] = q
+            values = _along(np.array(block.gravity_torque.map(q.shape[0])(q.T, z0, self.parameters)), tangents.get(key))
+            for j, name in enumerate(_independent(block, tangents.get(key))):
                 revolute = problem.coordinate[name].unit.dimension == ""
-                values = np.array(block.gravity_torque.map(q.shape[0])(q.T, z0, self.parameters))
                 torque[revolute] = max(torque[revolute], float(np.abs(values[j]).max(initial=0.0)))
         for block in f.blocks:
-            q = samples[(block.subsystem, block.scenario)]
-            residual = block.residual.map(q.shape[0])(ca.DM(q.T), f.z, f.p)  # (n_q, N)
-            for j, name in enumerate(block.coordinates):
+            key = (block.subsystem, block.scenario)
+            q = samples[key]
+            residual = _along(block.residual.map(q.shape[0])(ca.DM(q.T), f.z, f.p), tangents.get(key))  # (n_i, N)
+            for j, name in enumerate(_independent(block, tangents.get(key))):
                 revolute = problem.coordinate[name].unit.dimension == ""
                 scale = torque[revolute] or 1.0
                 r = residual[j, :].T / scale
@@ -111,6 +159,9 @@ class MinimaxDesigner:
         parameters: Mapping[str, float] | None = None,
         bounds: Mapping[Slot | str, tuple[float, float]] | None = None,
     ) -> Solution:
+        other = for_geometry(self, parameters, lambda problem: MinimaxDesigner(problem, self._ipopt_options))
+        if other is not self:  # closed loops: a new geometry is sampled on its own manifold
+            return other.solve(initial, parameters, bounds)  # type: ignore[no-any-return]
         f = self.formulation
         d = f.design
         p = f.parameters.values(parameters) if parameters else self.parameters

@@ -22,7 +22,8 @@ from typing import Any
 
 import numpy as np
 
-from ..mechanics.closure import closure
+from ..mechanics.closure import closure, geometry_parameters
+from ..model.problem import Problem
 from .compression import NOISE_TOLERANCE, adaptive_compression
 
 
@@ -68,3 +69,51 @@ def manifold_conditions(
         along = g[int(ind[j])] + sum(float(points.tangent[k, d, j]) * g[int(dep[d])] for d in range(len(dep)))
         rows.append(along * float(weights[j]))
     return comp.rank, ca.mtimes(ca.DM(comp.matrix), ca.vertcat(*rows))
+
+
+#: rebuilt designers kept per designer, one per loop geometry (see :func:`for_geometry`)
+GEOMETRIES_KEPT = 4
+#: a parameter value counts as changed beyond this relative difference
+SAME_VALUE = 1e-12
+
+
+def changed_geometry(problem: Problem, parameters: Any) -> tuple[tuple[str, float], ...]:
+    """The loop-geometry parameters (:func:`~counterpoise.mechanics.closure.geometry_parameters`)
+    that ``parameters`` (name -> SI value, or None) sets to another value than the problem's:
+    sorted (name, value) pairs, empty when every manifold stays the one the equalities were built on."""
+    if not parameters or not problem.loops:
+        return ()
+    names = {n for sub in {loop.subsystem for loop in problem.loops} for n in geometry_parameters(problem, sub)}
+    values = {q.name: q.value for q in problem.base_parameters}
+    out = []
+    for name in sorted(names & set(parameters)):
+        old, new = values.get(name), float(parameters[name])
+        if old is None or abs(new - float(old)) > SAME_VALUE * max(abs(new), abs(float(old)), 1.0):
+            out.append((name, new))
+    return tuple(out)
+
+
+def with_values(problem: Problem, values: Any) -> Problem:
+    """``problem`` with these base-parameter values (SI) as its own: a designer built on it
+    solves its manifold conditions on that geometry."""
+    from dataclasses import replace
+
+    return replace(problem, parameters=tuple(replace(q, value=float(values[q.name])) if q.is_base and q.name in values else q for q in problem.parameters))
+
+
+def for_geometry(owner: Any, parameters: Any, build: Callable[[Problem], Any]) -> Any:
+    """The designer to solve ``parameters`` with: ``owner`` itself, or, when they change a
+    loop's geometry, one built by ``build`` on the problem with those values (the manifold
+    equalities are solved at the build's geometry, docs/loops.md), kept on ``owner`` per
+    geometry (at most :data:`GEOMETRIES_KEPT`)."""
+    changed = changed_geometry(owner.problem, parameters)
+    if not changed:
+        return owner
+    kept = owner.__dict__.setdefault("_geometries", {})
+    found = kept.pop(changed, None)
+    if found is None:
+        found = build(with_values(owner.problem, dict(changed)))
+    kept[changed] = found
+    while len(kept) > GEOMETRIES_KEPT:
+        kept.pop(next(iter(kept)))
+    return found

@@ -426,15 +426,96 @@ _CACHE: dict[tuple[int, str, tuple[tuple[str, float], ...]], Closure] = {}
 _CACHE_SIZE = 16
 
 
+def geometry_parameters(problem: Problem, subsystem: str) -> tuple[str, ...]:
+    """The base parameters the manifold of ``subsystem`` depends on, in the problem's order.
+
+    The names in its loops' points and in the transforms of their frames and every ancestor,
+    derived parameters expanded to the base ones they use. A payload's mass, a spring's rate
+    or a counter-mass's lever is not among them, so a closure is shared by every value of
+    those (a payload schedule re-solves no manifold), while a changed link length builds a
+    new one.
+    """
+    found = _GEOMETRY.get((id(problem), subsystem))
+    if found is not None and found[0] is problem:
+        return found[1]
+    from ..model import expr as ex
+
+    used: set[str] = set()
+    for loop in problem.subsystem_loops(subsystem):
+        for point in (loop.a, loop.b):
+            for tree in point.position:
+                used |= ex.names(tree)
+            name: str | None = point.frame
+            while name is not None and name != GROUND:
+                f = problem.frame[name]
+                for t in f.transforms:
+                    for tree in ((t.angle, *t.axis) if hasattr(t, "angle") else t.vector):
+                        used |= ex.names(tree)
+                name = f.parent
+    derived = {p.name: p.expr for p in problem.parameters if not p.is_base}
+    todo = [n for n in used if n in derived]
+    while todo:
+        for n in ex.names(derived[todo.pop()]):  # type: ignore[arg-type]
+            if n not in used:
+                used.add(n)
+                if n in derived:
+                    todo.append(n)
+    names = tuple(p.name for p in problem.base_parameters if p.name in used)
+    if len(_GEOMETRY) >= _CACHE_SIZE:
+        _GEOMETRY.pop(next(iter(_GEOMETRY)))
+    _GEOMETRY[(id(problem), subsystem)] = (problem, names)
+    return names
+
+
+_GEOMETRY: dict[tuple[int, str], tuple[Problem, tuple[str, ...]]] = {}
+
+
+def geometry_key(problem: Problem, subsystem: str, base: Mapping[str, float]) -> tuple[tuple[str, float], ...]:
+    """The values of :func:`geometry_parameters` in ``base``: equal keys, one manifold."""
+    return tuple((n, float(base[n])) for n in geometry_parameters(problem, subsystem) if n in base)
+
+
 def closure(problem: Problem, subsystem: str, base: Mapping[str, float]) -> Closure:
-    """The :class:`Closure` of ``subsystem`` at these base parameters (built once per values)."""
-    key = (id(problem), subsystem, tuple((p.name, float(base[p.name])) for p in problem.base_parameters if p.name in base))
+    """The :class:`Closure` of ``subsystem`` at these base parameters (built once per
+    values of its geometry parameters, :func:`geometry_parameters`)."""
+    key = (id(problem), subsystem, geometry_key(problem, subsystem, base))
     found = _CACHE.get(key)
     if found is None or found.problem is not problem:
         if len(_CACHE) >= _CACHE_SIZE:
             _CACHE.pop(next(iter(_CACHE)))
         found = _CACHE[key] = Closure(problem, subsystem, base)
     return found
+
+
+def manifold_configurations(problem: Problem, subsystem: str, samples: int, rng: np.random.Generator, base: Mapping[str, float]) -> ManifoldPoints:
+    """``samples`` random configurations of the independent coordinates plus the corners of
+    their box (while there are at most ``MAX_CORNERS``), solved on the branch of home at
+    ``base``: the manifold's counterpart of :func:`counterpoise.mechanics.sampling.configurations`."""
+    from .sampling import MAX_CORNERS
+
+    c = closure(problem, subsystem, base)
+    n_i = len(c.independent)
+    qi = c.lower + (c.upper - c.lower) * rng.random((samples, n_i))
+    if 2**n_i <= MAX_CORNERS:
+        qi = np.vstack([qi, c.corners()])
+    return c.solve(qi)
+
+
+def along_manifold(problem: Problem, subsystem: str, q: np.ndarray, base: Mapping[str, float], values: np.ndarray) -> np.ndarray:
+    """Generalized forces ``values`` (N, n) of every coordinate at the assembled
+    configurations ``q`` (N, n), projected along the manifold onto the independent
+    coordinates: (N, n_i), r_i = g_i + (dq_d/dq_i)ᵀ g_d. An open chain's are returned as is."""
+    if not problem.subsystem_loops(subsystem):
+        return values
+    c = closure(problem, subsystem, base)
+    _, jac = c.equations(np.asarray(q, dtype=float))
+    tangent, _ = c.tangent(jac)
+    return values[:, c.independent] + np.einsum("kdi,kd->ki", tangent, values[:, c.dependent])
+
+
+def independent_names(problem: Problem, subsystem: str) -> list[str]:
+    """The coordinates :func:`along_manifold` keeps (every one of an open chain)."""
+    return [c.name for c in problem.subsystem_coordinates(subsystem) if not c.dependent]
 
 
 def check_assembly(problem: Problem) -> None:
@@ -448,14 +529,14 @@ def check_assembly(problem: Problem) -> None:
     """
     if not problem.loops:
         return
-    seen: set[tuple[str, tuple[tuple[str, float], ...]]] = set()
+    seen: set[tuple[str, tuple[tuple[str, float], ...]]] = set()  # one check per manifold
     for scenario in problem.scenarios:
         base = scenario_base(problem, scenario.name)
         for sub in problem.subsystems:
             if not problem.subsystem_loops(sub.name):
                 continue
             c = closure(problem, sub.name, base)
-            key = (sub.name, tuple(sorted((k, float(v)) for k, v in base.items())))
+            key = (sub.name, geometry_key(problem, sub.name, base))
             if key not in seen:
                 seen.add(key)
                 if c._per_axis() ** len(c.independent) <= GRID_MAX_NODES:

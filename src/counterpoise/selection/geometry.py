@@ -14,15 +14,40 @@ import numpy as np
 from ..mechanics import NUMPY_FUNCTIONS, Mechanics
 from ..mechanics.kinematics import dot, sub
 from ..model.problem import Problem
+from ..errors import ProblemFileError
+from ..mechanics.closure import geometry_key, manifold_configurations, scenario_base
 from ..mechanics.sampling import STEP, configurations
 
 Gravity3 = tuple[float, float, float]
 
 
 def sample_configurations(problem: Problem, samples: int, seed: int) -> dict[str, np.ndarray]:
-    """Per subsystem: ``samples`` random configurations plus the corners of its box."""
+    """Per subsystem: ``samples`` random configurations plus the corners of its box.
+
+    A subsystem with closed loops is sampled on its configuration manifold (random values
+    of its independent coordinates plus the corners of their box, the dependent ones
+    solved on the branch of home), so spring lengths and limits are those of assembled
+    configurations. Its manifold must be the same in every scenario (the sample serves
+    them all): a scenario that changes a loop's geometry is an input error here.
+    """
     rng = np.random.default_rng(seed)
-    return {s.name: configurations(problem, s.name, samples, rng) for s in problem.subsystems}
+    out = {}
+    for s in problem.subsystems:
+        if not problem.subsystem_loops(s.name):
+            out[s.name] = configurations(problem, s.name, samples, rng)
+            continue
+        bases = [scenario_base(problem, sc.name) for sc in problem.scenarios]
+        keys = {geometry_key(problem, s.name, b) for b in bases}
+        if len(keys) > 1:
+            changed = sorted({n for key in keys for n, v in key} - {n for n, v in set.intersection(*(set(k) for k in keys))})
+            raise ProblemFileError(
+                problem.path,
+                "scenarios",
+                f"the scenarios change parameter '{changed[0]}' of the closed loop of subsystem '{s.name}'; catalogue parts "
+                "are checked on one manifold shared by every scenario (give each geometry its own file)",
+            )
+        out[s.name] = manifold_configurations(problem, s.name, samples, rng, bases[0]).q
+    return out
 
 
 def spring_lengths(

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..mechanics import Mechanics
+from ..mechanics.closure import along_manifold, independent_names
 from ..model.problem import Problem
 from ..verify.residuals import residuals
 from .geometry import Gravity3, spring_length_gradients
@@ -61,6 +62,8 @@ def tolerance_band(
         for sub in problem.subsystems:
             qs = q[sub.name]
             r, t = residuals(problem, sub.name, qs, dict(variables), dict(base), gravity)
+            # closed loops: every term along the manifold, onto the independent coordinates (docs/loops.md)
+            r, t = (along_manifold(problem, sub.name, qs, base, v) for v in (np.asarray(r), np.asarray(t)))
             geometry = spring_length_gradients(problem, sub.name, qs, variables, base, gravity)
             rate_term = np.zeros_like(r)
             tension_term = np.zeros_like(r)
@@ -69,12 +72,13 @@ def tolerance_band(
                 if spring.name not in tension or spring.name not in geometry:
                     continue
                 length, grad = geometry[spring.name]
+                grad = along_manifold(problem, sub.name, qs, base, grad)
                 k = float(mech.value(spring.stiffness))
                 slope = np.abs(grad) / (2 * np.maximum(length, 1e-12))[:, None]  # |∂d/∂q|
                 extension = np.abs(length - offsets.get(spring.name, 0.0))[:, None]
                 rate_term += rate_tolerance[spring.name] * k * extension * slope
                 tension_term += tension_tolerance[spring.name] * tension[spring.name] * slope
-            for j, name in enumerate(sub.coordinates):
+            for j, name in enumerate(independent_names(problem, sub.name)):
                 revolute = problem.coordinate[name].unit.dimension == ""
                 rows.append((revolute, np.abs(r[:, j]), np.abs(t[:, j]), rate_term[:, j], tension_term[:, j]))
     out = []

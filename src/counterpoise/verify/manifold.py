@@ -18,7 +18,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from ..mechanics.closure import ManifoldPoints, closure, scenario_base
+from ..mechanics.closure import ManifoldPoints, closure, geometry_key, scenario_base
 from ..model.problem import Problem
 from ..mechanics.sampling import MAX_CORNERS
 from .residuals import SubsystemResiduals
@@ -29,7 +29,8 @@ class ManifoldResiduals:
 
     ``q`` holds every coordinate of the subsystem (dependent ones solved) and ``names`` the
     independent ones, whose residuals :meth:`evaluate` returns. The manifold is solved again
-    when the geometry's parameters change.
+    when the geometry's parameters change (only then: a payload's mass
+    or a spring's rate re-solves nothing).
     """
 
     def __init__(self, problem: Problem, subsystem: str, samples: int, rng: np.random.Generator, scenario: str) -> None:
@@ -49,7 +50,7 @@ class ManifoldResiduals:
         self._solve(c.base)
 
     def _solve(self, base: Mapping[str, float]) -> None:
-        key = tuple(sorted((k, float(v)) for k, v in base.items()))
+        key = geometry_key(self.problem, self.subsystem, base)
         if key == self._key:
             return
         c = closure(self.problem, self.subsystem, base)

@@ -94,12 +94,13 @@ def loops(ctx: Context, frames: Mapping[str, Frame], coordinates: tuple[Coordina
         if all(c.dependent for c in mine):
             raise ctx.fail(f"loops.{first.name}", f"every coordinate of subsystem '{sub}' is dependent: give at least one a range")
     if out:
-        for section in ("payloads", "slots"):
-            if getattr(spec, section):
-                raise ctx.fail(section, f"closed loops cannot be combined with [{section}] yet (see docs/loops.md)")
         for sname, s in spec.springs.items():
-            if s.mount != "pulley":
-                raise ctx.fail(f"springs.{sname}.mount", "closed loops support zero-free-length springs only (mount = \"pulley\") yet")
+            if s.slot is not None and s.mount == "direct":
+                raise ctx.fail(
+                    f"springs.{sname}.mount",
+                    "closed loops take catalogue parts behind a string only (mount = \"pulley\"): the screening of "
+                    "directly attached parts samples the open box of coordinates, not the loop's manifold (see docs/loops.md)",
+                )
     return tuple(out)
 
 
