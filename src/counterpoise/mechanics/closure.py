@@ -205,6 +205,9 @@ class Closure:
                         step = 0.5 * step
                     else:
                         break
+            closed = np.isfinite(q).all() and float(np.abs(self._rows(q).real).max(initial=0.0)) <= CLOSURE_TOLERANCE
+            if closed:  # Newton from the homes stalled, the damped steps closed it: take that
+                return q[0]
             gaps = self.gaps(q)[0] if np.isfinite(q).all() else gaps
             worst = int(np.argmax(gaps)) if len(gaps) else 0
             loop = self.loops[worst]
@@ -397,7 +400,11 @@ def _least_squares(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """
     normal = np.einsum("kmd,kme->kde", a, a)
     ridge = RANK_TOLERANCE**2 * np.trace(normal, axis1=1, axis2=2)[:, None, None] * np.eye(a.shape[2])
-    return np.linalg.solve(normal + ridge, np.einsum("kmd,kmj->kdj", a, b))
+    rhs = np.einsum("kmd,kmj->kdj", a, b)
+    try:
+        return np.linalg.solve(normal + ridge, rhs)
+    except np.linalg.LinAlgError:  # a zero Jacobian (the trace is 0 too): the pseudo-inverse
+        return np.linalg.pinv(normal) @ rhs
 
 
 def _size(mech: Mechanics, loops: Sequence[Any]) -> float:
