@@ -189,7 +189,14 @@ def solve(args: list[str], pause_gc: bool = False) -> int | None:
     if paused:
         gc.disable()
     try:
-        return _run(parsed, paused)
+        import warnings
+
+        from .. import progress
+
+        with warnings.catch_warnings(), progress.sink(_err):  # as the app: progress lines on stderr,
+            if not parsed.debug:  # and no library warning (with its source path) unless --debug
+                warnings.simplefilter("ignore")
+            return _run(parsed, paused)
     except _Defer:
         return None
     except KeyboardInterrupt:
