@@ -71,29 +71,26 @@ def verify(solution: "Solution", samples: int | None = None, seed: int | None = 
         gravity, base = solution.scenario_parameters[scenario]
         r, t = evaluator.evaluate(variables, base, gravity)
         kinds = [REVOLUTE if problem.coordinate[name].unit.dimension == "" else PRISMATIC for name in evaluator.names]
-        magnitude = np.abs(t)
-        sampled = magnitude.max(axis=0) if t.shape[0] else np.zeros(t.shape[1])
-        found.append((scenario, subsystem, evaluator, variables, gravity, base, r, t, kinds, sampled, magnitude))
+        sampled = np.array([np.abs(t[:, j]).max() for j in range(t.shape[1])])
+        found.append((scenario, subsystem, evaluator, variables, gravity, base, r, t, kinds, sampled))
     # the coordinates that may set the reference of their kind (see .checks) get their box maximum
     top: dict[str, float] = {}
-    for *_, kinds, sampled, _magnitude in found:
+    for *_, kinds, sampled in found:
         for kind, load in zip(kinds, sampled):
             if np.isfinite(load):
                 top[kind] = max(top.get(kind, 0.0), float(load))
-    for scenario, subsystem, evaluator, variables, gravity, base, r, t, kinds, sampled, magnitude in found:
+    for scenario, subsystem, evaluator, variables, gravity, base, r, t, kinds, sampled in found:
         q = evaluator.q  # after evaluate: a manifold is solved again when the geometry changed
-        # whole arrays at once (r and t are transposed views: numpy reduces them column-wise)
-        columns = np.abs(r)
-        n_rows = r.shape[0]
-        residual = columns.max(axis=0) if n_rows else np.zeros(r.shape[1])  # NaN if any is NaN
+        # column by column: r and t are transposed views, and a column is contiguous
+        columns = [np.abs(r[:, j]) for j in range(r.shape[1])]
+        residual = np.array([c.max() for c in columns])  # NaN if any is NaN
         candidates = np.array([load >= REFERENCE_CANDIDATE * top.get(kind, 0.0) and load > 0 for kind, load in zip(kinds, sampled)], dtype=bool)
-        loads = _box_loads(problem, subsystem, scenario, evaluator, t, sampled, candidates, variables, base, gravity, magnitude)
-        balancers = np.abs(r - t).max(axis=0) if n_rows else np.zeros(r.shape[1])
+        loads = _box_loads(problem, subsystem, scenario, evaluator, t, sampled, candidates, variables, base, gravity)
+        balancers = np.array([np.abs(r[:, j] - t[:, j]).max() for j in range(r.shape[1])])
         scale = _energy_scale_if_needed(problem, subsystem, q, residual, loads, variables, base, gravity)
-        nan = np.isnan(columns)
-        worsts = np.argmax(np.where(nan, -np.inf, columns), axis=0) if n_rows else np.zeros(r.shape[1], dtype=int)
         for j, name in enumerate(evaluator.names):
-            worst = int(worsts[j]) if not nan[:, j].all() else 0
+            column = columns[j]
+            worst = int(np.nanargmax(column)) if not np.isnan(column).all() else 0
             checks.append(
                 CoordinateCheck(
                     subsystem=subsystem,
@@ -130,7 +127,6 @@ def _box_loads(
     variables: Any,
     base: Any,
     gravity: Any,
-    magnitude: np.ndarray | None = None,
 ) -> np.ndarray:
     """Largest |gravity torque| of each coordinate: for the ``candidates`` (those that may
     set the reference) the box maximum, refined from the best samples
@@ -149,7 +145,7 @@ def _box_loads(
     key = (scenario, tuple(candidates), tuple(gravity), tuple(base[n] for n in state["bases"]), tuple(variables[n] for n in state["variables"]))
     found = state["found"]
     if key not in found:
-        magnitude = np.abs(t) if magnitude is None else magnitude
+        magnitude = np.abs(t)
         if BOX_MAXIMUM_STARTS == 1:
             best = np.argmax(magnitude, axis=0)[None, :]
         else:
