@@ -466,7 +466,9 @@ class BoxMaximum:
         for c in np.unique(coordinate):  # several starts of one coordinate: the best one climbs
             mine = np.flatnonzero((coordinate == c) & active)
             if mine.size > 1:
-                active[np.setdiff1d(mine, mine[np.argmax(f[mine])])] = False
+                best = mine[np.argmax(f[mine])]
+                active[mine] = False
+                active[best] = True
         for _ in range(BOX_MAXIMUM_ITERATIONS):
             if not active.any():
                 break
