@@ -5,8 +5,9 @@ Runs the same study (``--vary 'm_endo=400 g:1000 g:N'`` of problems/yasir2019_hy
 of 2 single-threaded workers, and reports, per engine, the wall time of the whole study
 (pool or cluster start-up included, as a user sees it), the designs that ended
 ``optimal`` (solved *and* verified on 30,024 configurations) and their rate. It also
-checks that every engine gave the same design values. Goal: >= 300 verified designs/s
-with 2 local workers.
+checks that every engine gave the same design values. Goal (issue 13): >= 400 points/s
+for the whole ``counterpoise study ... --jobs 2`` process (the figures, and those of a
+free-extensions LHS, are in benchmarks/README.md).
 
     python benchmarks/study_throughput.py [--points 1000] [--batch-size 16] [--json out.json] [--plot out.png]
 

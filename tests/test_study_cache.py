@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+from collections import OrderedDict
 
 import pytest
 
@@ -48,3 +49,25 @@ def test_two_studies_of_one_file_with_different_set_values_on_one_cluster(tmp_pa
         assert [r["status"] for r in found] == ["optimal"] * 3
         # the tip mass is balanced by M_c (seed 001's design: M_c equals the tip mass)
         assert [float(r["M_c [g]"]) for r in found] == pytest.approx([grams] * 3, rel=1e-6)
+
+
+@pytest.mark.parametrize("name, vary", [("yasir2019_hybrid_catalogue.toml", "m_endo=680 g:700 g:3"), ("woo2019_counterweight.toml", "m1=80 g:90 g:3")])
+def test_a_slot_or_payload_problem_builds_its_method_once_per_worker(tmp_path, monkeypatch, name, vary):
+    # issue 13 §3: slot problems build their relaxed designer (the part search's) once per worker
+    import counterpoise.pipeline as pipeline
+    from counterpoise.studies.runners import SerialRunner, _WORKER
+
+    builds = []
+    original = pipeline.build_method
+
+    def counting(problem, *args, **kwargs):
+        builds.append(problem.name)
+        return original(problem, *args, **kwargs)
+
+    monkeypatch.setattr(pipeline, "build_method", counting)
+    monkeypatch.setattr(_WORKER, "methods", OrderedDict(), raising=False)  # a fresh worker
+    problem = load_problem(PROBLEMS / name)
+    plan = plan_study(problem, [vary], "f")
+    outcome = run_study(problem, plan, tmp_path, SerialRunner(), batch_size=2)
+    assert outcome.counts.get("optimal", 0) == 3
+    assert builds == [problem.name]

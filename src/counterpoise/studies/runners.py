@@ -4,8 +4,11 @@ A study hands a runner a :class:`StudyTask` (a picklable description: the proble
 the solver options) and batches of points; the runner decides where they run: in this
 process (:class:`SerialRunner`), on a local process pool (:class:`ProcessRunner`) or on a
 Dask cluster (:class:`DaskRunner`, batches as tasks). Each worker
-builds the designer once from the description (CasADi objects do not pickle) and solves
-its batches with it, so a batch costs one build at most per worker, never one per point.
+builds the problem's design method once from the description (CasADi objects do not
+pickle; :func:`counterpoise.pipeline.build_method`: the designer, a payload range's
+method, a slot problem's part search with its relaxed designer) and solves its batches
+with it (:func:`counterpoise.pipeline.run`), so a batch costs one build at most per
+worker, never one per point.
 """
 
 from __future__ import annotations
@@ -63,6 +66,19 @@ class StudyTask:
             designer.convex.options["time_limit"] = float(self.time_limit)
         return designer
 
+    def method(self, problem: Problem | None = None) -> Any:
+        """The design method of ``problem`` (this task's by default), built once per worker.
+
+        Where the innermost solve is the :class:`~counterpoise.designer.designer.Designer`
+        of the problem itself (no payload range, no directly attached spring), it is
+        :meth:`designer`'s, so the solver options and the time limit apply to it."""
+        from ..designer.minimax import has_direct_springs
+        from ..pipeline import build_method
+
+        problem = problem or self.problem
+        inner = None if problem.payloads or has_direct_springs(problem) else self.designer(problem)
+        return build_method(problem, backend=self.backend, designer=inner)
+
     @cached_property
     def key(self) -> str:
         """Cache key of the designers built from this task: the problem's *content*
@@ -90,35 +106,36 @@ class PointResult:
     certificate_gap: float = float("nan")
 
 
-#: designers built in this process, per thread (a CasADi function is not safe to call from
-#: two threads at once, and a Dask worker may run several task threads), least recently
-#: used last; at most :data:`CACHED_DESIGNERS` each (a weight study builds one per weight)
+#: design methods built in this process, per thread (a CasADi function is not safe to call
+#: from two threads at once, and a Dask worker may run several task threads), least
+#: recently used last; at most :data:`CACHED_METHODS` each (a weight study builds one per weight)
 _WORKER = threading.local()
-CACHED_DESIGNERS = 8
+CACHED_METHODS = 8
 
 
 class PointTimeout(Exception):
     """Raised by the interval timer when a point runs past the study's time limit."""
 
 
-def _designer_for(task: StudyTask, weights: Mapping[str, float]) -> Any:
-    """The designer of this task (and objective weights, which are built into the NLP)."""
+def _method_for(task: StudyTask, weights: Mapping[str, float]) -> Any:
+    """The design method of this task (and objective weights, which are built into the NLP),
+    kept per worker under the problem's content (:attr:`StudyTask.key`)."""
     problem = task.problem
     key = (task.key, (weights.get("mass_weight", problem.objective.mass_weight), weights.get("inertia_weight", problem.objective.inertia_weight)))
-    cache: OrderedDict[Any, Any] = _WORKER.__dict__.setdefault("designers", OrderedDict())
-    designer = cache.pop(key, None)
-    if designer is None:
+    cache: OrderedDict[Any, Any] = _WORKER.__dict__.setdefault("methods", OrderedDict())
+    method = cache.pop(key, None)
+    if method is None:
         if weights:
             import dataclasses
 
             from ..model.problem import Objective
 
             problem = dataclasses.replace(problem, objective=Objective(*key[1]))
-        designer = task.designer(problem)
-    cache[key] = designer
-    while len(cache) > CACHED_DESIGNERS:
+        method = task.method(problem)
+    cache[key] = method
+    while len(cache) > CACHED_METHODS:
         cache.popitem(last=False)
-    return designer
+    return method
 
 
 def split_point(point: Point) -> tuple[dict[str, float], dict[str, tuple[str, float]], dict[str, float]]:
@@ -154,14 +171,14 @@ def _bounds(problem: Problem, sides: Mapping[str, Any]) -> dict[str, tuple[float
 def solve_point(task: StudyTask, point: Point, initial: Mapping[Any, float] | None = None) -> tuple[PointResult, Any]:
     """Solve and verify one point; never raises for a point's own failure (it is recorded)."""
     from ..errors import CounterpoiseError
-    from ..pipeline import design
+    from ..pipeline import run as run_method
 
     parameters, sides, weights = split_point(point)
     t0 = time.perf_counter()
     try:
         with _time_limit(task.time_limit):
-            designer = _designer_for(task, weights)
-            result = design(designer.problem, designer, parameters=parameters, bounds=_bounds(task.problem, sides) or None, initial=initial)
+            method = _method_for(task, weights)
+            result = run_method(method, parameters=parameters, bounds=_bounds(task.problem, sides) or None, initial=initial)
     except PointTimeout:
         return _failed(point, TIMEOUT, f"no result within the time limit of {task.time_limit:g} s", time.perf_counter() - t0), None
     except (CounterpoiseError, ArithmeticError, ValueError, KeyError, RuntimeError) as exc:
@@ -192,7 +209,7 @@ def _failed(point: Point, status: str, message: str, elapsed: float) -> PointRes
 
 
 def solve_batch(task: StudyTask, points: Sequence[Point]) -> list[PointResult]:
-    """Solve and verify each point with one designer (built once per process and task);
+    """Solve and verify each point with one design method (built once per process and task);
     with ``task.warm_start`` each point starts from the previous point's optimum."""
     out = []
     previous = None

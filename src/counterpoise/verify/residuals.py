@@ -51,6 +51,10 @@ class _Functions(dict):
         self["sin"] = lambda z: self._remember("sin", z)
         self["cos"] = lambda z: self._remember("cos", z)
 
+    def forget_except(self, kept: set[int]) -> None:
+        """Drop the remembered values of every argument but those whose id is in ``kept``."""
+        self._memo = {key: hit for key, hit in self._memo.items() if key[1] in kept}
+
     def _remember(self, name: str, z: Any) -> Any:
         if not isinstance(z, np.ndarray):
             return np.sin(z) if name == "sin" else np.cos(z)
@@ -170,8 +174,28 @@ class SubsystemResiduals:
         self._element_parameters: list[tuple[str, ...]] | None = None
         self._element_arrays: list[Any] = []
         self.cache = cache and size <= CACHE_BYTES
+        self._chunk_inputs: dict[tuple[int, int], tuple[np.ndarray, dict[str, np.ndarray], dict[str, np.ndarray], _Functions]] = {}
 
     # -- complex step --------------------------------------------------------------
+    def _inputs(self, rows: slice) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], _Functions]:
+        """The coordinate arrays of the configurations ``rows`` (real, and each with its complex
+        step) and the functions remembering sin and cos of them: the same objects for every
+        design, so a design whose geometry changed (a study of a length) reuses the sines and
+        cosines of the joint angles. Other remembered values (of this design's own arrays)
+        are dropped, so the memory stays that of the coordinates."""
+        key = (rows.start, rows.stop)
+        found = self._chunk_inputs.get(key)
+        if found is None or found[0] is not self.q:  # a manifold's configurations are solved again when its geometry changes
+            q = self.q[rows]
+            real = {name: np.ascontiguousarray(q[:, i]) for i, name in enumerate(self.names)}
+            perturbed = {name: real[name] + 1j * STEP for name in self.names}
+            found = (self.q, real, perturbed, _Functions())
+            self._chunk_inputs[key] = found
+        _, real, perturbed, functions = found
+        kept = {id(a) for a in (*real.values(), *perturbed.values())}
+        functions.forget_except(kept)
+        return real, perturbed, functions
+
     def _columns(
         self,
         elements: Sequence[_Element],
@@ -190,15 +214,15 @@ class SubsystemResiduals:
         out = np.zeros((n_slots, n, n_q))
         if not elements:
             return out
-        real = {name: q[:, i] for i, name in enumerate(self.names)}
-        functions, rotations = _Functions(), {}  # shared by the perturbations of this chunk
+        real, perturbed, functions = self._inputs(rows)
+        rotations: dict[Any, Any] = {}  # shared by the perturbations of this chunk
         still = Mechanics(self.problem, base, variables, real, gravity, functions, rotations=rotations)
         for j, name in enumerate(self.names):
             moving = [(k, e) for k, e in enumerate(elements) if name in e.moves_with]
             if not moving:
                 continue
             coords = dict(real)
-            coords[name] = q[:, j] + 1j * STEP
+            coords[name] = perturbed[name]
             known = {f: still.pose(f) for f in self.used_frames if name not in self.frames[f]}
             mech = Mechanics(self.problem, base, variables, coords, gravity, functions, poses=known, rotations=rotations)
             for k, e in moving:
@@ -442,7 +466,9 @@ class BoxMaximum:
         for c in np.unique(coordinate):  # several starts of one coordinate: the best one climbs
             mine = np.flatnonzero((coordinate == c) & active)
             if mine.size > 1:
-                active[np.setdiff1d(mine, mine[np.argmax(f[mine])])] = False
+                best = mine[np.argmax(f[mine])]
+                active[mine] = False
+                active[best] = True
         for _ in range(BOX_MAXIMUM_ITERATIONS):
             if not active.any():
                 break
