@@ -272,14 +272,6 @@ def test_light_solve_parses_as_the_app():
     assert parse_solve(["solve", "a.toml"]) == SolveArgs(("a.toml",))
 
 
-def test_light_coerce_matches_the_app():
-    from counterpoise.cli import app
-    from counterpoise.cli.light import coerce
-
-    for value in ("true", "false", "1", "-2", "1.5e3", "nan", "inf", "1_000", "400 g", "", "True"):
-        assert coerce(value) == app._coerce(value) or (value == "nan" and str(coerce(value)) == str(app._coerce(value)))
-
-
 def _rows():
     base = {"added_inertia_kg_m2": 0.0665714, "objective": 5.753, "residual_ratio": 1.23e-15, "checked_configurations": 30024, "solve_time_s": 0.0123}
     return [

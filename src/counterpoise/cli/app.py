@@ -21,6 +21,7 @@ from rich.console import Console
 from rich.table import Table
 
 from .. import progress
+from .light import INTERNAL_ERROR, _short, coerce
 from ..errors import CounterpoiseError, ProblemFileError, clip
 
 app = typer.Typer(
@@ -52,16 +53,7 @@ def _overrides(items: list[str] | None) -> dict[str, str]:
     return out
 
 
-def _coerce(value: str) -> object:
-    """Numbers and booleans on the command line become TOML numbers and booleans."""
-    if value in ("true", "false"):
-        return value == "true"
-    for kind in (int, float):
-        try:
-            return kind(value)
-        except ValueError:
-            pass
-    return value
+_coerce = coerce  # one reading of --set values for both paths (.light)
 
 
 def _load_all(files: list[Path], overrides: dict[str, str]) -> list:
@@ -349,7 +341,6 @@ def _print_summary(rows: list[dict]) -> None:
     rich_summary(rows, out_console)  # one table for both paths (see .light)
 
 
-INTERNAL_ERROR = 3
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -371,8 +362,3 @@ def main(argv: list[str] | None = None) -> None:
             raise
         err_console.print(f"internal error: {type(exc).__name__}: {_short(exc)} (run with --debug for the traceback)", markup=False)
         sys.exit(INTERNAL_ERROR)
-
-
-def _short(exc: BaseException, limit: int = 300) -> str:
-    text = " ".join(str(exc).split())
-    return text if len(text) <= limit else text[: limit - 1] + "…"

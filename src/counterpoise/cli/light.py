@@ -10,8 +10,9 @@ and ``counterpoise solve``. The standard library only at import.
   as the typer app's ``solve``: importing typer and rich costs 0.1–0.15 s, a quarter of
   a whole solve. Anything this path does not fully understand is handed to the typer app
   unchanged (:func:`solve` returns None): another option or a misspelt one, ``--help``,
-  a value that would be an error (``--starts 0``, ``--set`` without ``=``), and any
-  problem file that does not load (the app then reports every file's error). The summary
+  a value that would be an error (``--starts 0``, ``--set`` without ``=``). Loading and
+  solving are :mod:`.run`'s, shared with the app (a file that does not load: every
+  error, one line each, exit 2). The summary
   table is printed by :func:`plain_table` when rich would print plain text (output not a
   terminal, width 160, nothing rich would re-interpret), else by rich itself.
   ``tests/test_speed.py`` runs both paths on the same commands and compares their output.

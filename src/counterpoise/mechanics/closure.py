@@ -45,14 +45,13 @@ from ..model.mechanism import GROUND
 from ..model.problem import Problem
 from .energy import Mechanics
 from .kinematics import matvec, sub
+from .sampling import STEP  # the complex step of the closure Jacobian
 
 #: Largest scaled closure gap (gap / loop size; axis rows as is) of an assembled configuration.
 CLOSURE_TOLERANCE = 1e-11
 #: Gauss-Newton iterations that measure the gap of a loop that cannot close at home.
 LEAST_SQUARES_ITERATIONS = 200
 LEAST_SQUARES_HALVINGS = 40
-#: Complex step of the closure Jacobian (exact to rounding; no subtractive cancellation).
-COMPLEX_STEP = 1e-30
 #: Newton corrections per continuation step (each converges quadratically from the predictor).
 NEWTON_ITERATIONS = 12
 #: Continuation steps over a path as long as the whole range of a coordinate (fewer for shorter paths).
@@ -151,10 +150,10 @@ class Closure:
         n_conf, n = q.shape
         stacked = np.tile(q.astype(complex), (n + 1, 1))
         for j in range(n):
-            stacked[(j + 1) * n_conf : (j + 2) * n_conf, j] += 1j * COMPLEX_STEP
+            stacked[(j + 1) * n_conf : (j + 2) * n_conf, j] += 1j * STEP
         rows = self._rows(stacked)
         h = rows[:n_conf].real
-        jac = (rows[n_conf:].imag / COMPLEX_STEP).reshape(n, n_conf, -1).transpose(1, 2, 0)
+        jac = (rows[n_conf:].imag / STEP).reshape(n, n_conf, -1).transpose(1, 2, 0)
         return h, np.ascontiguousarray(jac)
 
     def gaps(self, q: np.ndarray) -> np.ndarray:

@@ -42,7 +42,8 @@ from ..mechanics import NUMPY_FUNCTIONS, Mechanics
 from ..mechanics.kinematics import sub
 from ..mechanics.sampling import configurations
 from ..model import expr as ex
-from ..verify.residuals import STEP, frame_names
+from ..mechanics.sampling import STEP
+from ..verify.residuals import frame_names
 
 #: configurations per coordinate of the bound (a subset of the minimax designer's samples)
 BOUND_CONFIGURATIONS = 16

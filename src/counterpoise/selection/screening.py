@@ -38,7 +38,8 @@ from ..mechanics import NUMPY_FUNCTIONS, Mechanics
 from ..mechanics.kinematics import dot, sub
 from ..model import expr as ex
 from ..model.problem import Problem
-from ..verify.residuals import STEP, frame_names
+from ..mechanics.sampling import STEP
+from ..verify.residuals import frame_names
 
 #: geometry grid points of one spring's screening (all axes together), at most
 GRID_POINTS = 1728
@@ -140,7 +141,7 @@ def _screen_configurations(problem: Problem, subsystem: str, seed: int) -> np.nd
     hi = np.array([c.upper for c in coords])
     if len(coords) == 1:
         return np.linspace(lo, hi, SCREEN_CONFIGURATIONS)
-    from ..verify.residuals import configurations
+    from ..mechanics.sampling import configurations
 
     return configurations(problem, subsystem, SCREEN_CONFIGURATIONS * len(coords), np.random.default_rng(seed))
 
