@@ -41,6 +41,7 @@ MANIFEST = {
     "robot_fixed_joint_moving.toml": ("robot.joints.tool0_fixed_joint", "a fixed joint: it does not move"),
     "robot_urdf_and_mjcf.toml": ("robot.urdf", "not both"),
     "robot_range_in_mm.toml": ("robot.joints.elbow_joint.range", "expected an angle (revolute joint), got a length"),
+    "robot_held_outside_limits.toml": ("robot.locked.wrist", "joint 'wrist' is neither moving nor locked, so it is held at 0, outside its limits in the model"),
     "robot_home_in_mm.toml": ("robot.joints.elbow_joint.home", "expected an angle (revolute joint), got a length ('400 mm')"),
     "robot_frame_named_like_a_link.toml": ("frames.forearm_link", "is a link of the robot model ur5.urdf"),
     "robot_broken_urdf.toml": ("robot.urdf", "cannot read the URDF broken.urdf: Opening and ending tag mismatch"),

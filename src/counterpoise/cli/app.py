@@ -338,7 +338,8 @@ def draw(
 def _print_summary(rows: list[dict]) -> None:
     from .light import rich_summary
 
-    rich_summary(rows, out_console)  # one table for both paths (see .light)
+    if rows:  # no design, no table (every problem's failure was already said on stderr)
+        rich_summary(rows, out_console)  # one table for both paths (see .light)
 
 
 

@@ -348,7 +348,10 @@ def plain_table(title: str, columns: tuple[tuple[str, str], ...], rows: list[lis
 
 def print_summary(rows: list[dict[str, Any]]) -> None:
     """The summary table and lines on stdout: plain text when rich would print exactly
-    that, else through rich (a terminal: colours and its width)."""
+    that, else through rich (a terminal: colours and its width). No design, no table (every
+    problem's failure was already said on stderr)."""
+    if not rows:
+        return
     table = None
     lines = summary_lines(rows)
     utf = (getattr(sys.stdout, "encoding", None) or "").lower().startswith("utf")  # else rich draws an ASCII box

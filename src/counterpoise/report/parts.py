@@ -150,16 +150,21 @@ def parts_status(result: DesignResult) -> str:
         return ""
     s = parts.search
     lines = [f"part search: {s.solves} NLP solves in {s.seconds:.3g} s; slot groups searched separately: {len(s.groups)}"]
-    for group, method in zip(s.groups, s.methods):
-        lines.append(f"  group {' '.join(group)}: {method}")
-    for c in s.counts:
-        lines.append(
-            f"  slot {c.slot}: {c.parts} parts, {c.pruned} pruned before any per-part solve ("
-            + (f"balanceable rates {c.window[0] / 1e3:.6g}-{c.window[1] / 1e3:.6g} N/mm" if not math.isnan(c.window[0]) else "no grid geometry within their lengths")
-            + f"), {c.rates_solved} rates solved, "
-            f"{c.failed_limits} failing a limit, {c.fitting} fitting"
-        )
-    lines += [f"  {line}" for line in s.evidence]
+    if s.evidence:  # the search's own account (groups, pruning per limit, coverage): once
+        for c in s.counts:
+            if not math.isnan(c.window[0]):
+                lines.append(f"  slot {c.slot}: balanceable rates {c.window[0] / 1e3:.6g}-{c.window[1] / 1e3:.6g} N/mm")
+        lines += [f"  {line}" for line in s.evidence]
+    else:
+        for group, method in zip(s.groups, s.methods):
+            lines.append(f"  group {' '.join(group)}: {method}")
+        for c in s.counts:
+            lines.append(
+                f"  slot {c.slot}: {c.parts} parts, {c.pruned} pruned before any per-part solve ("
+                + (f"balanceable rates {c.window[0] / 1e3:.6g}-{c.window[1] / 1e3:.6g} N/mm" if not math.isnan(c.window[0]) else "no grid geometry within their lengths")
+                + f"), {c.rates_solved} rates solved, "
+                f"{c.failed_limits} failing a limit, {c.fitting} fitting"
+            )
     if s.choice is None and s.nearest:
         lines.append("nearest candidates:")
         lines += [f"  {m.text()}" for m in s.nearest]

@@ -167,6 +167,11 @@ def _values(ctx: Context, model: RobotModel, spec: RobotSpec) -> dict[str, ex.Ex
             return out[name]
         joint = joints.get(name)
         if joint is None or joint.mimic is None:
+            if joint is not None and joint.kind != "fixed" and joint.limits is not None and not joint.limits[0] - LIMIT_SLACK <= 0.0 <= joint.limits[1] + LIMIT_SLACK:
+                raise ctx.fail(
+                    f"robot.locked.{name}",
+                    f"joint '{name}' is neither moving nor locked, so it is held at 0, outside its limits in the model: lock it at a value within them",
+                )
             out[name] = ex.Num(0.0)
             return out[name]
         other, scale, offset = joint.mimic
