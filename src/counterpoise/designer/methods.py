@@ -57,6 +57,23 @@ class DesignMethod(Protocol):
         ...
 
 
+@runtime_checkable
+class SampledMethod(Protocol):
+    """A method that designs a derived, sampled problem (a payload range: one scenario per
+    payload sample): what an outer part search must search on, and the inner method of each
+    sampled problem. :class:`counterpoise.payload.method.PayloadMethod` is one."""
+
+    problem: Problem
+
+    def search_problem_with(self, extra: tuple[float, ...] = ()) -> Problem:
+        """The sampled problem a part search sees, with ``extra`` samples (SI) added."""
+        ...
+
+    def core(self, sampled: Problem) -> DesignMethod:
+        """The inner method of a sampled problem (built once per set of samples)."""
+        ...
+
+
 class Core:
     """Shared by the innermost methods: a designer with a formulation and ``solve``."""
 

@@ -22,7 +22,7 @@ from collections.abc import Mapping
 from dataclasses import replace
 from typing import Any
 
-from ..designer.methods import DesignMethod
+from ..designer.methods import DesignMethod, SampledMethod
 from ..designer.solution import Solution
 from ..errors import ProblemFileError
 from ..formulation.layout import Slot
@@ -76,13 +76,14 @@ class PartsMethod:
         self.direct = direct
 
     def _search_problem(self, extra: tuple[float, ...]) -> Problem:
-        make = getattr(self.inner, "search_problem_with", None)
-        return make(extra) if make is not None else self.problem
+        return self.inner.search_problem_with(extra) if isinstance(self.inner, SampledMethod) else self.problem
+
+    def _method_of(self, problem: Problem) -> Any:
+        """The innermost method that designs ``problem`` (a sampled one for a payload range)."""
+        return self.inner.core(problem) if isinstance(self.inner, SampledMethod) else self.inner
 
     def _designer_of(self, solution: Solution) -> Any:
-        core = getattr(self.inner, "core", None)
-        method = core(solution.problem) if callable(core) else self.inner
-        return method.designer  # type: ignore[attr-defined]
+        return self._method_of(solution.problem).designer
 
     def solve(
         self,
@@ -100,9 +101,7 @@ class PartsMethod:
         for _ in range(REFINEMENTS + 1):
             searched = self._search_problem(extra)
             if self.direct:
-                inner = getattr(self.inner, "core", None)
-                method = inner(searched) if callable(inner) else self.inner
-                search = search_direct(searched, _Given(method.designer, given, bounds))  # type: ignore[attr-defined, arg-type]
+                search = search_direct(searched, _Given(self._method_of(searched).designer, given, bounds))  # type: ignore[arg-type]
                 rows = dict(search.choice.parts) if search.choice else {s.name: 0 for s in self.problem.slots}
             else:
                 search, rows, _rates = parts.choose(with_options(searched, given, bounds))  # rows carry the rates
