@@ -87,12 +87,15 @@ def run(
     parameters: Mapping[str, float] | None = None,
     bounds: Mapping["Slot | str", tuple[float, float]] | None = None,
     initial: Mapping[Slot, float] | None = None,
+    quantities: bool = True,
 ) -> DesignResult:
-    """Solve ``method`` with these options, verify the design densely and judge it."""
+    """Solve ``method`` with these options, verify the design densely and judge it.
+    ``quantities=False``: no report quantities (a study, whose rows do not hold them)."""
     solution = method.solve(parameters, bounds, initial)
     verification = solution.verification or verify(solution)
     status, message = judge(solution, verification)
-    return DesignResult(solution.problem, status, message, solution, verification, evaluate_quantities(solution), solution.payload, solution.parts)
+    values = evaluate_quantities(solution) if quantities else ()
+    return DesignResult(solution.problem, status, message, solution, verification, values, solution.payload, solution.parts)
 
 
 def design(problem: Problem, designer: Designer | Any | None = None, starts: int = 1, **solve_options: Any) -> DesignResult:

@@ -178,7 +178,7 @@ def solve_point(task: StudyTask, point: Point, initial: Mapping[Any, float] | No
     try:
         with _time_limit(task.time_limit):
             method = _method_for(task, weights)
-            result = run_method(method, parameters=parameters, bounds=_bounds(task.problem, sides) or None, initial=initial)
+            result = run_method(method, parameters=parameters, bounds=_bounds(task.problem, sides) or None, initial=initial, quantities=False)
     except PointTimeout:
         return _failed(point, TIMEOUT, f"no result within the time limit of {task.time_limit:g} s", time.perf_counter() - t0), None
     except (CounterpoiseError, ArithmeticError, ValueError, KeyError, RuntimeError) as exc:
