@@ -34,6 +34,7 @@ from typing import Any
 from ..designer.designer import Designer
 from ..designer.methods import DesignMethod, Plain
 from ..designer.solution import Solution
+from ..errors import SolverError
 from ..model import expr as ex
 from ..model.payload import MAX_PAYLOAD_RANGE, Payload
 from ..model.problem import Problem, ReportQuantity
@@ -81,7 +82,8 @@ class PayloadDesign:
         return {slot.variable: v for slot, v in self.solution.values.items() if slot.scenario is None}
 
     def _scheduled(self) -> Sampled:
-        assert self.adjuster is not None and self.schedule is not None  # noqa: S101 (internal: only called on a schedule)
+        if self.adjuster is None or self.schedule is None:
+            raise SolverError(f"{self.problem.name}: the payload design has no schedule (its samples were not balanced)")
         masses = [s.payload for s in self.schedule.rows + self.schedule.between if s.feasible]
         return sampled_problem(self.adjuster.source, masses or self.samples)
 
