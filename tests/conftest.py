@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import tempfile
 from functools import lru_cache
 from pathlib import Path
 
@@ -17,10 +18,24 @@ try:
     # CI (the CI variable is set) replays the same examples on every run; locally the
     # property tests keep exploring new ones. HYPOTHESIS_PROFILE chooses explicitly.
     settings.register_profile("ci", derandomize=True, database=None, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-    settings.register_profile("dev", deadline=None, suppress_health_check=[HealthCheck.too_slow])
+    # the example database lives outside the repository (tests write nothing into it)
+    from hypothesis.database import DirectoryBasedExampleDatabase
+
+    _DATABASE = DirectoryBasedExampleDatabase(os.path.join(tempfile.gettempdir(), "counterpoise-hypothesis"))
+    settings.register_profile("dev", database=_DATABASE, deadline=None, suppress_health_check=[HealthCheck.too_slow])
     settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci" if os.environ.get("CI") else "dev"))
 except ImportError:  # pragma: no cover
     pass
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _work_outside_the_repository(tmp_path_factory):
+    """Run every test from a scratch folder: nothing (MuJoCo's MUJOCO_LOG.TXT, stray outputs)
+    lands in the repository. Tests name their files through ROOT, never relative to the cwd."""
+    here = os.getcwd()
+    os.chdir(tmp_path_factory.mktemp("cwd"))
+    yield
+    os.chdir(here)
 
 
 @lru_cache(maxsize=None)
