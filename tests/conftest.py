@@ -14,15 +14,15 @@ PROBLEMS = ROOT / "problems"
 
 try:
     from hypothesis import HealthCheck, settings
+    from hypothesis.configuration import set_hypothesis_home_dir
+
+    # hypothesis keeps its files (example database, constants cache) outside the repository
+    set_hypothesis_home_dir(os.path.join(tempfile.gettempdir(), "counterpoise-hypothesis"))
 
     # CI (the CI variable is set) replays the same examples on every run; locally the
     # property tests keep exploring new ones. HYPOTHESIS_PROFILE chooses explicitly.
     settings.register_profile("ci", derandomize=True, database=None, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-    # the example database lives outside the repository (tests write nothing into it)
-    from hypothesis.database import DirectoryBasedExampleDatabase
-
-    _DATABASE = DirectoryBasedExampleDatabase(os.path.join(tempfile.gettempdir(), "counterpoise-hypothesis"))
-    settings.register_profile("dev", database=_DATABASE, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+    settings.register_profile("dev", deadline=None, suppress_health_check=[HealthCheck.too_slow])
     settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci" if os.environ.get("CI") else "dev"))
 except ImportError:  # pragma: no cover
     pass
