@@ -63,6 +63,7 @@ MARKER_COST, LINE_COST, ANCHOR_COST = 25.0, 6.0, 60.0
 #: order in which labels are placed (first: most important)
 PRIORITY = {"spring": 0, "counter_mass": 1, "payload": 2, "frame": 3}
 STYLE = {"frame": "0.3", "counter_mass": "0.05", "spring": "0.15", "payload": "darkgreen"}
+JOINT = {"marker": "o", "markersize": 7, "markerfacecolor": "white", "markeredgecolor": "0.15", "zorder": 6}
 NO_PART = "0.55"  # colour of a spring whose catalogue part is not chosen yet
 WIDTH = 0.1  # a parallelogram's width, drawn: this fraction of its first bar
 
@@ -297,12 +298,14 @@ def mechanism_drawing(
             return np.array([q @ h, q @ v]) / unit_scale
 
         obs = obstacles[ax] = _Obstacles()
+        pen = _Pen(ax)
         for i, items in enumerate(placed_ghosts):
-            _draw(ax, problem, items, xy, ghost=True, joints=ghost_joints[i], closing=ghost_loops[i])
+            _draw(ax, problem, items, xy, ghost=True, joints=ghost_joints[i], closing=ghost_loops[i], pen=pen)
         _draw(
             ax, problem, placed_main, xy, ghost=False, joints=joints, closing=closing, cmap=cmap, norm=norm, heaviest=heaviest,
-            payloads=payloads, unset=unset, brackets=brackets, extent=extent, view=view, requests=requests, obstacles=obs,
+            payloads=payloads, unset=unset, brackets=brackets, extent=extent, view=view, requests=requests, obstacles=obs, pen=pen,
         )
+        pen.flush()
         ax.set_aspect("equal", adjustable="datalim")
         ax.margins(0.08)
         ax.grid(alpha=0.25)
@@ -455,6 +458,37 @@ def _parallelograms(
     return out
 
 
+class _Pen:
+    """Segments and markers batched by style: one artist per style, not one per item (a
+    drawing has hundreds of them, and each artist costs as much as a hundred segments)."""
+
+    def __init__(self, ax: Any) -> None:
+        self.ax = ax
+        self.lines: dict[tuple[Any, ...], list[Any]] = {}
+        self.marks: dict[tuple[Any, ...], list[Any]] = {}
+
+    def line(self, q0: np.ndarray, q1: np.ndarray, **style: Any) -> None:
+        self.lines.setdefault(tuple(sorted(style.items())), []).append([tuple(q0), tuple(q1)])
+
+    def mark(self, q: np.ndarray, **style: Any) -> None:
+        self.marks.setdefault(tuple(sorted(style.items())), []).append(tuple(q))
+
+    def flush(self) -> None:
+        from matplotlib.collections import LineCollection
+
+        for key, segments in self.lines.items():
+            s = dict(key)
+            self.ax.add_collection(
+                LineCollection(segments, colors=s["color"], linewidths=s["linewidth"], alpha=s.get("alpha"), zorder=s["zorder"],
+                               capstyle=s.get("capstyle", "butt"), linestyles=s.get("linestyle", "solid"))
+            )
+        for key, points in self.marks.items():
+            q = np.array(points)
+            self.ax.plot(q[:, 0], q[:, 1], linestyle="none", **dict(key))
+        self.lines.clear()
+        self.marks.clear()
+
+
 @dataclass
 class _Request:
     """A label to place: kind, the things it names, their values and what follows each name
@@ -486,6 +520,7 @@ def _draw(
     origin = np.zeros(3)
     link_color, alpha, z = ("0.6", 0.35, 1) if ghost else ("0.15", 1.0, 3)
     obs: _Obstacles = style.get("obstacles") or _Obstacles()
+    pen: _Pen = style["pen"]
 
     def segment(q0: np.ndarray, q1: np.ndarray) -> None:
         if not ghost:
@@ -494,11 +529,11 @@ def _draw(
     for oa, pa_, ob, pb_ in closing:  # the links of a closed loop, to the joint where it was opened
         for o, p in ((oa, pa_), (ob, pb_)):
             q0, q1 = xy(o), xy(p)
-            ax.plot([q0[0], q1[0]], [q0[1], q1[1]], color=link_color, linewidth=2.5 if not ghost else 1.5, alpha=alpha, zorder=z, solid_capstyle="round")
+            pen.line(q0, q1, color=link_color, linewidth=2.5 if not ghost else 1.5, alpha=alpha, zorder=z, capstyle="round")
             segment(q0, q1)
         if not ghost:
             j = xy(pa_)
-            ax.plot(*j, marker="o", markersize=7, markerfacecolor="white", markeredgecolor="0.15", zorder=6, linestyle="none")
+            pen.mark(j, **JOINT)
             obs.points.append((j, 4.0))
     for f in problem.frames:  # parent's origin to the joint: the parent's; joint to origin: the frame's
         a = frames[f.parent].position if f.parent in frames else origin
@@ -510,41 +545,42 @@ def _draw(
             if (fixed and ghost) or np.allclose(pa, pb, rtol=0.0, atol=1e-12):
                 continue
             width = 5.0 if fixed else (2.5 if not ghost else 1.5)
-            ax.plot([pa[0], pb[0]], [pa[1], pb[1]], color="0.75" if fixed else link_color, linewidth=width, alpha=alpha, zorder=z - (1 if fixed else 0), solid_capstyle="round")
+            pen.line(pa, pb, color="0.75" if fixed else link_color, linewidth=width, alpha=alpha, zorder=z - (1 if fixed else 0), capstyle="round")
             segment(pa, pb)
     for p in placed:
         if p.kind in ("body", "counter_mass"):
             pf, pc = xy(frames[p.frame].position if p.frame in frames else origin), xy(p.position)
             width = 0.9 if p.kind == "body" else 1.6
-            ax.plot([pf[0], pc[0]], [pf[1], pc[1]], color=link_color, linewidth=width, alpha=alpha * 0.8, zorder=z - 1)
+            pen.line(pf, pc, color=link_color, linewidth=width, alpha=alpha * 0.8, zorder=z - 1)
             segment(pf, pc)
     if ghost:  # the corner poses: links and small faint masses, no labels
         for p in placed:
             if p.kind in ("body", "counter_mass"):
-                ax.plot(*xy(p.position), marker="o" if p.kind == "body" else "s", markersize=3.5, color="0.55", alpha=0.45, zorder=1, linestyle="none")
+                pen.mark(xy(p.position), marker="o" if p.kind == "body" else "s", markersize=3.5, color="0.55", alpha=0.45, zorder=1)
         return
     cmap, norm, heaviest, payloads, unset = style["cmap"], style["norm"], style["heaviest"], style["payloads"], style["unset"]
     view, requests = style["view"], style["requests"]
     for points, offset in style["brackets"]:  # parallelograms: the second bar and the brackets at the joints
         main_bar = np.array([xy(p) for p in points])
         second = np.array([xy(p + offset) for p in points])
-        ax.plot(second[:, 0], second[:, 1], color="tab:purple", linewidth=1.4, linestyle="--", zorder=z, alpha=0.9)
+        for q0, q1 in zip(second[:-1], second[1:]):
+            pen.line(q0, q1, color="tab:purple", linewidth=1.4, linestyle="--", zorder=z, alpha=0.9)
         for q0, q1 in zip(main_bar, second):
-            ax.plot([q0[0], q1[0]], [q0[1], q1[1]], color="tab:purple", linewidth=2.2, zorder=z + 1, solid_capstyle="round")
+            pen.line(q0, q1, color="tab:purple", linewidth=2.2, zorder=z + 1, capstyle="round")
             segment(q0, q1)
         for q0, q1 in zip(second[:-1], second[1:]):
             segment(q0, q1)
     ground = xy(origin)
-    ax.plot(*ground, marker="^", markersize=14, color="0.4", zorder=2, linestyle="none")
+    pen.mark(ground, marker="^", markersize=14, color="0.4", zorder=2)
     obs.points.append((ground, 7.0))
     for f in problem.frames:
         if f.subsystem is None and f.parent in (GROUND, None):
             g = xy(frames[f.name].position)
-            ax.plot(*g, marker="^", markersize=10, color="0.4", zorder=2, linestyle="none")
+            pen.mark(g, marker="^", markersize=10, color="0.4", zorder=2)
             obs.points.append((g, 5.0))
     for position in joints.values():
         j = xy(position)
-        ax.plot(*j, marker="o", markersize=7, markerfacecolor="white", markeredgecolor="0.15", zorder=6, linestyle="none")
+        pen.mark(j, **JOINT)
         obs.points.append((j, 4.0))
     merged: dict[tuple[str, float, float], _Request] = {}
 
@@ -583,13 +619,13 @@ def _draw(
         line = _zigzag(pa, pb, amplitude=amplitude)
         ax.plot(line[:, 0], line[:, 1], color=color, linewidth=1.6, zorder=6)
         obs.segments.append((pa, pb))
-        ax.plot(*pb, marker="o", markersize=3, color=color, zorder=6, linestyle="none")
+        pen.mark(pb, marker="o", markersize=3, color=color, zorder=6)
         if springs[name].direct is None:  # the pulley at the from point, the string running to the to point
-            ax.plot(*pa, marker="o", markersize=9, markerfacecolor="white", markeredgecolor=color, markeredgewidth=1.6, zorder=7, linestyle="none")
-            ax.plot(*pa, marker="o", markersize=2, color=color, zorder=8, linestyle="none")
+            pen.mark(pa, marker="o", markersize=9, markerfacecolor="white", markeredgecolor=color, markeredgewidth=1.6, zorder=7)
+            pen.mark(pa, marker="o", markersize=2, color=color, zorder=8)
             obs.points.append((pa, 5.0))
         else:
-            ax.plot(*pa, marker="o", markersize=3, color=color, zorder=6, linestyle="none")
+            pen.mark(pa, marker="o", markersize=3, color=color, zorder=6)
         label("spring", 0.5 * (pa + pb), name, a.force if chosen else None, f" {_fmt_force(a.force)}" if chosen else ": part not chosen")
     requests.extend(merged.values())
 
