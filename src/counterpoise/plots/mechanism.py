@@ -59,7 +59,7 @@ RADII = (3.0, 8.0, 14.0, 22.0, 32.0, 45.0, 60.0, 80.0, 105.0, 135.0, 170.0)
 DIRECTIONS = 16
 LEADER = 12.0  # a label further than this from its point gets a leader line (pixels)
 #: what covering costs a label, in pixels of distance: a marker, 5 px of a line, another label's point
-MARKER_COST, LINE_COST, ANCHOR_COST = 25.0, 6.0, 60.0
+MARKER_COST, LINE_COST, ANCHOR_COST = 40.0, 6.0, 60.0
 #: order in which labels are placed (first: most important)
 PRIORITY = {"spring": 0, "counter_mass": 1, "payload": 2, "frame": 3}
 STYLE = {"frame": "0.3", "counter_mass": "0.05", "spring": "0.15", "payload": "darkgreen"}
