@@ -129,7 +129,8 @@ def design_drawing(result: "DesignResult", folder: str | Path) -> Drawing:
     if result.parts is not None and problem.slots:
         parts = "; parts " + ", ".join(f"{s.name}: {s.catalogue.part_number[result.parts.chosen[s.name]]}" for s in problem.slots if s.name in result.parts.chosen)
     title = f"{problem.name}: {result.status.value} design"
-    note = f"spring forces from the design{parts}" if problem.springs else ""
+    where = f"; shown in scenario {scenario.name}" if len(problem.scenarios) > 1 else ""
+    note = f"spring forces from the design{parts}{where}" if problem.springs else where.lstrip("; ")
     return mechanism_drawing(problem, folder, variables, None, title, parameters, note, parts_known)
 
 
