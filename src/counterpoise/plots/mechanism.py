@@ -308,7 +308,7 @@ def mechanism_drawing(
         )
         pen.flush()
         ax.set_aspect("equal", adjustable="datalim")
-        ax.margins(0.08)
+        ax.margins(0.12)  # room for the largest markers (a counter-mass square is ~32 px wide) and labels at the edge
         ax.grid(alpha=0.25)
         ax.set_xlabel(f"{_axis_name(h)} [{unit}]")
         ax.set_ylabel(f"{_axis_name(v)} [{unit}]")
