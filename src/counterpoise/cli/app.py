@@ -294,19 +294,31 @@ AtOpt = Annotated[
 ]
 
 
+DesignOpt = Annotated[
+    Optional[Path],
+    typer.Option(
+        "--design",
+        help="A solved design: the folder solve wrote (results/<problem>). Its variables and chosen parts are shown, "
+        "with the parts' spring forces; without it, the file's initial values.",
+        show_default=False,
+    ),
+]
+
+
 @app.command()
 def frames(
     file: Annotated[Path, typer.Argument(help="Problem file (TOML).", show_default=False)],
     at: AtOpt = None,
     csv: Annotated[bool, typer.Option("--csv", help="Print CSV instead of a table.")] = False,
     set_: SetOpt = None,
+    design: DesignOpt = None,
 ) -> None:
     """Print the world position of every frame, centre of mass, counter-mass and spring end."""
     from .mechanism import AtError, frames_table
 
     problem = _load_all([file], _overrides(set_))[0]
     try:
-        frames_table(problem, at, csv, out_console)
+        frames_table(problem, at, csv, out_console, design, _err_line)
     except AtError as exc:
         err_console.print(f"{file}: {exc}", markup=False)
         raise typer.Exit(2) from None
@@ -318,13 +330,14 @@ def draw(
     at: AtOpt = None,
     out: Annotated[Path, typer.Option("--out", help="Folder for <problem>/mechanism.png.")] = Path("results"),
     set_: SetOpt = None,
+    design: DesignOpt = None,
 ) -> None:
     """Draw the mechanism (a kinematic sketch) at home and at the corners of its ranges."""
     from .mechanism import AtError, draw_files
 
     problem = _load_all([file], _overrides(set_))[0]
     try:
-        paths = draw_files(problem, at, out)
+        paths = draw_files(problem, at, out, design)
     except AtError as exc:
         err_console.print(f"{file}: {exc}", markup=False)
         raise typer.Exit(2) from None
