@@ -160,7 +160,7 @@ class Designer:
             refined = Designer(self.problem, self._ipopt_options, self.backend_choice, extra)
             refined._round = self._round + 1
             self._refined = refined
-            start = dict(solution.values) if solution.status is Status.OPTIMAL else initial
+            start = dict(solution.values)
             return refined.solve(start, parameters, bounds, certify)
         if certify:
             solution.certificate_gap = self._certificate_gap(solution, p, b)
