@@ -191,7 +191,7 @@ def _check_extremes(ctx: Context, tree: ex.Expr, raw: str, key: str, has_lower: 
         spring = call.args[0].id  # type: ignore[union-attr]
         raise ctx.fail(
             f"{key.rsplit('.', 1)[0]}.{other}",
-            f"'{raw}' may only have an {side} bound: {call.func}({spring}) {'≤' if side == 'upper' else '≥'} a bound holds at every "
+            f"'{raw}' may only have {'an upper' if side == 'upper' else 'a lower'} bound: {call.func}({spring}) {'≤' if side == 'upper' else '≥'} a bound holds at every "
             f"configuration, the other side would hold at one configuration only (bound {call.func.split('_')[0]}_"
             f"{'min' if call.func.endswith('max') else 'max'}({spring}) instead)",
         )
