@@ -260,3 +260,24 @@ def test_so_arm100_spring_stays_within_its_limit(so_arm):
     force, _ = spring_force_length(mechanics(problem, coords, values), problem.springs[0])
     assert np.max(force) <= 25.0 * (1 + 1e-6)
     assert np.max(force) > 1.0  # the spring does carry the arm
+
+
+def test_verification_round_adds_the_extreme_between_samples():
+    """With φ ∈ [−120°, 60°] the spring's longest stretch (φ = −90°, |A − B| = 0.2 m) lies
+    inside the range, between the sampled configurations: the sampled rows alone would allow
+    k a little above 75 N/m. The dense check (its best sample polished by a pattern search)
+    finds φ = −90° where the limit is exceeded, adds it and solves again: k* = 75 N/m to
+    rounding, and the pull at exactly −90°, 0.2 k, is 15 N."""
+    from counterpoise.designer.designer import Designer
+
+    builder = spring_lp()
+    builder.subsystem("arm", phi=("-120 deg", "60 deg"))
+    problem = builder.build()
+    designer = Designer(problem)
+    result = design(problem, designer=designer)
+    assert designer._refined is not None  # at least one verification round
+    k = next(v for s, v in result.solution.values.items() if s.variable == "k")
+    assert 0.2 * k <= 15.0 * (1 + 1e-9)
+    assert k == pytest.approx(75.0, rel=1e-9)
+    limit = _value(result, "s.max_force")
+    assert limit.active == "upper" and limit.configuration["phi"] == pytest.approx(-np.pi / 2, abs=1e-5)
