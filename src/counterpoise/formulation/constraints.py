@@ -128,6 +128,8 @@ class ConstraintRows:
     lbg: np.ndarray
     ubg: np.ndarray
     groups: list[RowGroup] = field(default_factory=list)
+    #: dense configurations per (spring, scenario), drawn once (see :func:`dense_sample`)
+    dense: dict[tuple[str, str], np.ndarray] = field(default_factory=dict)
 
     @property
     def count(self) -> int:
@@ -308,7 +310,13 @@ def evaluate(problem: Problem, solution: Any, rows: ConstraintRows | None, multi
                 spring = springs[call.args[0].id]  # type: ignore[union-attr]
                 quantity, side = SPRING_EXTREMES[call.func]
                 group = groups.get((con.name, scenario.name))
-                qs = [dense[(spring.name, scenario.name)] if dense and (spring.name, scenario.name) in dense else dense_sample(problem, spring, scenario.name)]
+                key = (spring.name, scenario.name)
+                cache = rows.dense if rows is not None else {}
+                if dense and key in dense:
+                    cache[key] = dense[key]
+                elif key not in cache:
+                    cache[key] = dense_sample(problem, spring, scenario.name)
+                qs = [cache[key]]
                 if group is not None and group.configurations is not None:
                     qs.append(group.configurations)
                 q = np.vstack([x.reshape(-1, qs[0].shape[1]) for x in qs])
