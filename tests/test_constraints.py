@@ -197,7 +197,7 @@ def test_design_csv_and_status_name_the_binding_limit(tmp_path, capsys):
     row = next(line for line in text.splitlines() if line.startswith("s.max_force,"))
     assert ",constraint," in row and ",upper," in row and "d(objective)/d(upper bound)" in row
     status = next((tmp_path / "out").rglob("status.txt")).read_text(encoding="utf-8")
-    assert "binding: s.max_force = 15 N at its upper bound (at phi=-90 deg)" in status
+    assert "binding: s.max_force: spring s pulls 15 N, its largest force (at phi=-90 deg)" in status
 
 
 # -- input errors -------------------------------------------------------------------------

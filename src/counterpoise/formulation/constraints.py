@@ -29,7 +29,7 @@ from ..mechanics.closure import manifold_configurations, scenario_base
 from ..mechanics.kinematics import dot, sub
 from ..mechanics.sampling import configurations
 from ..model import expr as ex
-from ..model.constraints import COUNTER_MASS_HOME, SPRING_EXTREMES, Constraint
+from ..model.constraints import COUNTER_MASS_HOME, FORCE_LIMIT, SPRING_EXTREMES, Constraint
 from ..model.elements import ZeroFreeLengthSpring
 from ..model.functions import NUMPY_FUNCTIONS
 from ..model.problem import Problem
@@ -371,7 +371,9 @@ def describe(problem: Problem, v: ConstraintValue) -> str:
     u = v.constraint.unit
     bound = v.upper if v.active == "upper" else v.lower
     text = f"{v.name} = {u.from_si(v.value):.6g} {u.label}".rstrip()
-    if v.active in ("upper", "lower") and bound is not None:
+    if v.constraint.kind == FORCE_LIMIT and v.active == "upper":
+        text = f"{v.name}: spring {v.constraint.spring} pulls {u.from_si(v.value):.6g} {u.label}, its largest force"
+    elif v.active in ("upper", "lower") and bound is not None:
         text += f" at its {v.active} bound"
     elif v.active == "violated":
         limit = v.upper if v.upper is not None and v.value > v.upper else v.lower
