@@ -281,3 +281,17 @@ def test_verification_round_adds_the_extreme_between_samples():
     assert k == pytest.approx(75.0, rel=1e-9)
     limit = _value(result, "s.max_force")
     assert limit.active == "upper" and limit.configuration["phi"] == pytest.approx(-np.pi / 2, abs=1e-5)
+
+
+def test_shipped_problem_with_an_active_constraint():
+    """problems/ur5_counter_mass_inertia_cap.toml: minimising the added mass alone would run
+    both extensions to their 500 mm bounds; the cap ΣM b² ≤ 3 kg m² binds instead, the
+    design balances, and raising the cap can only lower the mass (sensitivity < 0)."""
+    result = design(load_problem(PROBLEMS / "ur5_counter_mass_inertia_cap.toml"))
+    assert result.status is Status.OPTIMAL
+    cap = _value(result, "inertia_cap")
+    assert cap.active == "upper" and cap.value <= 3.0 * (1 + 1e-9)
+    assert result.solution.added_inertia == pytest.approx(cap.value, rel=1e-12)
+    assert cap.sensitivity < 0
+    extensions = [v for s, v in result.solution.values.items() if s.variable in ("b_u", "b_f")]
+    assert min(extensions) < 0.5  # at least one extension pulled in from its bound
