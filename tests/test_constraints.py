@@ -295,3 +295,55 @@ def test_shipped_problem_with_an_active_constraint():
     assert cap.sensitivity < 0
     extensions = [v for s, v in result.solution.values.items() if s.variable in ("b_u", "b_f")]
     assert min(extensions) < 0.5  # at least one extension pulled in from its bound
+
+
+DIRECT = """
+[problem]
+name = "direct_arm"
+[gravity]
+acceleration = "9.81 m/s^2"
+direction = [0, -1, 0]
+[parameters]
+m = "1 kg"
+r = "0.2 m"
+[variables.k]
+lower = "0 N/m"
+upper = "2000 N/m"
+initial = "200 N/m"
+[variables.y]
+lower = "0.05 m"
+upper = "0.5 m"
+initial = "0.2 m"
+[variables.b]
+lower = "0.01 m"
+upper = "0.3 m"
+initial = "0.1 m"
+[subsystems.arm]
+coordinates.phi = { range = ["-45 deg", "55 deg"] }
+[frames.link]
+transforms = [{ rotate = "z", angle = "phi" }]
+[bodies.link]
+frame = "link"
+mass = "m"
+com = ["r", 0, 0]
+[springs.s]
+stiffness = "k"
+mount = "direct"
+free_length = "5 cm"
+max_force = "25 N"
+from = { frame = "ground", point = [0, "y", 0] }
+to = { frame = "link", point = ["b", 0, 0] }
+[constraints.strong_at_home]
+expression = "force_home(s)"
+lower = "30 N"
+"""
+
+
+def test_minimax_conflicting_constraints_are_named(tmp_path):
+    """A directly attached spring (minimax designer): pulling ≥ 30 N at home and at most
+    25 N anywhere cannot both hold (the pull at home is one of the pulls over the range)."""
+    path = tmp_path / "direct.toml"
+    path.write_text(DIRECT, encoding="utf-8")
+    result = design(load_problem(path))
+    assert result.status is Status.INFEASIBLE
+    assert "strong_at_home" in result.message or "s.max_force" in result.message

@@ -202,7 +202,12 @@ class MinimaxDesigner:
         if not ok:
             unmet = [v for v in solution.constraints if v.active == "violated"]
             if unmet:
-                solution.message += "; at the solver's last point the constraints are not met: " + "; ".join(describe(self.problem, v) for v in unmet[:3])
+                # the worst residual ratio is free (t), so only the constraints can make this infeasible
+                text = "; ".join(describe(self.problem, v) for v in unmet[:3])
+                if out.status is Status.INFEASIBLE:
+                    solution.verdict = (Status.INFEASIBLE, f"infeasible: the constraints cannot all hold: at the solver's last point {text}")
+                else:
+                    solution.message += f"; at the solver's last point the constraints are not met: {text}"
         add = violations(self.problem, solution.constraints)
         if add and self._round < MAX_ROUNDS:
             extra = {k: np.vstack([self._extra[k], v]) if k in self._extra else v for k, v in {**self._extra, **add}.items()}

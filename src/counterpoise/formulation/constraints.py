@@ -376,8 +376,9 @@ def describe(problem: Problem, v: ConstraintValue) -> str:
     elif v.active in ("upper", "lower") and bound is not None:
         text += f" at its {v.active} bound"
     elif v.active == "violated":
-        limit = v.upper if v.upper is not None and v.value > v.upper else v.lower
-        text += f" beyond its bound {u.from_si(limit):.6g} {u.label}" if limit is not None else " violated"
+        above = v.upper is not None and v.value > v.upper
+        limit = v.upper if above else v.lower
+        text += f" beyond its {'upper' if above else 'lower'} bound {u.from_si(limit):.6g} {u.label}" if limit is not None else " violated"
     if v.configuration:
         at = ", ".join(f"{n}={problem.coordinate[n].unit.from_si(x):.4g} {problem.coordinate[n].unit.label}".rstrip() for n, x in v.configuration.items())
         text += f" (at {at})"
