@@ -347,3 +347,34 @@ def test_minimax_conflicting_constraints_are_named(tmp_path):
     result = design(load_problem(path))
     assert result.status is Status.INFEASIBLE
     assert "strong_at_home" in result.message or "s.max_force" in result.message
+
+
+def test_named_quantities_by_hand(limited):
+    """At the LP design (k = 75 N/m, M = 0.49419 kg), home φ = 0 (the middle of the range):
+    B = (0.1, 0) m, A = (0, 0.1) m, so length_home = 0.1·√2 m and force_home = k·0.1·√2;
+    over φ ∈ [−90°, 90°], |A − B|² = 0.02 − 0.02 sin φ: length_max = 0.2 m (φ = −90°) and
+    length_min = 0 (φ = 90°, the ends meet), force_min = 0; the counter-mass sits at
+    (−0.25, 0, 0) m at home; a report quantity M·b = 0.25 M kg m."""
+    b = spring_lp(
+        lh={"expression": "length_home(s)", "upper": "1 m"},
+        fh={"expression": "force_home(s)", "upper": "100 N"},
+        lx={"expression": "length_max(s)", "upper": "1 m"},
+        ln={"expression": "length_min(s)", "lower": "-1 m"},
+        fn={"expression": "force_min(s)", "lower": "-1 N"},
+        xh={"expression": "x_home(cm)", "lower": "-1 m"},
+        yh={"expression": "y_home(cm) + z_home(cm)", "lower": "-1 m"},
+        mo={"expression": "moment", "upper": "1 kg*m"},
+        am={"expression": "added_mass()", "upper": "1 kg"},
+    )
+    b.report("moment", "M * b", unit="kg*m")
+    result = design(b.build())
+    k = next(v for s, v in result.solution.values.items() if s.variable == "k")
+    M = _mass(result)
+    assert k == pytest.approx(75.0, rel=1e-9)
+    expected = {
+        "lh": 0.1 * np.sqrt(2), "fh": k * 0.1 * np.sqrt(2), "lx": 0.2, "ln": 0.0, "fn": 0.0,
+        "xh": -0.25, "yh": 0.0, "mo": 0.25 * M, "am": M,
+    }
+    for name, value in expected.items():
+        assert _value(result, name).value == pytest.approx(value, rel=1e-9, abs=1e-9), name
+        assert _value(result, name).active == "", name

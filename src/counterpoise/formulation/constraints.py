@@ -45,6 +45,8 @@ ACTIVE_TOLERANCE = 1e-6
 VIOLATION_TOLERANCE = 1e-7
 #: verification rounds: add the violating configurations and solve again, at most this often
 MAX_ROUNDS = 4
+#: a spring's length is sqrt(d·d + LENGTH_FLOOR²) (m): differentiable where its ends meet
+LENGTH_FLOOR = 1e-12
 
 Extra = Mapping[tuple[str, str], np.ndarray]  # (spring, scenario) -> configurations (N, n_q)
 
@@ -53,7 +55,8 @@ def spring_force_length(mech: Mechanics, spring: ZeroFreeLengthSpring) -> tuple[
     """(pull, distance between the ends) of ``spring``: k·d through a pulley (zero free
     length), F0 + k·(d − cable − L0) attached directly."""
     d = sub(mech.position(spring.ends[0]), mech.position(spring.ends[1]))
-    length = mech.functions["sqrt"](dot(d, d))
+    # + LENGTH_FLOOR²: a finite derivative where the ends meet (a length error ≤ 1e-12 m)
+    length = mech.functions["sqrt"](dot(d, d) + LENGTH_FLOOR**2)
     k = mech.value(spring.stiffness)
     if spring.direct is None:
         return k * length, length
