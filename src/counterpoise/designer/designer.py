@@ -26,7 +26,7 @@ from ..solvers.base import Bounds, SolverOutput, Status
 from ..solvers.ipopt import IPOPT_DEFAULTS, IpoptBackend
 from ..threads import limit_blas_threads
 from . import convex
-from ..formulation.constraints import MAX_ROUNDS, ConstraintRows, Extra, build_rows, evaluate, violations
+from ..formulation.constraints import MAX_ROUNDS, ConstraintRows, Extra, build_rows, evaluate, merge, violations
 from .constrained import BALANCEABLE_BUT_INFEASIBLE, attach_constraints, name_conflict, rows_multipliers
 from .solution import Solution, build_solution
 
@@ -156,7 +156,7 @@ class Designer:
         if add and self._round < MAX_ROUNDS:
             # a workspace extreme beyond its bound between the sampled configurations: add
             # the dense check's worst configurations to the rows and solve again from here
-            extra = {k: np.vstack([self._extra[k], v]) if k in self._extra else v for k, v in {**self._extra, **add}.items()}
+            extra = merge(self._extra, add)
             refined = Designer(self.problem, self._ipopt_options, self.backend_choice, extra)
             refined._round = self._round + 1
             self._refined = refined
@@ -171,6 +171,8 @@ class Designer:
         other = for_geometry(self, parameters, lambda problem: Designer(problem, self._ipopt_options, self.backend_choice))
         if other is not self:
             return other.certify(solution, parameters, bounds)  # type: ignore[no-any-return]
+        if self._refined is not None:
+            return self._refined.certify(solution, parameters, bounds)
         p = self.formulation.parameters.values(parameters) if parameters else self.parameters
         solution.certificate_gap = self._certificate_gap(solution, p, self.bounds(self.n_equalities, bounds))
         return solution

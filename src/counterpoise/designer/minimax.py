@@ -39,7 +39,7 @@ from ..model.problem import Problem
 from ..solvers.base import Bounds, SolverOutput, Status
 from ..solvers.ipopt import IPOPT_DEFAULTS, IpoptBackend
 from ..threads import limit_blas_threads
-from ..formulation.constraints import MAX_ROUNDS, ConstraintRows, Extra, build_rows, describe, violations
+from ..formulation.constraints import MAX_ROUNDS, ConstraintRows, Extra, build_rows, describe, merge, violations
 from .constrained import attach_constraints, rows_multipliers
 from .solution import Solution, build_solution
 
@@ -210,7 +210,7 @@ class MinimaxDesigner:
                     solution.message += f"; at the solver's last point the constraints are not met: {text}"
         add = violations(self.problem, solution.constraints)
         if add and self._round < MAX_ROUNDS:
-            extra = {k: np.vstack([self._extra[k], v]) if k in self._extra else v for k, v in {**self._extra, **add}.items()}
+            extra = merge(self._extra, add)
             refined = MinimaxDesigner(self.problem, self._ipopt_options, extra)
             refined._round = self._round + 1
             self._refined = refined

@@ -322,7 +322,7 @@ def evaluate(problem: Problem, solution: Any, rows: ConstraintRows | None, multi
                 qs = [cache[key]]
                 if group is not None and group.configurations is not None:
                     qs.append(group.configurations)
-                q = np.vstack([x.reshape(-1, qs[0].shape[1]) for x in qs])
+                q = np.vstack([x.reshape(-1, qs[0].shape[1]) for x in qs]) if qs[0].shape[1] else qs[0]
                 extreme_value, i, _ = _extreme(problem, spring, quantity, side, base, gravity, variables, q)
                 best = q[i]
                 if spring.subsystem is not None and not problem.subsystem_loops(spring.subsystem):
@@ -364,9 +364,19 @@ def violations(problem: Problem, values: Sequence[ConstraintValue]) -> dict[tupl
         if call is None or v.active != "violated" or v.configuration is None:
             continue
         spring = springs[call.args[0].id]  # type: ignore[union-attr]
-        names = [k.name for k in problem.subsystem_coordinates(spring.subsystem)] if spring.subsystem else []
+        if spring.subsystem is None:
+            continue  # no coordinates: the rows already hold the one configuration there is
+        names = [k.name for k in problem.subsystem_coordinates(spring.subsystem)]
         out.setdefault((spring.name, v.scenario), []).append([v.configuration[n] for n in names])
     return {k: np.array(x, dtype=float) for k, x in out.items()}
+
+
+def merge(extra: Extra, add: Extra) -> dict[tuple[str, str], np.ndarray]:
+    """``extra`` with the configurations ``add`` appended (per (spring, scenario))."""
+    out = {k: np.asarray(v, dtype=float) for k, v in extra.items()}
+    for k, v in add.items():
+        out[k] = np.vstack([out[k], v]) if k in out else np.asarray(v, dtype=float)
+    return out
 
 
 def describe(problem: Problem, v: ConstraintValue) -> str:
