@@ -87,15 +87,16 @@ def name_conflict(designer: "Designer", z: np.ndarray, p: np.ndarray, b: Bounds)
     missed = [(float(s[j]), g) for j, g in enumerate(rows.groups) if s[j] > SLACK_TOLERANCE]
     if not missed:
         return ""
-    parts = []
-    seen = set()
-    for amount, g in sorted(missed, key=lambda t: -t[0]):
+    by_name: dict[str, tuple[float, list[str], Any]] = {}
+    for amount, g in missed:
         c = g.constraint
-        label = c.name if len(designer.problem.scenarios) == 1 else f"{c.name} (scenario '{g.scenario}')"
-        if label in seen:
-            continue
-        seen.add(label)
-        parts.append(f"{label} (missed by {c.unit.from_si(amount * g.scale):.4g} {c.unit.label})".replace(" )", ")"))
+        worst, scenarios, _ = by_name.get(c.name, (0.0, [], c))
+        by_name[c.name] = (max(worst, amount * g.scale), [*scenarios, g.scenario], c)
+    parts = []
+    n_scenarios = len(designer.problem.scenarios)
+    for name, (amount, scenarios, c) in sorted(by_name.items(), key=lambda t: -t[1][0] / max(abs(t[1][2].upper or 0), abs(t[1][2].lower or 0), 1e-300)):
+        where = "" if n_scenarios == 1 or len(set(scenarios)) == n_scenarios else f" in scenario{'s' if len(scenarios) > 1 else ''} {', '.join(repr(x) for x in scenarios)}"
+        parts.append(f"{name}{where} (missed by {c.unit.from_si(amount):.4g} {c.unit.label})".replace(" )", ")"))
     return "infeasible: the constraints cannot all hold together with the balance: " + ", ".join(parts) + (
         " (the smallest total relaxation that balances; relax or remove these)"
     )
