@@ -378,3 +378,23 @@ def test_named_quantities_by_hand(limited):
     for name, value in expected.items():
         assert _value(result, name).value == pytest.approx(value, rel=1e-9, abs=1e-9), name
         assert _value(result, name).active == "", name
+
+
+def test_two_scenarios_share_one_constraint_row(tmp_path):
+    """M adjustable per scenario (m = 1 kg and 1.5 kg), b shared and ≤ 0.3 m: M_s = m_s r / b,
+    the objective is the scenarios' average added mass (1.25 × 0.2 / b), so b* = 0.3 m and
+    ∂(objective)/∂L = −1.25 · 0.2 / 0.09 = −2.7778 kg/m, the sum of both scenarios' shares.
+    The constraint's value is the same in both: one design.csv row."""
+    from counterpoise.pipeline import design as run_design
+    from counterpoise.report.rows import design_rows
+
+    b = housing()
+    b.variable("M", "0 kg", "10 kg", adjustable=True)
+    b.scenario("light", {"m": "1 kg"}).scenario("heavy", {"m": "1.5 kg"})
+    result = run_design(b.build())
+    assert result.status is Status.OPTIMAL
+    rows = [r for r in design_rows(result) if r["kind"] == "constraint"]
+    assert len(rows) == 1 and rows[0]["scenario"] == "" and rows[0]["active_bound"] == "upper"
+    total = sum(v.sensitivity for v in result.solution.constraints)
+    assert total == pytest.approx(-1.25 * 0.2 / 0.09, rel=1e-6)
+    assert f"{total * 1e-3:.6g} per mm" in rows[0]["description"]

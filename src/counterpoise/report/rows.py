@@ -119,14 +119,25 @@ def constraint_rows(result: DesignResult) -> list[Row]:
     and, for an active one, the sensitivity of the optimal objective to its bound."""
     problem = result.problem
     rows: list[Row] = []
-    several = len(problem.scenarios) > 1
-    for v in result.solution.constraints:
+    values = list(result.solution.constraints)
+    by_name: dict[str, list[Any]] = {}
+    for v in values:
+        by_name.setdefault(v.name, []).append(v)
+    # like report quantities: one row when every scenario agrees (value and mark), else one per scenario
+    shown = []
+    for group in by_name.values():
+        first = group[0]
+        same = all(v.active == first.active and (v.value == first.value or abs(v.value - first.value) <= 1e-12 * abs(first.value)) for v in group)
+        # one bound for every scenario: the objective's sensitivity to it is the sum of theirs
+        total = sum(v.sensitivity for v in group)
+        shown += [(first, "", total)] if same else [(v, v.scenario, v.sensitivity) for v in group]
+    for v, scenario, sensitivity in shown:
         c = v.constraint
         u = c.unit
         text = c.description
-        if v.active in ("lower", "upper") and v.sensitivity == v.sensitivity:
+        if v.active in ("lower", "upper") and sensitivity == sensitivity:
             # ∂objective/∂bound: objective units (kg) per SI unit of the constraint -> per display unit
-            per = v.sensitivity * u.to_si
+            per = sensitivity * u.to_si
             text = f"{text}; " if text else ""
             text += f"d(objective)/d({v.active} bound) = {per:.6g} per {u.label}"
         if v.configuration:
@@ -136,7 +147,7 @@ def constraint_rows(result: DesignResult) -> list[Row]:
             {
                 "name": c.name,
                 "kind": "constraint",
-                "scenario": v.scenario if several else "",
+                "scenario": scenario,
                 "value": u.from_si(v.value),
                 "unit": u.label,
                 "lower": u.from_si(c.lower) if c.lower is not None else None,
