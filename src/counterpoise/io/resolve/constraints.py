@@ -115,11 +115,12 @@ def constraints(
                 if not q.si > 0:
                     raise ctx.fail(key, "must be positive")
                 limit = (q.si, "max_force in the file")
-                newton = q.unit if q.unit.symbol else newton
+                limit_unit = q.unit
             elif spring.slot is None and _designed(ctx, spring):
                 limit = designed_spring_force_limit(spring)
+                limit_unit = newton
             if limit is not None:
-                out.append(force_limit(spring.name, limit[0], newton, limit[1]))
+                out.append(force_limit(spring.name, limit[0], limit_unit, limit[1]))
     ctx.check()
     return tuple(out)
 
