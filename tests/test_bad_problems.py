@@ -185,6 +185,16 @@ MANIFEST: dict[str, Expect] = {
     "unknown_key_typo_angel.toml": Expect("frames.link_b.transforms.1.angel", "unknown key (did you mean 'angle'?)"),
     "unknown_key_typo_transform.toml": Expect("frames.link_a.transform", "unknown key (did you mean 'transforms'?)"),
     "unknown_key_typo_stifness.toml": Expect("springs.s.stifness", "unknown key (did you mean 'stiffness'?)"),
+    # design constraints ([constraints.<name>])
+    "constraint_unknown_name.toml": Expect("constraints.cap.expression", "unknown name 'M_q' in 'M_a + M_q'"),
+    "constraint_function_not_allowed.toml": Expect("constraints.cap.expression", "function 'open' is not allowed"),
+    "constraint_bound_dimension.toml": Expect("constraints.cap.upper", "'300 mm' is a length but 'M_a + M_b' is a mass"),
+    "constraint_no_bounds.toml": Expect("constraints.cap", "give lower and/or upper"),
+    "constraint_unknown_counter_mass.toml": Expect("constraints.inside.expression", "unknown counter-mass 'M_z' in 'x_home(M_z)'"),
+    "constraint_spring_without_springs.toml": Expect("constraints.pull.expression", "unknown spring 'M_a' in 'force_max(M_a)' (the problem has no spring)"),
+    "constraint_lower_above_upper.toml": Expect("constraints.cap", "lower 3 kg is greater than upper 2 kg"),
+    "constraint_inconsistent_units.toml": Expect("constraints.cap.expression", "inconsistent units in 'M_a + b_a'"),
+    "constraint_total_with_argument.toml": Expect("constraints.cap.expression", "added_mass() takes no argument"),
     # every error of a file, one line each
     "frame_two_unknown_parents.toml": Expect(
         "frames.link_b.parent",

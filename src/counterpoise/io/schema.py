@@ -173,6 +173,7 @@ class SpringSpec(_Table):
     initial_tension: Value | None = None
     max_length: Value | None = None
     cable: Value | None = None
+    max_force: Value | None = None  # the spring's largest force (a limit of the design)
     from_: PointSpec = Field(alias="from")
     to: PointSpec
     description: str = ""
@@ -237,6 +238,20 @@ class ReportSpec(_Table):
     expression: str
     unit: str = ""
     description: str = ""
+
+
+# -- constraints (engineer "constraints"; kept in one block) ---------------------------
+class ConstraintSpec(_Table):
+    """``lower ≤ expression ≤ upper`` on the design (see problems/README.md, docs/constraints.md)."""
+
+    expression: str
+    lower: Value | None = None
+    upper: Value | None = None
+    unit: str | None = None  # display unit of design.csv (default: the bounds' unit)
+    description: str = ""
+
+
+# -- end constraints -------------------------------------------------------------------
 
 
 class ScenarioSpec(_Table):
@@ -316,6 +331,7 @@ class ProblemFile(_Table):
     variables: dict[Name, VariableSpec] = Field(default_factory=dict)
     objective: ObjectiveEntry = Field(default_factory=ObjectiveSpec)
     report: dict[Name, ReportSpec] = Field(default_factory=dict)
+    constraints: dict[Name, ConstraintSpec] = Field(default_factory=dict)
     scenarios: dict[Name, ScenarioSpec] = Field(default_factory=dict)
     payloads: dict[Name, PayloadSpec] = Field(default_factory=dict)
     settings: SettingsSpec = Field(default_factory=SettingsSpec)

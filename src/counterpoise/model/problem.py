@@ -12,6 +12,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
 
+from .constraints import Constraint
 from .elements import CounterMass, ZeroFreeLengthSpring
 from .expr import Expr
 from .loops import Loop
@@ -165,6 +166,8 @@ class Problem:
     slots: tuple[SpringSlot, ...] = ()  # catalogue slots (their names are base parameters: the rates)
     selection: SelectionSettings = field(default_factory=SelectionSettings)
     loops: tuple[Loop, ...] = ()  # closures of closed chains (counterpoise.model.loops)
+    #: design constraints: the file's [constraints] and the springs' force limits (model.constraints)
+    constraints: tuple[Constraint, ...] = ()
 
     @cached_property
     def frame(self) -> Mapping[str, Frame]:

@@ -93,6 +93,7 @@ def design_rows(result: DesignResult) -> list[Row]:
                 "description": v.description,
             }
         )
+    rows += constraint_rows(result)
     units = {q.name: q for q in problem.report}
     for qv in result.quantities:
         q = units[qv.name]
@@ -107,6 +108,52 @@ def design_rows(result: DesignResult) -> list[Row]:
                 "upper": None,
                 "active_bound": "",
                 "description": q.description,
+            }
+        )
+    return rows
+
+
+def constraint_rows(result: DesignResult) -> list[Row]:
+    """One ``constraint`` row per design constraint (and scenario, when there are several):
+    its value at the design, its bounds, ``active_bound`` (lower, upper, violated or empty)
+    and, for an active one, the sensitivity of the optimal objective to its bound."""
+    problem = result.problem
+    rows: list[Row] = []
+    values = list(result.solution.constraints)
+    by_name: dict[str, list[Any]] = {}
+    for v in values:
+        by_name.setdefault(v.name, []).append(v)
+    # like report quantities: one row when every scenario agrees (value and mark), else one per scenario
+    shown = []
+    for group in by_name.values():
+        first = group[0]
+        same = all(v.active == first.active and (v.value == first.value or abs(v.value - first.value) <= 1e-12 * abs(first.value)) for v in group)
+        # one bound for every scenario: the objective's sensitivity to it is the sum of theirs
+        total = sum(v.sensitivity for v in group)
+        shown += [(first, "", total)] if same else [(v, v.scenario, v.sensitivity) for v in group]
+    for v, scenario, sensitivity in shown:
+        c = v.constraint
+        u = c.unit
+        text = c.description
+        if v.active in ("lower", "upper") and sensitivity == sensitivity:
+            # ∂objective/∂bound: objective units (kg) per SI unit of the constraint -> per display unit
+            per = sensitivity * u.to_si
+            text = f"{text}; " if text else ""
+            text += f"d(objective)/d({v.active} bound) = {per:.6g} per {u.label}"
+        if v.configuration:
+            at = ", ".join(f"{n}={problem.coordinate[n].unit.from_si(x):.6g} {problem.coordinate[n].unit.label}".rstrip() for n, x in v.configuration.items())
+            text = f"{text}; extreme at {at}" if text else f"extreme at {at}"
+        rows.append(
+            {
+                "name": c.name,
+                "kind": "constraint",
+                "scenario": scenario,
+                "value": u.from_si(v.value),
+                "unit": u.label,
+                "lower": u.from_si(c.lower) if c.lower is not None else None,
+                "upper": u.from_si(c.upper) if c.upper is not None else None,
+                "active_bound": v.active,
+                "description": text,
             }
         )
     return rows
