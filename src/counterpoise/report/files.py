@@ -36,21 +36,21 @@ from .rows import (
 FLOAT_FORMAT = "%.10g"
 
 
-def _cell(value: object) -> object:
+def _cell(value: object, float_format: str = FLOAT_FORMAT) -> object:
     if value is None:
         return ""
     if isinstance(value, float):
-        return "" if math.isnan(value) else FLOAT_FORMAT % value
+        return "" if math.isnan(value) else float_format % value
     return value
 
 
-def csv_text(rows: Iterable[Row], columns: Sequence[str]) -> str:
+def csv_text(rows: Iterable[Row], columns: Sequence[str], float_format: str = FLOAT_FORMAT) -> str:
     """CSV text with a header line; cells in ``columns`` order."""
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
     writer.writerow(columns)
     for row in rows:
-        writer.writerow([_cell(row.get(c)) for c in columns])
+        writer.writerow([_cell(row.get(c), float_format) for c in columns])
     return buffer.getvalue()
 
 
@@ -123,7 +123,8 @@ def atomic_folder(folder: Path, fill: Callable[[Path], None]) -> Path:
 def report_texts(result: DesignResult) -> dict[str, str]:
     """File name -> text of every report of ``result`` (substitution.csv only when the
     problem substitutes a body; payload problems add ``schedule.csv``; problems with
-    catalogue parts ``springs.csv`` and ``tolerance.csv``)."""
+    catalogue parts ``springs.csv`` and ``tolerance.csv``; problems with springs or
+    counter-masses ``build.csv``, :mod:`.build`)."""
     texts = {
         "design.csv": csv_text(design_rows(result) + parts.part_design_rows(result), DESIGN_COLUMNS),
         "summary.csv": csv_text([summary_row(result)], SUMMARY_COLUMNS),
@@ -144,6 +145,10 @@ def report_texts(result: DesignResult) -> dict[str, str]:
     if result.parts is not None:
         texts["springs.csv"] = csv_text(parts.springs_rows(result), parts.SPRINGS_COLUMNS)
         texts["tolerance.csv"] = csv_text(parts.tolerance_rows(result), parts.TOLERANCE_COLUMNS)
+    if result.problem.springs or result.problem.counter_masses:
+        from .build import BUILD_COLUMNS, BUILD_FLOAT_FORMAT, build_rows
+
+        texts["build.csv"] = csv_text(build_rows(result), BUILD_COLUMNS, BUILD_FLOAT_FORMAT)
     return texts
 
 
