@@ -70,9 +70,11 @@ def realise(
     """The realisation of a spring of ``rate`` k whose ends are ``distance_*`` apart.
 
     ``cable`` None: a pulley mount (the cable is then d_max, see the module docstring);
-    a number: a direct mount through that cable.
+    a number: a direct mount through that cable. Home is a configuration of the workspace:
+    the extremes are widened to hold it (a sample of configurations may miss it).
     """
     k, l0, f0 = rate, free_length, initial_tension
+    distance_min, distance_max = min(distance_min, distance_home), max(distance_max, distance_home)
     if cable is None:
         offset = l0 - f0 / k if k > 0 else NAN  # L = d + L0 − F0/k
         lengths = (distance_home + offset, distance_min + offset, distance_max + offset)

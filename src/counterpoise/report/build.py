@@ -114,18 +114,28 @@ def _point_row(mech: Mechanics, kind: str, name: str, point: Point, subsystem: s
 
 
 def workspace_distances(result: DesignResult) -> dict[str, tuple[float, float]]:
-    """Per spring: the smallest and largest distance between its ends over the configurations
-    the dense verification checked, in every scenario (no new sampling: its cached sample)."""
-    from ..selection.geometry import spring_lengths
+    """Per spring: the smallest and largest distance between its ends, in every scenario.
+
+    Open chains: over the configurations ``springs.csv`` takes its extremes on
+    (:func:`counterpoise.selection.parts.spring_extremes`: the dense sample, seed + 11).
+    Closed loops: over the assembled configurations the dense verification checked (its
+    evaluators are cached: assembling a new sample would cost more than the rest of the page).
+    """
+    from ..selection.geometry import sample_configurations, spring_lengths
     from ..verify.check import evaluators
 
     problem = result.problem
     names = [s.name for s in problem.springs]
     if not names:
         return {}
-    by_scenario: dict[str, dict[str, np.ndarray]] = {}
-    for scenario, subsystem, evaluator in evaluators(result.solution):
-        by_scenario.setdefault(scenario, {})[subsystem] = evaluator.q
+    settings = problem.settings
+    by_scenario: dict[str, Mapping[str, np.ndarray]] = {}
+    if problem.loops:
+        for scenario, subsystem, evaluator in evaluators(result.solution):
+            by_scenario.setdefault(scenario, {})[subsystem] = evaluator.q  # type: ignore[index]
+    else:
+        sample = sample_configurations(problem, settings.verify_samples, settings.seed + 11)
+        by_scenario = {s.name: sample for s in problem.scenarios}
     out: dict[str, tuple[float, float]] = {}
     for scenario, q in by_scenario.items():
         values = result.solution.variable_values(scenario)
