@@ -152,12 +152,13 @@ def report_texts(result: DesignResult) -> dict[str, str]:
     return texts
 
 
-def write_reports(result: DesignResult, out_dir: str | Path, extra: Callable[[Path], object] | None = None) -> Path:
+def write_reports(result: DesignResult, out_dir: str | Path, extra: Callable[[Path], object] | None = None, html: bool = False) -> Path:
     """Write every report of ``result`` into ``out_dir/<problem name>/``; returns that folder.
 
     The folder appears whole or not at all (:func:`atomic_folder`): it replaces what was
     there (reports of an earlier run included) only once every file is written.
-    ``extra(folder)`` writes more files into it first (the CLI's ``--plot``).
+    ``extra(folder)`` writes more files into it first (the CLI's ``--plot``). ``html``: then
+    ``report.html``, the page of every file and plot in the folder (:mod:`.html`).
     """
     texts = report_texts(result)  # built before anything is written
 
@@ -167,5 +168,12 @@ def write_reports(result: DesignResult, out_dir: str | Path, extra: Callable[[Pa
                 handle.write(text)
         if extra is not None:
             extra(temp)
+        if html:
+            from .html import IMAGES, report_html
+
+            images = {name: (temp / name).read_bytes() for name, *_ in IMAGES if (temp / name).is_file()}
+            page = report_html(result.problem.name, result.problem.title, result.status.value, texts, images)
+            with (temp / "report.html").open("w", encoding="utf-8", newline="") as handle:
+                handle.write(page)
 
     return atomic_folder(Path(out_dir) / result.problem.name, fill)
