@@ -16,7 +16,7 @@ import subprocess
 
 import pytest
 
-from conftest import solved
+from conftest import ROOT, solved
 
 from counterpoise.report.files import write_reports
 
@@ -137,3 +137,29 @@ def test_page_loads_no_external_resource_and_every_image_decodes(page, tmp_path)
     assert seen["images"] == 2 and seen["broken"] == 0
     assert seen["tables"] >= 7  # summary, three build tables, springs, verification, tolerance, design
     assert [r for r in seen["requests"] if not r.startswith(("data:", "file:"))] == []
+
+
+def test_solve_writes_the_page_by_default_and_report_csv_leaves_it_out(tmp_path, capsys):
+    """``solve`` writes report.html unless ``--report csv``, on the light path and in the
+    typer app alike; another value is refused: exit 2, one line, nothing written."""
+    from counterpoise.cli import main
+    from counterpoise.cli.app import main as app_main
+    from counterpoise.cli.light import parse_solve
+
+    problem = str(ROOT / "problems" / "yasir2019_counter_mass.toml")
+    assert parse_solve(["solve", problem, "--report", "csv"]).report == "csv"
+    assert parse_solve(["solve", problem]).report == "html"
+    assert parse_solve(["solve", problem, "--report", "pdf"]) is None  # the app says what is wrong
+    runs = ((main, tmp_path / "a", [], True), (main, tmp_path / "b", ["--report=csv"], False), (app_main, tmp_path / "c", ["--report", "csv"], False), (app_main, tmp_path / "e", [], True))
+    for entry, out, extra, page in runs:
+        with pytest.raises(SystemExit) as exit_:
+            entry(["solve", problem, "--out", str(out), *extra])
+        assert exit_.value.code == 0
+        folder = out / "yasir2019_counter_mass"
+        assert (folder / "build.csv").is_file() and (folder / "report.html").is_file() == page
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as exit_:
+        main(["solve", problem, "--out", str(tmp_path / "d"), "--report", "pdf"])
+    assert exit_.value.code == 2
+    assert capsys.readouterr().err.strip() == "--report: expected one of html, csv, got 'pdf'"
+    assert not (tmp_path / "d").exists()
