@@ -26,22 +26,19 @@ IMAGES = (
 
 #: build.csv columns shown in the page's three build tables (the file has them all)
 POINT_COLUMNS = ("item", "kind", "name", "frame", "x_mm", "y_mm", "z_mm", "world_x_mm", "world_y_mm", "world_z_mm", "value", "unit", "note")
-SPRING_COLUMNS = (
+SPRING_COLUMNS = ("item", "name", "part_number", "rate_N_per_mm", "free_length_mm", "initial_tension_N", "cable_mm", "subsystem")
+SPRING_RANGE_COLUMNS = (
     "item",
     "name",
-    "part_number",
-    "rate_N_per_mm",
-    "free_length_mm",
-    "initial_tension_N",
     "distance_home_mm",
-    "cable_mm",
+    "distance_min_mm",
+    "distance_max_mm",
     "length_home_mm",
     "length_min_mm",
     "length_max_mm",
     "force_home_N",
     "force_min_N",
     "force_max_N",
-    "note",
 )
 ADJUSTMENT_COLUMNS = ("item", "name", "value", "unit", "range_min", "range_max", "note")
 
@@ -62,7 +59,8 @@ nav a { margin-right: 0.9em; color: #1f5fa8; text-decoration: none; }
 table { border-collapse: collapse; font-size: 0.84em; margin: 0.3em 0 0.8em; }
 caption { text-align: left; color: #4a5560; padding: 0.2em 0; }
 th, td { border: 1px solid #d5dbe1; padding: 0.22em 0.5em; vertical-align: top; }
-th { background: #eef2f5; text-align: left; white-space: nowrap; }
+th { background: #eef2f5; text-align: left; font-weight: 600; }
+td.nw { white-space: nowrap; }
 td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
 tr:nth-child(even) td { background: #f8fafb; }
 table.kv th { width: 16em; }
@@ -103,19 +101,35 @@ def _number(cell: str) -> str | None:
     return f"{value:.6g}"
 
 
+#: text cells up to this long are kept on one line (names, part numbers); notes wrap
+SHORT = 24
+
+
 def _cell(cell: str) -> str:
     shown = _number(cell) if cell else None
     if shown is not None:
         return f'<td class="num">{html.escape(shown)}</td>'
-    return f"<td>{html.escape(cell)}</td>"
+    return f'<td class="nw">{html.escape(cell)}</td>' if len(cell) <= SHORT else f"<td>{html.escape(cell)}</td>"
+
+
+#: a column name's unit suffix -> how a header shows it
+SUFFIXES = (("_N_per_mm", " (N/mm)"), ("_kg_m2", " (kg m²)"), ("_N_m", " (N·m)"), ("_mm", " (mm)"), ("_kg", " (kg)"), ("_N", " (N)"), ("_s", " (s)"))
+
+
+def label(column: str) -> str:
+    """A CSV column name as a header: ``force_home_N`` -> ``force home (N)``."""
+    for suffix, shown in SUFFIXES:
+        if column.endswith(suffix):
+            return column[: -len(suffix)].replace("_", " ") + shown
+    return column.replace("_", " ")
 
 
 def table(columns: Sequence[str], rows: Sequence[Mapping[str, str]], caption: str = "", drop_empty: bool = True) -> str:
     """An HTML table of ``rows`` (CSV cells) in ``columns`` order; columns empty in every row
-    are left out (``drop_empty``)."""
+    are left out (``drop_empty``). Headers show the CSV names with their unit in brackets."""
     if drop_empty:
         columns = [c for c in columns if any(r.get(c, "") for r in rows)]
-    head = "".join(f"<th>{html.escape(c)}</th>" for c in columns)
+    head = "".join(f'<th title="{html.escape(c)}">{html.escape(label(c))}</th>' for c in columns)
     body = "".join("<tr>" + "".join(_cell(r.get(c, "") or "") for c in columns) + "</tr>" for r in rows)
     cap = f"<caption>{html.escape(caption)}</caption>" if caption else ""
     return f'<div class="wrap"><table>{cap}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table></div>'
@@ -154,7 +168,13 @@ def _build_section(text: str) -> str:
     if points:
         parts.append("<h3>Anchor points, pulleys and counter-masses</h3>" + table(POINT_COLUMNS, points))
     if springs:
-        parts.append("<h3>Springs</h3>" + table(SPRING_COLUMNS, springs))
+        notes = "".join(f"<li><strong>{html.escape(r.get('name', ''))}</strong>: {html.escape(r.get('note', ''))}</li>" for r in springs)
+        parts.append(
+            "<h3>Springs</h3>"
+            + table(SPRING_COLUMNS, springs, "the part (empty: a designed spring), its rate, free length L0 and initial tension F0, the cable")
+            + table(SPRING_RANGE_COLUMNS, springs, "the distance d of the anchors, the spring's own length and its force: at home, least and most over the workspace")
+            + f'<ul class="note">{notes}</ul>'
+        )
     if adjustments:
         parts.append("<h3>Adjustments</h3>" + table(ADJUSTMENT_COLUMNS, adjustments))
     return "".join(parts)
