@@ -25,7 +25,7 @@ IMAGES = (
 )
 
 #: build.csv columns shown in the page's three build tables (the file has them all)
-POINT_COLUMNS = ("item", "kind", "name", "frame", "x_mm", "y_mm", "z_mm", "world_x_mm", "world_y_mm", "world_z_mm", "value", "unit", "note")
+POINT_COLUMNS = ("item", "kind", "name", "frame", "x_mm", "y_mm", "z_mm", "world_x_mm", "world_y_mm", "world_z_mm", "value", "unit")
 SPRING_COLUMNS = ("item", "name", "part_number", "rate_N_per_mm", "free_length_mm", "initial_tension_N", "cable_mm", "subsystem")
 SPRING_RANGE_COLUMNS = (
     "item",
@@ -75,6 +75,9 @@ pre { background: #f5f7f9; border: 1px solid #e3e7eb; padding: 0.7em; white-spac
   nav { display: none; }
   h2 { break-after: avoid; page-break-after: avoid; }
   table { font-size: 7.5pt; }
+  table.wide { font-size: 5.5pt; }
+  table.wide th, table.wide td { padding: 0.1em 0.25em; }
+  td.nw { white-space: normal; }
   thead { display: table-header-group; }
   tr, figure, img { break-inside: avoid; page-break-inside: avoid; }
   .wrap { overflow: visible; }
@@ -101,6 +104,8 @@ def _number(cell: str) -> str | None:
     return f"{value:.6g}"
 
 
+#: a table of more columns than this prints in a smaller font (springs.csv has ~20)
+WIDE = 12
 #: text cells up to this long are kept on one line (names, part numbers); notes wrap
 SHORT = 24
 
@@ -132,7 +137,8 @@ def table(columns: Sequence[str], rows: Sequence[Mapping[str, str]], caption: st
     head = "".join(f'<th title="{html.escape(c)}">{html.escape(label(c))}</th>' for c in columns)
     body = "".join("<tr>" + "".join(_cell(r.get(c, "") or "") for c in columns) + "</tr>" for r in rows)
     cap = f"<caption>{html.escape(caption)}</caption>" if caption else ""
-    return f'<div class="wrap"><table>{cap}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table></div>'
+    wide = ' class="wide"' if len(columns) > WIDE else ""
+    return f'<div class="wrap"><table{wide}>{cap}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table></div>'
 
 
 def csv_table(text: str, caption: str = "") -> str:
@@ -166,7 +172,16 @@ def _build_section(text: str) -> str:
         "the spring's length is d + L0 − F0/k and it pulls k·d. Lengths and forces at home and over the workspace.</p>"
     ]
     if points:
-        parts.append("<h3>Anchor points, pulleys and counter-masses</h3>" + table(POINT_COLUMNS, points))
+        notes = "".join(
+            f"<li><strong>{html.escape(r.get('item', ''))} {html.escape(r.get('name', ''))}</strong>: {html.escape(r.get('note', ''))}</li>"
+            for r in points
+            if r.get("note") and r.get("kind") != "counter_mass"
+        )
+        parts.append(
+            "<h3>Anchor points, pulleys and counter-masses</h3>"
+            + table(POINT_COLUMNS, points, "x, y, z in the named frame; world at home; value: a pulley's cable length, a counter-mass's mass")
+            + (f'<ul class="note">{notes}</ul>' if notes else "")
+        )
     if springs:
         notes = "".join(f"<li><strong>{html.escape(r.get('name', ''))}</strong>: {html.escape(r.get('note', ''))}</li>" for r in springs)
         parts.append(
