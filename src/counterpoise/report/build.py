@@ -116,36 +116,43 @@ def _point_row(mech: Mechanics, kind: str, name: str, point: Point, subsystem: s
 def workspace_distances(result: DesignResult) -> dict[str, tuple[float, float]]:
     """Per spring: the smallest and largest distance between its ends, in every scenario.
 
-    Open chains: over the configurations ``springs.csv`` takes its extremes on
-    (:func:`counterpoise.selection.parts.spring_extremes`: the dense sample, seed + 11).
-    Closed loops: over the assembled configurations the dense verification checked (its
-    evaluators are cached: assembling a new sample would cost more than the rest of the page).
+    Open chains: over the configurations ``springs.csv`` takes its extremes on (the dense
+    sample of :func:`counterpoise.selection.geometry.sample_configurations`, seed + 11,
+    drawn here the same way without importing the selection layer). Closed loops: over the
+    assembled configurations the dense verification checked (its evaluators are cached:
+    assembling a new sample would cost more than the rest of the page).
     """
-    from ..selection.geometry import sample_configurations, spring_lengths
+    from ..mechanics.sampling import configurations
     from ..verify.check import evaluators
 
     problem = result.problem
-    names = [s.name for s in problem.springs]
-    if not names:
+    if not problem.springs:
         return {}
     settings = problem.settings
-    by_scenario: dict[str, Mapping[str, np.ndarray]] = {}
+    by_scenario: dict[str, dict[str, np.ndarray]] = {}
     if problem.loops:
         for scenario, subsystem, evaluator in evaluators(result.solution):
-            by_scenario.setdefault(scenario, {})[subsystem] = evaluator.q  # type: ignore[index]
+            by_scenario.setdefault(scenario, {})[subsystem] = evaluator.q
     else:
-        sample = sample_configurations(problem, settings.verify_samples, settings.seed + 11)
+        rng = np.random.default_rng(settings.seed + 11)
+        sample = {s.name: configurations(problem, s.name, settings.verify_samples, rng) for s in problem.subsystems}
         by_scenario = {s.name: sample for s in problem.scenarios}
     out: dict[str, tuple[float, float]] = {}
     for scenario, q in by_scenario.items():
-        values = result.solution.variable_values(scenario)
-        variables = {k: np.array([[v]]) for k, v in values.items()}
         gravity, base = result.solution.scenario_parameters[scenario]
-        lengths = spring_lengths(problem, names, q, variables, base, gravity)
-        for name in names:
-            lo, hi = float(lengths[name].min()), float(lengths[name].max())
-            old = out.get(name)
-            out[name] = (lo, hi) if old is None else (min(old[0], lo), max(old[1], hi))
+        variables = result.solution.variable_values(scenario)
+        for s in problem.springs:
+            if s.subsystem is not None and s.subsystem in q:
+                columns = q[s.subsystem]
+                coordinates = {c.name: columns[:, i] for i, c in enumerate(problem.subsystem_coordinates(s.subsystem))}
+            else:  # fixed to ground at both ends: one configuration
+                coordinates = {c.name: c.home for c in problem.coordinates}
+            mech = Mechanics(problem, base, variables, coordinates, gravity)
+            a, b = mech.position(s.ends[0]), mech.position(s.ends[1])
+            d = np.sqrt(sum(np.asarray(x - y, dtype=float) ** 2 for x, y in zip(a, b)))
+            lo, hi = float(np.min(d)), float(np.max(d))
+            old = out.get(s.name)
+            out[s.name] = (lo, hi) if old is None else (min(old[0], lo), max(old[1], hi))
     return out
 
 
