@@ -175,3 +175,28 @@ def test_build_sheet_is_written_with_the_reports(tmp_path, sheets):
         expected = float(r["distance_home_mm"]) + float(r["free_length_mm"]) - float(r["initial_tension_N"]) / k
         assert float(r["length_home_mm"]) == pytest.approx(expected, rel=1e-9)
         assert r["part_number"]
+
+
+def test_realise_pulley_and_direct_mounts_by_hand():
+    """mechanics/realisation.py on numbers worked by hand.
+
+    Pulley: k = 0.5 N/mm, L0 = 80 mm, F0 = 5 N, anchors 100 mm apart at home, 50-200 mm over
+    the workspace. L − d = L0 − F0/k = 80 − 10 = 70 mm: installed length 170 mm at home; the
+    cable is d_max = 200 mm, 100 mm of it behind the pulley at home; the fixed end sits
+    200 + 70 = 270 mm behind the pulley; forces k·d = 50 N at home, 25-100 N.
+    Direct: k = 0.1 N/mm, L0 = 50 mm, F0 = 2 N, cable 30 mm, d = 100 mm: L = 70 mm,
+    F = 2 + 0.1·(70 − 50) = 4 N. A home outside the sampled range (d = 40 mm < 50 mm) widens it.
+    """
+    from counterpoise.mechanics.realisation import DIRECT, PULLEY, realise
+
+    p = realise(500.0, 0.1, 0.05, 0.2, 0.08, 5.0)
+    assert p.mount == PULLEY
+    assert (p.cable, p.length_home, p.cable_behind_home, p.anchor_distance) == pytest.approx((0.2, 0.17, 0.1, 0.27), rel=1e-12)
+    assert (p.length_min, p.length_max) == pytest.approx((0.12, 0.27), rel=1e-12)
+    assert (p.force_home, p.force_min, p.force_max) == pytest.approx((50.0, 25.0, 100.0), rel=1e-12)
+    d = realise(100.0, 0.1, 0.1, 0.1, 0.05, 2.0, cable=0.03)
+    assert d.mount == DIRECT and d.pulley is None
+    assert (d.length_home, d.force_home) == pytest.approx((0.07, 4.0), rel=1e-12)
+    wide = realise(500.0, 0.04, 0.05, 0.2)
+    assert (wide.distance_min, wide.force_min) == pytest.approx((0.04, 20.0), rel=1e-12)
+    assert math.isnan(wide.length_home)  # a designed spring: L0 and F0 not chosen yet

@@ -16,14 +16,22 @@ Two mounts exist (``[springs.<name>] mount``):
 A designed spring whose free length and initial tension are not known yet (free stiffness,
 no catalogue part) has only its rate: its force k·d is known, its own length is not (NaN).
 
-:func:`realise` is the one place these figures are computed; the build sheet
-(:mod:`counterpoise.report.build`) and the drawing may both use it.
+:func:`realise` is the one place these figures are computed, :func:`realise_spring` the
+one place a model spring is evaluated for it (ends, pulley, rate, a direct mount's data);
+the build sheet (:mod:`counterpoise.report.build`) and a drawing may both use them.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from ..model.elements import ZeroFreeLengthSpring
+    from .energy import Mechanics
+
+Point3 = tuple[float, float, float]
 
 PULLEY = "pulley"
 DIRECT = "direct"
@@ -51,6 +59,14 @@ class Realisation:
     #: pulley: distance from the pulley to the spring's fixed end along the cable's run
     #: behind it (C + L0 − F0/k); direct: NaN
     anchor_distance: float
+    #: world positions of the ``from`` and ``to`` points at the configuration evaluated
+    #: (:func:`realise_spring`; empty from :func:`realise` alone)
+    ends: tuple[Point3, ...] = ()
+
+    @property
+    def pulley(self) -> Point3 | None:
+        """A pulley mount's pulley (world, at the ``from`` point); None for a direct mount."""
+        return self.ends[0] if self.mount == PULLEY and self.ends else None
 
     @property
     def cable_behind_home(self) -> float:
@@ -83,6 +99,30 @@ def realise(
     lengths = (distance_home - cable, distance_min - cable, distance_max - cable)
     forces = tuple(f0 + k * (length - l0) for length in lengths)
     return Realisation(DIRECT, k, l0, f0, distance_home, distance_min, distance_max, cable, *lengths, *forces, NAN)  # type: ignore[arg-type]
+
+
+def realise_spring(
+    mech: "Mechanics",
+    spring: "ZeroFreeLengthSpring",
+    distances: tuple[float, float] | None = None,
+    free_length: float = NAN,
+    initial_tension: float = NAN,
+) -> Realisation:
+    """The realisation of ``spring`` at the configuration of ``mech`` (its home, for a build
+    sheet): the rate and ends evaluated there, ``distances`` the (least, largest) distance
+    of its ends over the workspace (None: this configuration's only). ``free_length`` and
+    ``initial_tension``: a pulley mount's part (NaN: not chosen yet); a direct mount takes
+    its own from the model."""
+    rate = float(mech.value(spring.stiffness))
+    ends = tuple(tuple(float(c) for c in mech.position(p)) for p in spring.ends)
+    d = math.dist(ends[0], ends[1])
+    lo, hi = distances if distances is not None else (d, d)
+    cable = None
+    if spring.direct is not None:
+        free_length = float(mech.value(spring.direct.free_length))
+        initial_tension = float(mech.value(spring.direct.initial_tension))
+        cable = float(mech.value(spring.direct.cable))
+    return replace(realise(rate, d, lo, hi, free_length, initial_tension, cable), ends=ends)  # type: ignore[arg-type]
 
 
 def finite(value: float) -> float | None:

@@ -24,7 +24,7 @@ import numpy as np
 
 from ..mechanics.energy import Mechanics
 from ..mechanics.poses import assembled
-from ..mechanics.realisation import DIRECT, Realisation, finite, realise
+from ..mechanics.realisation import DIRECT, Realisation, finite, realise_spring
 from ..model import expr as ex
 from ..model.mechanism import Point, Rotation
 from ..model.problem import Problem
@@ -171,23 +171,15 @@ def realisations(result: DesignResult, mech: Mechanics | None = None) -> dict[st
     extremes = workspace_distances(result) if need else {}
     out: dict[str, tuple[Realisation, str]] = {}
     for s in problem.springs:
-        k = float(mech.value(s.stiffness))
-        ends = [_floats(mech.position(p)) for p in s.ends]
-        d_home = math.dist(ends[0], ends[1])
         l0 = f0 = math.nan
         part = ""
         if s.slot is not None and parts is not None and s.slot in parts.chosen:
             i = parts.chosen[s.slot]
             cat = slots[s.slot].catalogue
             l0, f0, part = float(cat.free_length[i]), float(cat.initial_tension[i]), str(cat.part_number[i])
-        cable = None
-        if s.direct is not None:
-            l0 = float(mech.value(s.direct.free_length))
-            f0 = float(mech.value(s.direct.initial_tension))
-            cable = float(mech.value(s.direct.cable))
         use = uses.get(s.name)
-        lo, hi = (use.distance_min, use.distance_max) if use is not None else extremes[s.name]
-        out[s.name] = (realise(k, d_home, lo, hi, l0, f0, cable), part)
+        distances = (use.distance_min, use.distance_max) if use is not None else extremes[s.name]
+        out[s.name] = (realise_spring(mech, s, distances, l0, f0), part)
     return out
 
 
