@@ -163,3 +163,18 @@ def test_solve_writes_the_page_by_default_and_report_csv_leaves_it_out(tmp_path,
     assert exit_.value.code == 2
     assert capsys.readouterr().err.strip() == "--report: expected one of html, csv, got 'pdf'"
     assert not (tmp_path / "d").exists()
+
+
+def test_page_of_a_payload_range_holds_its_schedule(tmp_path):
+    """A payload range with a catalogue part (woo2019_hybrid_catalogue): the page adds the
+    schedule and the tolerance report, and every report file in the folder is on it."""
+    result = solved("woo2019_hybrid_catalogue")
+    folder = write_reports(result, tmp_path, html=True)
+    text = (folder / "report.html").read_text(encoding="utf-8")
+    for section in ("summary", "build", "springs", "verification", "tolerance", "schedule", "design"):
+        assert f'<section id="{section}">' in text, section
+    shown = {"summary.csv": "summary", "build.csv": "build", "springs.csv": "springs", "verification.csv": "verification",
+             "tolerance.csv": "tolerance", "schedule.csv": "schedule", "design.csv": "design"}
+    assert sorted(p.name for p in folder.glob("*.csv")) == sorted(shown)
+    # the adjustments set per payload (the counter-mass levers dL_c1, dL_c2) have their table
+    assert "<h3>Adjustments</h3>" in text and "dL_c1" in text and "dL_c2" in text
