@@ -38,7 +38,7 @@ def test_design_and_summary_columns(tmp_path):
     # quantities have no bounds
     assert (design[design["kind"] == "quantity"]["lower"] == "").all()
     # no temporary files are left behind
-    assert sorted(p.name for p in folder.iterdir()) == ["design.csv", "status.txt", "summary.csv", "verification.csv"]
+    assert sorted(p.name for p in folder.iterdir()) == ["build.csv", "design.csv", "status.txt", "summary.csv", "verification.csv"]
 
 
 def test_verification_table_one_row_per_condition(tmp_path):

@@ -122,15 +122,22 @@ def solve(
     set_: SetOpt = None,
     plot: Annotated[bool, typer.Option("--plot", help="Also write energy.png (energies and residual torque) and mechanism.png (the mechanism with its design) next to the reports.")] = False,
     starts: Annotated[int, typer.Option("--starts", help="Seeded multi-start over the free geometry: number of starts.")] = 1,
+    report: Annotated[
+        str, typer.Option("--report", help="html: also write report.html, one self-contained page of the design (docs/build.md); csv: the CSV files only.")
+    ] = "html",
 ) -> None:
     """Solve problem files and write their reports."""
+    from .light import REPORTS
     from .run import solve_all
 
     if starts < 1:
         err_console.print(f"--starts: must be at least 1, got {starts}", markup=False)
         raise typer.Exit(2)
+    if report not in REPORTS:
+        err_console.print(f"--report: expected one of {', '.join(REPORTS)}, got '{report}'", markup=False)
+        raise typer.Exit(2)
     problems = _load_all(files, _overrides(set_))
-    rows, worst = solve_all(problems, out, plot, starts, _err_line)
+    rows, worst = solve_all(problems, out, plot, starts, _err_line, html=report == "html")
     _print_summary(rows)
     raise typer.Exit(worst)
 

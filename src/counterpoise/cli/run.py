@@ -45,9 +45,10 @@ def load_all(files: list[Path], overrides: Mapping[str, object], err: Err) -> li
     return problems
 
 
-def solve_all(problems: list[Any], out: Path, plot: bool, starts: int, err: Err) -> tuple[list[dict[str, Any]], int]:
+def solve_all(problems: list[Any], out: Path, plot: bool, starts: int, err: Err, html: bool = True) -> tuple[list[dict[str, Any]], int]:
     """Design, verify and write every problem (``plot``: energy.png and mechanism.png in its
-    folder before the folder appears); the summary rows and the worst exit status."""
+    folder before the folder appears; ``html``: report.html, the page of the folder, last);
+    the summary rows and the worst exit status."""
     from ..errors import CounterpoiseError
     from ..pipeline import design
     from ..report.files import write_reports
@@ -72,7 +73,7 @@ def solve_all(problems: list[Any], out: Path, plot: bool, starts: int, err: Err)
                     energy_plot(result, folder)
                     design_mechanism_plot(result, folder)
 
-            folder = write_reports(result, out, extra)
+            folder = write_reports(result, out, extra, html=html)
         except OSError as exc:
             err(f"{problem.path}: cannot write reports to {out}: {exc.strerror or exc}")
             worst = max(worst, 1)
