@@ -6,10 +6,12 @@ Pure data, no pandas: the CLI writes them with the standard library (:mod:`.file
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 from ..pipeline import DesignResult
-from ..verify.checks import PRISMATIC, REVOLUTE
+from ..model.problem import Problem
+from ..verify.checks import PRISMATIC, REVOLUTE, CoordinateCheck
 
 Row = dict[str, Any]
 
@@ -138,6 +140,15 @@ def summary_row(result: DesignResult) -> Row:
     }
 
 
+def _scenario_label(problem: Problem, check: CoordinateCheck) -> str:
+    """A check's scenario; on a tilting base, the working mode checked at random tilts
+    ('nominal (all tilts)'), since one check covers every node of its tilt grid."""
+    if not check.worst_tilt:
+        return check.scenario
+    own = next((s for s in problem.scenarios if s.name == check.scenario), None)
+    return f"{own.setting if own is not None and own.setting else check.scenario} (all tilts)"
+
+
 def verification_rows(result: DesignResult) -> list[Row]:
     """One row per (subsystem, scenario, coordinate) balance condition."""
     problem = result.problem
@@ -147,7 +158,7 @@ def verification_rows(result: DesignResult) -> list[Row]:
         rows.append(
             {
                 "subsystem": c.subsystem,
-                "scenario": c.scenario,
+                "scenario": _scenario_label(problem, c),
                 "coordinate": c.coordinate,
                 "max_residual": c.max_residual,
                 "max_gravity_torque": c.max_gravity_torque,
@@ -157,7 +168,8 @@ def verification_rows(result: DesignResult) -> list[Row]:
                 "worst_configuration": "; ".join(
                     f"{k.name}={k.unit.from_si(x):.6g} {k.unit.label}".rstrip()
                     for k, x in zip(problem.subsystem_coordinates(c.subsystem), c.worst_configuration)
-                ),
+                )
+                + "".join(f"; tilt{i + 1}={math.degrees(a):.6g} deg" for i, a in enumerate(c.worst_tilt)),
             }
         )
     return rows

@@ -74,7 +74,8 @@ def _resolve(ctx: Context) -> Problem:
     slots = parts.slots(ctx, catalogues, slot_springs)
     selection = parts.selection(ctx)
     gravity = quantities.gravity(ctx, spec.gravity, "gravity")
-    scenarios = quantities.scenarios(ctx, gravity, parameters)
+    tilts = quantities.tilts(ctx, spec.gravity)
+    scenarios = quantities.tilted_scenarios(quantities.scenarios(ctx, gravity, parameters), tilts)
     objective = quantities.objective(ctx)
     reports = report.report(ctx, subsystems, by_name)
     meta = spec.problem
@@ -101,4 +102,5 @@ def _resolve(ctx: Context) -> Problem:
         slots=slots,
         selection=selection,
         loops=closures,
+        tilts=tilts,
     )
