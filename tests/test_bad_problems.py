@@ -130,6 +130,9 @@ MANIFEST: dict[str, Expect] = {
     # spatial mechanisms, working modes, substitution (issue 6)
     "rotation_zero_axis.toml": Expect("frames.link_a.transforms.0.rotate", "the rotation axis must not be the zero vector"),
     "gravity_zero_direction.toml": Expect("gravity.direction", "must be a non-zero vector"),
+    # a tilting base (issue 23)
+    "tilt_bare_angles.toml": Expect("gravity.tilt[0].range", "bare numbers used as an angle: write ['-15 deg', '15 deg']"),
+    "tilt_zero_axis.toml": Expect("gravity.tilt[1].axis", "must be a non-zero vector"),
     "scenario_unknown_parameter.toml": Expect("scenarios.long.parameters.r_aa", "unknown parameter 'r_aa' (did you mean 'r_a'?)"),
     "substitution_impossible.toml": Expect(
         "substitutions.tip", "no substitution exists for body 'tip': its centre of mass must lie on the line through the two points"
