@@ -113,3 +113,28 @@ def test_cli_two_files_with_one_problem_name_exit_2(tmp_path):
     assert run.returncode == 2
     assert run.stderr.strip().startswith(f"{copy}: problem.name: 'yasir2019_counter_mass' is also the name of")
     assert not out.exists()
+
+
+def test_energy_plot_does_not_magnify_rounding_noise():
+    """Issue 24: a flat residual of 1e-15 filled its panel with zig-zags. The axis is kept at
+    least ±tolerance × reference wide, so the noise stays a flat line."""
+    import numpy as np
+
+    from counterpoise.plots._mpl import pyplot
+    from counterpoise.plots.energy import _floor_axis
+
+    plt = pyplot()
+    fig, ax = plt.subplots()
+    noise = 1e-15 * np.sin(np.arange(50.0))
+    ax.plot(noise)
+    _floor_axis(ax, [noise], 1e-8 * 2.0)
+    lo, hi = ax.get_ylim()
+    assert lo <= -2e-8 and hi >= 2e-8
+    fig2, ax2 = plt.subplots()
+    big = np.linspace(-1, 1, 10)
+    ax2.plot(big)
+    before = ax2.get_ylim()
+    _floor_axis(ax2, [big], 1e-8)  # a real curve keeps its own scale
+    assert ax2.get_ylim() == before
+    plt.close(fig)
+    plt.close(fig2)
