@@ -122,6 +122,7 @@ def solve(
     set_: SetOpt = None,
     plot: Annotated[bool, typer.Option("--plot", help="Also write energy.png (energies and residual torque) and mechanism.png (the mechanism with its design) next to the reports.")] = False,
     starts: Annotated[int, typer.Option("--starts", help="Seeded multi-start over the free geometry: number of starts.")] = 1,
+    wide: Annotated[bool, typer.Option("--wide", help="Show every column of the summary (inertia, objective, configurations, solve time).")] = False,
 ) -> None:
     """Solve problem files and write their reports."""
     from .run import solve_all
@@ -131,7 +132,7 @@ def solve(
         raise typer.Exit(2)
     problems = _load_all(files, _overrides(set_))
     rows, worst = solve_all(problems, out, plot, starts, _err_line)
-    _print_summary(rows)
+    _print_summary(rows, wide)
     raise typer.Exit(worst)
 
 
@@ -335,11 +336,11 @@ def draw(
         out_console.print(f"wrote {path}", markup=False)
 
 
-def _print_summary(rows: list[dict]) -> None:
+def _print_summary(rows: list[dict], wide: bool = False) -> None:
     from .light import rich_summary
 
     if rows:  # no design, no table (every problem's failure was already said on stderr)
-        rich_summary(rows, out_console)  # one table for both paths (see .light)
+        rich_summary(rows, out_console, wide=wide)  # one table for both paths (see .light)
 
 
 

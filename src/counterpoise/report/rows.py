@@ -35,6 +35,7 @@ SUMMARY_COLUMNS = [
     "starts_reaching_best",
     "worst_scenario",
     "lower_bound_ratio",
+    "parts",
 ]
 VERIFICATION_COLUMNS = [
     "subsystem",
@@ -137,7 +138,18 @@ def summary_row(result: DesignResult) -> Row:
         "starts_reaching_best": f"{s.starts[0]}/{s.starts[1]}",
         "worst_scenario": worst.scenario if (worst := v.worst()) is not None else "",
         "lower_bound_ratio": result.parts.search.lower_bound_ratio if result.parts is not None else None,
+        "parts": chosen_parts(result),
     }
+
+
+def chosen_parts(result: DesignResult) -> str:
+    """The catalogue parts chosen, 'slot: part number' per slot ('' without slots)."""
+    if result.parts is None or not result.problem.slots:
+        return ""
+    by_name = {slot.name: slot for slot in result.problem.slots}
+    return "; ".join(
+        f"{name}: {by_name[name].catalogue.part_number[row]}" for name, row in result.parts.chosen.items() if name in by_name
+    )
 
 
 def _scenario_label(problem: Problem, check: CoordinateCheck) -> str:
