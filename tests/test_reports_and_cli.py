@@ -138,3 +138,24 @@ def test_energy_plot_does_not_magnify_rounding_noise():
     assert ax2.get_ylim() == before
     plt.close(fig)
     plt.close(fig2)
+
+
+def test_a_slow_phase_says_so_while_it_runs_and_a_quick_one_stays_quiet():
+    """Issue 24: solve printed nothing for 10-50 s on a catalogue or payload problem."""
+    import time
+
+    from counterpoise import progress
+
+    lines: list[str] = []
+    with progress.sink(lines.append):  # a sink that did not ask for timed notes (a log) gets none
+        with progress.phase("slow", after=0.01):
+            time.sleep(0.1)
+    assert lines == []
+    with progress.sink(lines.append, timed=True):
+        with progress.phase("quick", after=0.5):
+            pass
+        assert lines == []
+        with progress.phase("slow", after=0.05):
+            time.sleep(0.3)
+            assert lines == ["slow ..."]  # said while still running
+    assert lines[0] == "slow ..." and lines[1].startswith("slow: done in ")

@@ -352,7 +352,7 @@ def main(argv: list[str] | None = None) -> None:
     if debug:
         args.remove("--debug")
     try:
-        with warnings.catch_warnings(), progress.sink(lambda line: err_console.print(line, markup=False)):
+        with warnings.catch_warnings(), progress.sink(lambda line: err_console.print(line, markup=False), timed=progress.wants_timed_notes(sys.stderr)):
             if not debug:  # a library's warning (with its source path) is no message for a user
                 warnings.simplefilter("ignore")
             app(args=args, prog_name="counterpoise")  # exits by itself: 0/1/2 as documented, 2 for usage errors

@@ -208,7 +208,7 @@ def solve(args: list[str], pause_gc: bool = False) -> int | None:
 
         from .. import progress
 
-        with warnings.catch_warnings(), progress.sink(_err):  # as the app: progress lines on stderr,
+        with warnings.catch_warnings(), progress.sink(_err, timed=progress.wants_timed_notes(sys.stderr)):  # as the app: progress lines on stderr,
             if not parsed.debug:  # and no library warning (with its source path) unless --debug
                 warnings.simplefilter("ignore")
             return _run(parsed, paused)
