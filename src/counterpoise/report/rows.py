@@ -82,12 +82,16 @@ def design_rows(result: DesignResult) -> list[Row]:
     for slot, value in result.solution.values.items():
         v = problem.variable[slot.variable]
         u = v.unit
+        side = v.bound_side(value)
+        # a value within the bound tolerance of its bound is reported as the bound itself
+        # (not 2.34e-08 mm off it): "at a bound" means one thing everywhere (model.problem)
+        shown = v.lower if side == "lower" else v.upper if side == "upper" else value
         rows.append(
             {
                 "name": v.name,
                 "kind": "variable",
                 "scenario": slot.scenario or "",
-                "value": u.from_si(value),
+                "value": u.from_si(shown),
                 "unit": u.label,
                 "lower": u.from_si(v.lower),
                 "upper": u.from_si(v.upper),
