@@ -159,3 +159,20 @@ def test_a_slow_phase_says_so_while_it_runs_and_a_quick_one_stays_quiet():
             time.sleep(0.3)
             assert lines == ["slow ..."]  # said while still running
     assert lines[0] == "slow ..." and lines[1].startswith("slow: done in ")
+
+
+def test_a_value_within_the_bound_tolerance_is_reported_as_the_bound():
+    """Issue 24: values on a bound showed as 2.34e-08 mm off it."""
+    import dataclasses
+
+    from conftest import solved
+    from counterpoise.report.rows import design_rows
+
+    result = solved("yasir2019_counter_mass")
+    slot, value = next(iter(result.solution.values.items()))
+    v = result.problem.variable[slot.variable]
+    off = v.lower + 1e-9 * (v.upper - v.lower)  # within BOUND_TOLERANCE (1e-7 of the span)
+    solution = dataclasses.replace(result.solution, values={**result.solution.values, slot: off})
+    rows = design_rows(dataclasses.replace(result, solution=solution))
+    row = next(r for r in rows if r["name"] == v.name and r["kind"] == "variable")
+    assert row["value"] == v.unit.from_si(v.lower) and row["active_bound"] == "lower"
