@@ -10,13 +10,14 @@ rejected with one line naming its key.
 from __future__ import annotations
 
 import math
-import os
 import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+
+from conftest import run_cli
 
 from counterpoise.errors import ProblemFileError
 from counterpoise.io.builder import ProblemBuilder, rotate, translate
@@ -67,8 +68,7 @@ def test_bad_robot_input_names_the_key(name):
 
 @pytest.mark.parametrize("name", ["robot_broken_urdf.toml", "robot_unknown_joint.toml", "robot_range_beyond_limits.toml"])
 def test_bad_robot_input_is_one_line_through_the_cli(name, tmp_path):
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONWARNINGS"}
-    proc = subprocess.run([str(CLI), "solve", str(BAD / name), "--out", str(tmp_path / "out")], capture_output=True, text=True, env=env, timeout=300)
+    proc = run_cli("solve", str(BAD / name), "--out", str(tmp_path / "out"), cwd=tmp_path)
     assert proc.returncode == 2
     assert len(proc.stderr.splitlines()) == 1, proc.stderr
     assert proc.stderr.startswith(f"{BAD / name}: {MANIFEST[name][0]}: ")
