@@ -64,3 +64,35 @@ def value(result, name: str, unit: str | None = None) -> float:
 def approx():
     """pytest.approx with the acceptance tolerance of the seed reproductions (0.1 %)."""
     return lambda expected: pytest.approx(expected, rel=1e-3)
+
+
+class CliRun:
+    """What an in-process CLI call returned: as ``subprocess.CompletedProcess`` has it."""
+
+    def __init__(self, returncode: int, stdout: str, stderr: str) -> None:
+        self.returncode, self.stdout, self.stderr = returncode, stdout, stderr
+
+
+def run_cli(*args: str, cwd: "Path | None" = None) -> CliRun:
+    """Run ``counterpoise ARGS`` in this process (its entry point, as the console script
+    calls it, without the process start-up: ~2 s a call under load). A test about the
+    process itself (exit codes of a real process, signals, start-up) starts a subprocess."""
+    import contextlib
+    import io
+
+    from counterpoise.cli import main
+
+    out, err = io.StringIO(), io.StringIO()
+    here = os.getcwd()
+    code = 0
+    try:
+        if cwd is not None:
+            os.chdir(cwd)
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            try:
+                main(list(args))
+            except SystemExit as exc:
+                code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+    finally:
+        os.chdir(here)
+    return CliRun(code, out.getvalue(), err.getvalue())

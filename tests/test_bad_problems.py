@@ -24,10 +24,11 @@ import os
 import subprocess
 import sys
 from pathlib import Path
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import pytest
 
+from conftest import run_cli
 from counterpoise.model import expr as ex
 from counterpoise.errors import ExpressionError, ProblemFileError
 from counterpoise.io.loader import load_problem
@@ -130,6 +131,9 @@ MANIFEST: dict[str, Expect] = {
     # spatial mechanisms, working modes, substitution (issue 6)
     "rotation_zero_axis.toml": Expect("frames.link_a.transforms.0.rotate", "the rotation axis must not be the zero vector"),
     "gravity_zero_direction.toml": Expect("gravity.direction", "must be a non-zero vector"),
+    # a tilting base (issue 23)
+    "tilt_bare_angles.toml": Expect("gravity.tilt[0].range", "bare numbers used as an angle: write ['-15 deg', '15 deg']"),
+    "tilt_zero_axis.toml": Expect("gravity.tilt[1].axis", "must be a non-zero vector"),
     "scenario_unknown_parameter.toml": Expect("scenarios.long.parameters.r_aa", "unknown parameter 'r_aa' (did you mean 'r_a'?)"),
     "substitution_impossible.toml": Expect(
         "substitutions.tip", "no substitution exists for body 'tip': its centre of mass must lie on the line through the two points"
@@ -216,7 +220,13 @@ def _params() -> list:
     ]
 
 
-def _run(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
+def _run(*args: str, cwd: Path) -> Any:
+    """The command line, in process (conftest.run_cli); test_one_bad_file_stops_the_whole_run
+    keeps a real process for the exit status of the console script."""
+    return run_cli(*args, cwd=cwd)
+
+
+def _run_process(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
     env = {k: v for k, v in os.environ.items() if k != "PYTHONWARNINGS"}
     return subprocess.run(
         [str(CLI), *args], cwd=cwd, env=env, capture_output=True, text=True, encoding="utf-8", errors="replace", timeout=300
@@ -320,7 +330,7 @@ def test_validate_rejects_every_file(tmp_path):
 def test_one_bad_file_stops_the_whole_run(tmp_path):
     """A good file followed by a bad one: nothing is solved or written, exit 2."""
     bad = BAD / "negative_body_mass.toml"
-    proc = _run("solve", str(GOOD), str(bad), "--out", str(tmp_path / "out"), cwd=tmp_path)
+    proc = _run_process("solve", str(GOOD), str(bad), "--out", str(tmp_path / "out"), cwd=tmp_path)
     _assert_no_traceback(proc.stdout)
     _assert_no_traceback(proc.stderr)
     assert proc.returncode == 2

@@ -10,13 +10,14 @@ rejected with one line naming its key.
 from __future__ import annotations
 
 import math
-import os
 import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+
+from conftest import run_cli
 
 from counterpoise.errors import ProblemFileError
 from counterpoise.io.builder import ProblemBuilder, rotate, translate
@@ -67,8 +68,7 @@ def test_bad_robot_input_names_the_key(name):
 
 @pytest.mark.parametrize("name", ["robot_broken_urdf.toml", "robot_unknown_joint.toml", "robot_range_beyond_limits.toml"])
 def test_bad_robot_input_is_one_line_through_the_cli(name, tmp_path):
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONWARNINGS"}
-    proc = subprocess.run([str(CLI), "solve", str(BAD / name), "--out", str(tmp_path / "out")], capture_output=True, text=True, env=env, timeout=300)
+    proc = run_cli("solve", str(BAD / name), "--out", str(tmp_path / "out"), cwd=tmp_path)
     assert proc.returncode == 2
     assert len(proc.stderr.splitlines()) == 1, proc.stderr
     assert proc.stderr.startswith(f"{BAD / name}: {MANIFEST[name][0]}: ")
@@ -186,3 +186,17 @@ def test_draw_writes_the_picture(tmp_path):
     assert proc.returncode == 0, proc.stderr
     png = tmp_path / "mjcf_arm" / "mechanism.png"
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_a_limit_just_inside_180_deg_is_not_shown_as_180(tmp_path):
+    """Issue 24: limits of ±3.14159 rad and a ±180 deg range were reported as
+    "beyond the joint's limits [-180 deg, 180 deg]": the limit rounded to the range it misses.
+    3.14159 rad = 179.999848 deg; the range passes it by 2.65e-6 rad = 0.000152 deg."""
+    from counterpoise.errors import CounterpoiseError
+
+    (tmp_path / "m.urdf").write_text(MIMIC_URDF.replace('lower="-2" upper="2"', 'lower="-3.14159" upper="3.14159"'), encoding="utf-8")
+    text = '[problem]\nname = "m"\n[gravity]\nacceleration = "9.81 m/s^2"\ndirection = [0, 0, -1]\n[robot]\nurdf = "m.urdf"\njoints.drive = { range = ["-180 deg", "180 deg"] }\n'
+    with pytest.raises(CounterpoiseError) as caught:
+        load_problem_text(text, str(tmp_path / "m.toml"))
+    message = str(caught.value)
+    assert "[-179.999848 deg, 179.999848 deg]" in message and "by 0.000152 deg" in message, message

@@ -91,8 +91,17 @@ def run(
 ) -> DesignResult:
     """Solve ``method`` with these options, verify the design densely and judge it.
     ``quantities=False``: no report quantities (a study, whose rows do not hold them)."""
-    solution = method.solve(parameters, bounds, initial)
-    verification = solution.verification or verify(solution)
+    from . import progress
+
+    name = getattr(getattr(method, "problem", None), "name", "")
+    what = {"PartsMethod": "searching catalogue parts", "PayloadMethod": "designing for the payload range"}.get(type(method).__name__, "designing")
+    with progress.phase(f"{name}: {what}" if name else what):
+        solution = method.solve(parameters, bounds, initial)
+    if solution.verification is not None:
+        verification = solution.verification
+    else:
+        with progress.phase(f"{solution.problem.name}: verifying on {solution.problem.settings.verify_samples:,} configurations per subsystem and scenario"):
+            verification = verify(solution)
     status, message = judge(solution, verification)
     values = evaluate_quantities(solution) if quantities else ()
     return DesignResult(solution.problem, status, message, solution, verification, values, solution.payload, solution.parts)

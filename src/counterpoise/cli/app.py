@@ -125,6 +125,7 @@ def solve(
     report: Annotated[
         str, typer.Option("--report", help="html: also write report.html, one self-contained page of the design (docs/build.md); csv: the CSV files only.")
     ] = "html",
+    wide: Annotated[bool, typer.Option("--wide", help="Show every column of the summary (inertia, objective, configurations, solve time).")] = False,
 ) -> None:
     """Solve problem files and write their reports."""
     from .light import REPORTS
@@ -138,7 +139,7 @@ def solve(
         raise typer.Exit(2)
     problems = _load_all(files, _overrides(set_))
     rows, worst = solve_all(problems, out, plot, starts, _err_line, html=report == "html")
-    _print_summary(rows)
+    _print_summary(rows, wide)
     raise typer.Exit(worst)
 
 
@@ -355,11 +356,11 @@ def draw(
         out_console.print(f"wrote {path}", markup=False)
 
 
-def _print_summary(rows: list[dict]) -> None:
+def _print_summary(rows: list[dict], wide: bool = False) -> None:
     from .light import rich_summary
 
     if rows:  # no design, no table (every problem's failure was already said on stderr)
-        rich_summary(rows, out_console)  # one table for both paths (see .light)
+        rich_summary(rows, out_console, wide=wide)  # one table for both paths (see .light)
 
 
 
@@ -371,7 +372,7 @@ def main(argv: list[str] | None = None) -> None:
     if debug:
         args.remove("--debug")
     try:
-        with warnings.catch_warnings(), progress.sink(lambda line: err_console.print(line, markup=False)):
+        with warnings.catch_warnings(), progress.sink(lambda line: err_console.print(line, markup=False), timed=progress.wants_timed_notes(sys.stderr)):
             if not debug:  # a library's warning (with its source path) is no message for a user
                 warnings.simplefilter("ignore")
             app(args=args, prog_name="counterpoise")  # exits by itself: 0/1/2 as documented, 2 for usage errors

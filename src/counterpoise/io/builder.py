@@ -237,6 +237,15 @@ class ProblemBuilder:
         entry = {name: {"at": list(at), "frame": frame, "point": list(point)} for name, (at, frame, point) in points.items()}
         return self._put("substitutions", body, self._described({"points": entry}, description))
 
+    def tilt(self, axis: Vec3, lower: Value, upper: Value, description: str = "") -> "ProblemBuilder":
+        """A continuous range of base tilts about ``axis`` (of the base) that the balance must
+        hold for (``[gravity] tilt``; docs/tilt.md). Several tilts compose in the order given."""
+        entry: dict[str, Any] = {"axis": list(axis), "range": [lower, upper]}
+        if description:
+            entry["description"] = description
+        self._data["gravity"].setdefault("tilt", []).append(entry)
+        return self
+
     def scenario(
         self,
         name: str,

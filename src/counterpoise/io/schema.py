@@ -74,6 +74,20 @@ class GravitySpec(_Table):
     direction: tuple[FiniteFloat, FiniteFloat, FiniteFloat]
 
 
+class TiltSpec(_Table):
+    """A continuous range of base tilts about one axis of the base (``[gravity] tilt``)."""
+
+    axis: tuple[FiniteFloat, FiniteFloat, FiniteFloat]
+    range: tuple[Value, Value]
+    description: str = ""
+
+
+class TiltingGravitySpec(GravitySpec):
+    """The file's ``[gravity]``: a direction, and optionally tilts of the base it must hold for."""
+
+    tilt: list[TiltSpec] = Field(default_factory=list)
+
+
 class ParameterSpec(_Table):
     value: Value
     description: str = ""
@@ -317,7 +331,7 @@ class RobotSpec(_Table):
 
 class ProblemFile(_Table):
     problem: ProblemMeta
-    gravity: GravitySpec
+    gravity: TiltingGravitySpec
     parameters: dict[Name, ParameterEntry] = Field(default_factory=dict)
     #: at least one, or a [robot] (checked when resolving)
     subsystems: dict[Name, SubsystemSpec] = Field(default_factory=dict)

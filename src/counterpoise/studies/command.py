@@ -88,6 +88,8 @@ def check_varied_values(problem: Problem, plan: StudyPlan, overrides: dict[str, 
     for v in plan.varies:
         ends = [t.strip() for t in v.text.partition("=")[2].split(":")[:2]]
         for text in dict.fromkeys(ends):
+            if text in ("0", "0.0") and v.unit.symbol:  # a bare 0 is 0 in the range's unit (docs/studies.md)
+                text = f"0 {v.unit.symbol}"
             try:
                 load_problem(problem.path, {**overrides, override_key(v.key): text})
             except ProblemFileError as exc:

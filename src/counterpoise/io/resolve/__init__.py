@@ -74,7 +74,8 @@ def _resolve(ctx: Context) -> Problem:
     slots = parts.slots(ctx, catalogues, slot_springs)
     selection = parts.selection(ctx)
     gravity = quantities.gravity(ctx, spec.gravity, "gravity")
-    scenarios = quantities.scenarios(ctx, gravity, parameters)
+    tilts = quantities.tilts(ctx, spec.gravity)
+    scenarios = quantities.tilted_scenarios(quantities.scenarios(ctx, gravity, parameters), tilts)
     objective = quantities.objective(ctx)
     reports = report.report(ctx, subsystems, by_name)
     design_constraints = constraints.constraints(ctx, subsystems, by_name, springs, counter_masses)
@@ -103,4 +104,5 @@ def _resolve(ctx: Context) -> Problem:
         selection=selection,
         loops=closures,
         constraints=design_constraints,
+        tilts=tilts,
     )

@@ -114,8 +114,11 @@ def _within(ctx: Context, joint: RobotJoint, values: list[float], unit: object, 
         return
     lo, hi = joint.limits
     if any(v < lo - LIMIT_SLACK or v > hi + LIMIT_SLACK for v in values):
-        show = [f"{unit.from_si(v):.6g} {unit.symbol}".strip() for v in (lo, hi)]  # type: ignore[attr-defined]
-        raise ctx.fail(key, f"{what} goes beyond the joint's limits [{show[0]}, {show[1]}] in the model")
+        # enough digits that a limit of ±3.14159 rad does not read as the ±180 deg it misses
+        show = [f"{unit.from_si(v):.10g} {unit.symbol}".strip() for v in (lo, hi)]  # type: ignore[attr-defined]
+        worst = max(max(lo - v, v - hi) for v in values)
+        beyond = f"{unit.from_si(worst) if unit.symbol != '' else worst:.3g} {unit.symbol}".strip()  # type: ignore[attr-defined]
+        raise ctx.fail(key, f"{what} goes beyond the joint's limits [{show[0]}, {show[1]}] in the model (by {beyond})")
 
 
 def coordinates(ctx: Context, model: RobotModel | None) -> tuple[tuple[Subsystem, ...], tuple[Coordinate, ...]]:
