@@ -79,6 +79,8 @@ class SpringDesign:
     material: Material
     requirement: Requirement
     reasons: tuple[str, ...] = ()
+    #: a spring was designed, but it does not do everything asked (the cable goes slack)
+    warnings: tuple[str, ...] = ()
     wire_diameter: float = math.nan
     mean_diameter: float = math.nan
     body_coils: float = math.nan
@@ -89,7 +91,7 @@ class SpringDesign:
     body_length: float = math.nan
     free_length: float = math.nan  # inside the hooks
     hook_extension: float = 0.0  # each hook longer than a machine hook by this (direct mount)
-    length_min: float = math.nan  # working lengths at force_min, force_max
+    length_min: float = math.nan  # working lengths at force_min (not below free_length), force_max
     length_max: float = math.nan
     max_force: float = math.nan  # the force at which the first allowable stress is reached
     max_length: float = math.nan  # the length at max_force
@@ -172,7 +174,12 @@ def design(
     """The lightest extension spring of ``mat`` for ``requirement`` within the winding rules
     and ``envelope``, with at least ``min_safety_factor`` on every allowable stress at the
     largest working force; a design with ``reasons`` when there is none (never an exception
-    for a requirement no spring meets)."""
+    for a requirement no spring meets).
+
+    Behind a pulley the initial tension is the middle of the windable band, lowered to
+    ``force_min`` but not below the band; when some candidates keep F0 ≤ ``force_min``, the
+    lightest of them is chosen, otherwise the one whose F0 exceeds it least, with a
+    warning (the cable goes slack near the shortest distance)."""
     m = material(mat)
     r = requirement
     k, f_lo, f_hi = r.rate, r.force_min, r.force_max
@@ -187,8 +194,8 @@ def design(
         a_body, a_bend, a_tors, capacity = _capacity(m, d, D)
         mid, half = ph.initial_stress_mid(C), ph.initial_stress_half_band(C)
         t_lo, t_mid, t_hi = (ph.tension_of_stress(t, d, D) for t in (mid - half, mid, mid + half))
-        if r.initial_tension is None:
-            F0 = np.minimum(t_mid, f_lo)
+        if r.initial_tension is None:  # the middle of the band, lower down to f_lo, not below the band
+            F0 = np.minimum(np.maximum(f_lo, t_lo), t_mid)
         else:
             F0 = np.full_like(d, r.initial_tension)
         L0 = ph.free_length(d, D, Nb)
@@ -199,20 +206,29 @@ def design(
         ("index", np.isfinite(D) & (C >= ph.C_MIN - 1e-9) & (C <= ph.C_MAX + 1e-9) & (np.abs(c["rate"] / k - 1.0) <= RATE_ROUNDING)),
         ("coils", Nb >= MIN_BODY_COILS),
         ("strength", capacity >= f_hi * min_safety_factor),
-        ("tension", (F0 >= t_lo * (1 - 1e-12)) & (F0 <= t_hi * (1 + 1e-12)) & (F0 <= f_lo * (1 + 1e-12))),
+        ("tension", (F0 >= t_lo * (1 - 1e-12)) & (F0 <= t_hi * (1 + 1e-12))),
         ("free length", L0 <= free * (1 + 1e-12)),
         ("envelope", _fits(envelope, D + d, Lb, L_hi)),
     ]
     keep = np.ones(d.shape, dtype=bool)
     for stage, ok in stages:
         if not np.any(keep & ok):
-            return fail(_reason(stage, m, r, envelope, keep, t_lo, capacity / min_safety_factor, L0))
+            return fail(_reason(stage, m, r, envelope, keep, capacity / min_safety_factor, L0))
         keep &= ok
     mass = ph.mass(m, d, D, Nb)
-    order = np.lexsort((f_hi / capacity, np.where(keep, mass, np.inf)))
+    slack = np.maximum(F0 - f_lo, 0.0)  # > 0: the cable goes slack at the shortest distance
+    order = np.lexsort((f_hi / capacity, np.where(keep, mass, np.inf), np.where(keep, slack, np.inf)))
     i = int(order[0])
     f0 = float(F0[i])
+    warnings: tuple[str, ...] = ()
+    if slack[i] > 0:
+        warnings = (
+            f"its force falls to {f_lo:.4g} N, below the smallest windable initial tension {f0:.4g} N of any spring strong "
+            f"enough: the cable goes slack where the ends come closer than F0/k = {1e3 * f0 / k:.4g} mm, and the balance "
+            f"is lost there (the spring pulls nothing instead of k·d < F0)",
+        )
     return SpringDesign(
+        warnings=warnings,
         material=m,
         requirement=r,
         wire_diameter=float(d[i]),
@@ -225,7 +241,7 @@ def design(
         body_length=float(Lb[i]),
         free_length=float(free[i]),
         hook_extension=float(free[i] - L0[i]) / 2.0,
-        length_min=float(free[i] + (f_lo - f0) / c["rate"][i]),
+        length_min=float(free[i] + max(f_lo - f0, 0.0) / c["rate"][i]),  # slack cable: the spring stays at L0
         length_max=float(L_hi[i]),
         max_force=float(capacity[i]),
         max_length=float(free[i] + (capacity[i] - f0) / c["rate"][i]),
@@ -250,7 +266,7 @@ def _fits(envelope: Envelope, outer: np.ndarray, body: np.ndarray, longest: np.n
     return ok
 
 
-def _reason(stage: str, m: Material, r: Requirement, envelope: Envelope, keep: np.ndarray, t_lo: np.ndarray, capacity: np.ndarray, L0: np.ndarray) -> str:
+def _reason(stage: str, m: Material, r: Requirement, envelope: Envelope, keep: np.ndarray, capacity: np.ndarray, L0: np.ndarray) -> str:
     """Why no candidate passed ``stage`` (``keep``: those that passed the stages before)."""
     wires = f"{m.name} wire {1e3 * m.d_min:g}-{1e3 * m.d_max:g} mm"
     if stage == "index":
@@ -262,13 +278,8 @@ def _reason(stage: str, m: Material, r: Requirement, envelope: Envelope, keep: n
             f"its largest force {r.force_max:.4g} N is more than any spring of that rate carries within the allowable stresses "
             f"({wires}, index 4-12: at most {float(np.max(np.where(keep, capacity, 0.0))):.4g} N)"
         )
-    if stage == "tension":
-        if r.initial_tension is not None:
-            return f"its initial tension {r.initial_tension:.4g} N is outside the windable band of every spring strong enough"
-        return (
-            f"its force falls to {r.force_min:.4g} N, below the smallest windable initial tension of any spring strong enough "
-            f"({float(np.min(np.where(keep, t_lo, np.inf))):.4g} N): the cable would go slack"
-        )
+    if stage == "tension":  # a given initial tension (direct mount)
+        return f"its initial tension {r.initial_tension:.4g} N is outside the windable band of every spring strong enough"
     if stage == "free length":
         return f"its free length {1e3 * (r.free_length or 0.0):.4g} mm is shorter than any strong enough spring with machine hooks ({1e3 * float(np.min(np.where(keep, L0, np.inf))):.4g} mm)"
     return f"no spring strong enough fits the envelope ({envelope.text()})"

@@ -1,0 +1,159 @@
+"""After a solve: a designed helical extension spring for every free-stiffness spring.
+
+Each spring of the problem with a ``stiffness`` (no ``slot``) gets its requirement from the
+solved design over the dense sample of the workspace (the same random configurations plus
+box corners, or configuration-manifold samples for closed loops, that catalogue parts are
+checked on; a payload range: every payload of its schedule):
+
+- behind a pulley (the default mount, docs/springs.md): the cable outside the pulley is
+  d = |from − to| long and the spring pulls F = k·d, so the working forces are k·d_min to
+  k·d_max; the design chooses its initial tension F0 ≤ k·d_min (the cable never goes
+  slack) and its length is L = d + L0 − F0/k;
+- directly attached (``mount = "direct"``): the spring is d − cable long, pulls
+  F = F0 + k (d − cable − L0) with the file's initial tension F0 and free length L0, and
+  must be wound with that F0 and fit that L0 (the hooks take up what the body leaves).
+
+:func:`designed_springs` returns one :class:`DesignedSpring` per spring and scenario, and
+one with ``scenario = "all"`` per spring when there are several scenarios (extremes over
+all of them: the one spring that is made).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from .design import Envelope, Requirement, SpringDesign, design
+
+#: the seed offset of the dense sample (the one catalogue parts are checked on)
+SEED_OFFSET = 11
+#: scenario label of a spring's extremes over every scenario
+ALL = "all"
+#: rates that differ by less than this share are one rate (rounding of a shared variable)
+RATE_SPREAD = 1e-9
+
+
+@dataclass(frozen=True)
+class DesignedSpring:
+    """A free-stiffness spring, its working range in one scenario (or ``all``) and the
+    helical spring designed for it (SI)."""
+
+    spring: str
+    scenario: str
+    mount: str  # "pulley" or "direct"
+    distance_min: float  # between the attachment points
+    distance_max: float
+    cable: float  # directly attached: the cable in series (0 behind a pulley)
+    design: SpringDesign
+
+    @property
+    def ok(self) -> bool:
+        return self.design.ok
+
+    @property
+    def force_min(self) -> float:
+        return self.design.requirement.force_min
+
+    @property
+    def force_max(self) -> float:
+        return self.design.requirement.force_max
+
+    @property
+    def length_min(self) -> float:
+        """The spring's own length (hooks included) at the shortest distance."""
+        return self.design.length_min
+
+    @property
+    def length_max(self) -> float:
+        return self.design.length_max
+
+    @property
+    def margin_slack(self) -> float:
+        """Extension at the shortest distance, (F_min − F0)/k (m; ≥ 0: the spring stays
+        extended and pulls as the balance needs; < 0: the cable goes slack)."""
+        return (self.force_min - self.design.initial_tension) / self.design.rate
+
+    @property
+    def margin_load(self) -> float:
+        return self.design.max_force - self.force_max
+
+    @property
+    def margin_length(self) -> float:
+        return self.design.max_length - self.length_max
+
+
+def free_springs(problem: Any) -> list[Any]:
+    """The springs of ``problem`` whose stiffness is given or designed (no catalogue slot)."""
+    return [s for s in problem.springs if s.slot is None]
+
+
+def designed_springs(solution: Any) -> tuple[DesignedSpring, ...]:
+    """One :class:`DesignedSpring` per free-stiffness spring and scenario of ``solution``
+    (a payload design: per payload of its schedule), plus one per spring over ``all``
+    scenarios when there are several. Empty when the problem has no such spring."""
+    if not free_springs(solution.problem):
+        return ()
+    from ..mechanics import Mechanics
+    from ..selection.geometry import sample_configurations, spring_lengths
+
+    outcome = getattr(solution, "payload", None)
+    checked = outcome.schedule_solution() if outcome is not None and getattr(outcome, "schedule", None) is not None else solution
+    problem = checked.problem
+    springs = free_springs(problem)
+    names = [s.name for s in springs]
+    q = sample_configurations(problem, problem.settings.verify_samples, problem.settings.seed + SEED_OFFSET)
+    # per spring: scenario -> (rate, d_min, d_max, cable, F0, L0)
+    found: dict[str, dict[str, tuple[float, ...]]] = {n: {} for n in names}
+    for scenario in problem.scenarios:
+        values = checked.variable_values(scenario.name)
+        gravity, base = checked.scenario_parameters[scenario.name]
+        variables = {k: np.array([[v]]) for k, v in values.items()}
+        lengths = spring_lengths(problem, names, q, variables, base, gravity)
+        mech = Mechanics(problem, base, values, {c.name: c.home for c in problem.coordinates}, gravity)
+        for s in springs:
+            d = lengths[s.name]
+            k = float(mech.value(s.stiffness))
+            if s.direct is None:
+                extra: tuple[float, ...] = (0.0, float("nan"), float("nan"))
+            else:
+                extra = (float(mech.value(s.direct.cable)), float(mech.value(s.direct.initial_tension)), float(mech.value(s.direct.free_length)))
+            found[s.name][scenario.name] = (k, float(d.min()), float(d.max()), *extra)
+    out: list[DesignedSpring] = []
+    for s in springs:
+        rows = dict(found[s.name])
+        rates = [v[0] for v in rows.values()]
+        if len(rows) > 1:
+            first = next(iter(rows.values()))
+            rows[ALL] = (max(rates), min(v[1] for v in rows.values()), max(v[2] for v in rows.values()), *first[3:])
+        whole = rows.get(ALL, next(iter(rows.values())))  # one spring is made: the ``all`` design
+        made = _design(s, *whole)
+        if max(rates) - min(rates) > RATE_SPREAD * max(rates):
+            why = f"its rate changes between scenarios ({min(rates):.6g}-{max(rates):.6g} N/m): no one spring has them all"
+            made = SpringDesign(made.material, made.requirement, reasons=(why,), rate_tolerance=made.rate_tolerance)
+        out.extend(_use(s, name, values, made) for name, values in rows.items())
+    return tuple(out)
+
+
+def _requirement(spring: Any, k: float, d_min: float, d_max: float, cable: float, f0: float, l0: float) -> Requirement:
+    if spring.direct is None:
+        return Requirement(rate=k, force_min=k * d_min, force_max=k * d_max)
+    x_min, x_max = max(d_min - cable - l0, 0.0), max(d_max - cable - l0, 0.0)  # tension only
+    return Requirement(rate=k, force_min=f0 + k * x_min, force_max=f0 + k * x_max, initial_tension=f0, free_length=l0)
+
+
+def _design(spring: Any, k: float, d_min: float, d_max: float, cable: float, f0: float, l0: float) -> SpringDesign:
+    o = spring.design
+    return design(_requirement(spring, k, d_min, d_max, cable, f0, l0), o.material, Envelope(o.max_outer_diameter, o.max_body_length), o.rate_tolerance, o.min_safety_factor)
+
+
+def _use(spring: Any, scenario: str, values: tuple[float, ...], made: SpringDesign) -> DesignedSpring:
+    """The spring ``made`` in one scenario: its working range there (the design's forces and
+    lengths at that scenario's distances)."""
+    k, d_min, d_max, cable = values[:4]
+    r = _requirement(spring, k, d_min, d_max, cable, values[4], values[5])
+    f0, L0 = made.initial_tension, made.free_length
+    lengths = (L0 + max(r.force_min - f0, 0.0) / made.rate, L0 + (r.force_max - f0) / made.rate)  # NaN: no design
+    made = replace(made, requirement=r, length_min=lengths[0], length_max=lengths[1])
+    return DesignedSpring(spring.name, scenario, "pulley" if spring.direct is None else "direct", d_min, d_max, cable, made)
