@@ -31,6 +31,8 @@ from .design import Envelope, Requirement, SpringDesign, design
 SEED_OFFSET = 11
 #: scenario label of a spring's extremes over every scenario
 ALL = "all"
+#: scenarios evaluated at once (memory: CHUNK × verify_samples values per spring)
+CHUNK = 64
 #: rates that differ by less than this share are one rate (rounding of a shared variable)
 RATE_SPREAD = 1e-9
 
@@ -106,23 +108,41 @@ def designed_springs(solution: Any) -> tuple[DesignedSpring, ...]:
     q = sample_configurations(problem, problem.settings.verify_samples, problem.settings.seed + SEED_OFFSET)
     # per spring: scenario -> (rate, d_min, d_max, cable, F0, L0)
     found: dict[str, dict[str, tuple[float, ...]]] = {n: {} for n in names}
-    for scenario in problem.scenarios:
-        values = checked.variable_values(scenario.name)
-        gravity, base = checked.scenario_parameters[scenario.name]
-        variables = {k: np.array([[v]]) for k, v in values.items()}
+    # scenarios with the same values (working modes differ in gravity alone) are evaluated once
+    unique: dict[tuple[Any, ...], str] = {}
+    same: dict[str, str] = {}
+    every: dict[str, tuple[dict[str, float], dict[str, float]]] = {}
+    for sc in problem.scenarios:
+        values, base = checked.variable_values(sc.name), checked.scenario_parameters[sc.name][1]
+        key = (tuple(sorted(values.items())), tuple(sorted(base.items())))
+        same[sc.name] = unique.setdefault(key, sc.name)
+        every[sc.name] = (values, base)
+    scenarios = list(unique.values())
+    for start in range(0, len(scenarios), CHUNK):  # scenarios along axis 0, configurations along axis 1
+        chunk = scenarios[start : start + CHUNK]
+        values = [every[name][0] for name in chunk]
+        bases = [every[name][1] for name in chunk]
+        gravity = checked.scenario_parameters[chunk[0]][0]  # positions do not depend on it
+        variables = {k: np.array([[v[k]] for v in values]) for k in values[0]}
+        base = {k: np.array([[b[k]] for b in bases]) for k in bases[0]}
         lengths = spring_lengths(problem, names, q, variables, base, gravity)
-        mech = Mechanics(problem, base, values, {c.name: c.home for c in problem.coordinates}, gravity)
+        mech = Mechanics(problem, base, variables, {c.name: c.home for c in problem.coordinates}, gravity)
+
+        def each(tree: Any) -> np.ndarray:
+            return np.broadcast_to(np.asarray(mech.value(tree), dtype=float).reshape(-1), (len(chunk),))
+
         for s in springs:
-            d = lengths[s.name]
-            k = float(mech.value(s.stiffness))
+            d = np.broadcast_to(lengths[s.name], (len(chunk), lengths[s.name].shape[1]))
+            columns = [each(s.stiffness), d.min(axis=1), d.max(axis=1)]
             if s.direct is None:
-                extra: tuple[float, ...] = (0.0, float("nan"), float("nan"))
+                columns += [np.zeros(len(chunk)), np.full(len(chunk), np.nan), np.full(len(chunk), np.nan)]
             else:
-                extra = (float(mech.value(s.direct.cable)), float(mech.value(s.direct.initial_tension)), float(mech.value(s.direct.free_length)))
-            found[s.name][scenario.name] = (k, float(d.min()), float(d.max()), *extra)
+                columns += [each(s.direct.cable), each(s.direct.initial_tension), each(s.direct.free_length)]
+            for j, name in enumerate(chunk):
+                found[s.name][name] = tuple(float(c[j]) for c in columns)
     out: list[DesignedSpring] = []
     for s in springs:
-        rows = dict(found[s.name])
+        rows = {sc.name: found[s.name][same[sc.name]] for sc in problem.scenarios}
         rates = [v[0] for v in rows.values()]
         if len(rows) > 1:
             first = next(iter(rows.values()))
