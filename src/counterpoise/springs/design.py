@@ -206,14 +206,14 @@ def design(
         ("index", np.isfinite(D) & (C >= ph.C_MIN - 1e-9) & (C <= ph.C_MAX + 1e-9) & (np.abs(c["rate"] / k - 1.0) <= RATE_ROUNDING)),
         ("coils", Nb >= MIN_BODY_COILS),
         ("strength", capacity >= f_hi * min_safety_factor),
-        ("tension", (F0 >= t_lo * (1 - 1e-12)) & (F0 <= t_hi * (1 + 1e-12))),
+        ("tension", (F0 >= t_lo * (1 - 1e-12)) & (F0 <= t_hi * (1 + 1e-12)) & (F0 < f_hi)),
         ("free length", L0 <= free * (1 + 1e-12)),
         ("envelope", _fits(envelope, D + d, Lb, L_hi)),
     ]
     keep = np.ones(d.shape, dtype=bool)
     for stage, ok in stages:
         if not np.any(keep & ok):
-            return fail(_reason(stage, m, r, envelope, keep, capacity / min_safety_factor, L0))
+            return fail(_reason(stage, m, r, envelope, keep, capacity / min_safety_factor, L0, F0))
         keep &= ok
     mass = ph.mass(m, d, D, Nb)
     slack = np.maximum(F0 - f_lo, 0.0)  # > 0: the cable goes slack at the shortest distance
@@ -266,7 +266,7 @@ def _fits(envelope: Envelope, outer: np.ndarray, body: np.ndarray, longest: np.n
     return ok
 
 
-def _reason(stage: str, m: Material, r: Requirement, envelope: Envelope, keep: np.ndarray, capacity: np.ndarray, L0: np.ndarray) -> str:
+def _reason(stage: str, m: Material, r: Requirement, envelope: Envelope, keep: np.ndarray, capacity: np.ndarray, L0: np.ndarray, F0: np.ndarray) -> str:
     """Why no candidate passed ``stage`` (``keep``: those that passed the stages before)."""
     wires = f"{m.name} wire {1e3 * m.d_min:g}-{1e3 * m.d_max:g} mm"
     if stage == "index":
@@ -278,8 +278,13 @@ def _reason(stage: str, m: Material, r: Requirement, envelope: Envelope, keep: n
             f"its largest force {r.force_max:.4g} N is more than any spring of that rate carries within the allowable stresses "
             f"({wires}, index 4-12: at most {float(np.max(np.where(keep, capacity, 0.0))):.4g} N)"
         )
-    if stage == "tension":  # a given initial tension (direct mount)
-        return f"its initial tension {r.initial_tension:.4g} N is outside the windable band of every spring strong enough"
+    if stage == "tension" and r.initial_tension is not None:  # direct mount: the file's initial tension
+        return f"its initial tension {r.initial_tension:.4g} N is outside the windable band of every spring strong enough, or not below its largest force"
+    if stage == "tension":
+        return (
+            f"its largest force {r.force_max:.4g} N is below the smallest windable initial tension of any spring strong enough "
+            f"({float(np.min(np.where(keep, F0, np.inf))):.4g} N): the spring would never extend"
+        )
     if stage == "free length":
         return f"its free length {1e3 * (r.free_length or 0.0):.4g} mm is shorter than any strong enough spring with machine hooks ({1e3 * float(np.min(np.where(keep, L0, np.inf))):.4g} mm)"
     return f"no spring strong enough fits the envelope ({envelope.text()})"
