@@ -138,7 +138,7 @@ def _round(x: np.ndarray, step: float) -> np.ndarray:
     return np.round(x / step) * step
 
 
-def _candidates(mat: Material, k: float, envelope: Envelope) -> dict[str, np.ndarray]:
+def _candidates(mat: Material, k: float) -> dict[str, np.ndarray]:
     """Every (wire, index) candidate for rate ``k``, rounded, as flat arrays."""
     d = np.asarray(wire_diameters(mat), dtype=float)
     C0 = np.linspace(ph.C_MIN, ph.C_MAX, INDEX_STEPS)
@@ -183,12 +183,17 @@ def design(
     m = material(mat)
     r = requirement
     k, f_lo, f_hi = r.rate, r.force_min, r.force_max
-    fail = lambda *why: SpringDesign(m, r, reasons=why, rate_tolerance=rate_tolerance)  # noqa: E731
+
+    def fail(*why: str) -> SpringDesign:
+        return SpringDesign(m, r, reasons=why, rate_tolerance=rate_tolerance)
+
+    if k == 0 or f_hi == 0:
+        return fail("its stiffness is 0: the balance does not use this spring (leave it out)")
     if not (math.isfinite(k) and k > 0):
         return fail(f"its rate {k:.4g} N/m is not positive")
     if not (math.isfinite(f_hi) and f_hi > 0 and math.isfinite(f_lo)):
         return fail(f"its working force {f_lo:.4g}-{f_hi:.4g} N is not a positive range")
-    c = _candidates(m, k, envelope)
+    c = _candidates(m, k)
     d, D, Nb, Na, C = c["d"], c["D"], c["Nb"], c["Na"], c["C"]
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         a_body, a_bend, a_tors, capacity = _capacity(m, d, D)

@@ -143,17 +143,23 @@ def designed_springs(solution: Any) -> tuple[DesignedSpring, ...]:
     out: list[DesignedSpring] = []
     for s in springs:
         rows = {sc.name: found[s.name][same[sc.name]] for sc in problem.scenarios}
-        rates = [v[0] for v in rows.values()]
-        if len(rows) > 1:
-            first = next(iter(rows.values()))
-            rows[ALL] = (max(rates), min(v[1] for v in rows.values()), max(v[2] for v in rows.values()), *first[3:])
-        whole = rows.get(ALL, next(iter(rows.values())))  # one spring is made: the ``all`` design
-        made = _design(s, *whole)
+        needs = {name: _requirement(s, *values) for name, values in rows.items()}
+        if len(rows) > 1:  # the extremes over every scenario (the file's F0 and L0 are the first's)
+            first = next(iter(needs.values()))
+            rows[ALL] = (first.rate, min(v[1] for v in rows.values()), max(v[2] for v in rows.values()), *next(iter(rows.values()))[3:])
+            needs[ALL] = replace(first, force_min=min(r.force_min for r in needs.values()), force_max=max(r.force_max for r in needs.values()))
+        rates = [r.rate for r in needs.values()]
+        o = s.design
+        made = design(needs.get(ALL, first_of(needs)), o.material, Envelope(o.max_outer_diameter, o.max_body_length), o.rate_tolerance, o.min_safety_factor)
         if max(rates) - min(rates) > RATE_SPREAD * max(rates):
             why = f"its rate changes between scenarios ({min(rates):.6g}-{max(rates):.6g} N/m): no one spring has them all"
             made = SpringDesign(made.material, made.requirement, reasons=(why,), rate_tolerance=made.rate_tolerance)
-        out.extend(_use(s, name, values, made) for name, values in rows.items())
+        out.extend(_use(s, name, rows[name], needs[name], made) for name in rows)
     return tuple(out)
+
+
+def first_of(needs: dict[str, Requirement]) -> Requirement:
+    return next(iter(needs.values()))
 
 
 def _requirement(spring: Any, k: float, d_min: float, d_max: float, cable: float, f0: float, l0: float) -> Requirement:
@@ -163,17 +169,11 @@ def _requirement(spring: Any, k: float, d_min: float, d_max: float, cable: float
     return Requirement(rate=k, force_min=f0 + k * x_min, force_max=f0 + k * x_max, initial_tension=f0, free_length=l0)
 
 
-def _design(spring: Any, k: float, d_min: float, d_max: float, cable: float, f0: float, l0: float) -> SpringDesign:
-    o = spring.design
-    return design(_requirement(spring, k, d_min, d_max, cable, f0, l0), o.material, Envelope(o.max_outer_diameter, o.max_body_length), o.rate_tolerance, o.min_safety_factor)
-
-
-def _use(spring: Any, scenario: str, values: tuple[float, ...], made: SpringDesign) -> DesignedSpring:
-    """The spring ``made`` in one scenario: its working range there (the design's forces and
-    lengths at that scenario's distances)."""
-    k, d_min, d_max, cable = values[:4]
-    r = _requirement(spring, k, d_min, d_max, cable, values[4], values[5])
+def _use(spring: Any, scenario: str, values: tuple[float, ...], need: Requirement, made: SpringDesign) -> DesignedSpring:
+    """The spring ``made`` in one scenario: its working range there (forces ``need``, and
+    the lengths of the design at them)."""
+    d_min, d_max, cable = values[1:4]
     f0, L0 = made.initial_tension, made.free_length
-    lengths = (L0 + max(r.force_min - f0, 0.0) / made.rate, L0 + (r.force_max - f0) / made.rate)  # NaN: no design
-    made = replace(made, requirement=r, length_min=lengths[0], length_max=lengths[1])
+    lengths = (L0 + max(need.force_min - f0, 0.0) / made.rate, L0 + (need.force_max - f0) / made.rate)  # NaN: no design
+    made = replace(made, requirement=need, length_min=lengths[0], length_max=lengths[1])
     return DesignedSpring(spring.name, scenario, "pulley" if spring.direct is None else "direct", d_min, d_max, cable, made)
