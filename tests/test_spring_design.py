@@ -170,6 +170,27 @@ def test_direct_mount_keeps_the_given_initial_tension_and_free_length():
     assert not s.ok and "windable band" in s.reasons[0]
 
 
+def test_directly_attached_free_stiffness_spring_is_designed_with_the_files_tension_and_length(tmp_path):
+    """The arm of tests/test_direct_springs.py with a free-stiffness spring attached
+    directly (L0 = 300 mm, F0 = 10 N): the designed spring keeps that F0 (inside its band)
+    and that L0 (the hooks take up what the body leaves); its length is d − cable and its
+    force F0 + k (d − cable − L0) over the checked configurations."""
+    from test_direct_springs import arm
+
+    from counterpoise.pipeline import design as solve
+
+    problem = arm(tmp_path, 'stiffness = "k"\nfree_length = "300 mm"\ninitial_tension = "10 N"\nmax_length = "0.6 m"')
+    (u,) = solve(problem).springs
+    s = u.design
+    assert u.mount == "direct" and s.ok, s.reasons
+    assert s.initial_tension == 10.0 and s.initial_tension_band[0] <= 10.0 <= s.initial_tension_band[1]
+    assert s.free_length == pytest.approx(0.3) and s.body_length + 2 * (s.mean_diameter - s.wire_diameter) <= 0.3
+    assert s.hook_extension == pytest.approx((0.3 - s.body_length - 2 * (s.mean_diameter - s.wire_diameter)) / 2)
+    assert u.length_min == pytest.approx(max(u.distance_min - u.cable, 0.3))
+    assert u.force_max == pytest.approx(10.0 + 200.0 * (u.distance_max - u.cable - 0.3))  # k = 200 N/m in the arm's file
+    assert s.max_force >= u.force_max
+
+
 def test_largest_force_is_monotone_in_the_envelope_and_cheap():
     """A bigger envelope carries more; the no-envelope value for music wire is the
     capacity of its thickest standard wire (6.5 mm) at index 4."""

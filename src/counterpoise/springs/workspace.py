@@ -174,6 +174,9 @@ def _use(spring: Any, scenario: str, values: tuple[float, ...], need: Requiremen
     the lengths of the design at them)."""
     d_min, d_max, cable = values[1:4]
     f0, L0 = made.initial_tension, made.free_length
-    lengths = (L0 + max(need.force_min - f0, 0.0) / made.rate, L0 + (need.force_max - f0) / made.rate)  # NaN: no design
+    if spring.direct is None:  # the anchor sets the length: L = L0 + (F − F0)/k (NaN: no design)
+        lengths = (L0 + max(need.force_min - f0, 0.0) / made.rate, L0 + (need.force_max - f0) / made.rate)
+    else:  # attached directly: the geometry sets the length, d − cable, not below L0
+        lengths = (max(d_min - cable, L0), max(d_max - cable, L0))
     made = replace(made, requirement=need, length_min=lengths[0], length_max=lengths[1])
     return DesignedSpring(spring.name, scenario, "pulley" if spring.direct is None else "direct", d_min, d_max, cable, made)
