@@ -200,6 +200,13 @@ def test_largest_force_is_monotone_in_the_envelope_and_cheap():
     assert largest_force(max_body_length=0.01) < full
     assert largest_force(min_safety_factor=2.0) == pytest.approx(full / 2)
     assert largest_force(max_outer_diameter=1e-4) == 0.0
+    # a spring's options from the problem file give the same limit
+    from counterpoise.model.elements import SpringDesignOptions
+    from counterpoise.springs import force_limit
+
+    options = SpringDesignOptions(material="stainless_302", max_outer_diameter=0.01, min_safety_factor=1.5)
+    assert force_limit(options) == largest_force("stainless_302", 0.01, None, 1.5)
+    assert force_limit(SpringDesignOptions()) == full
     mat = material("music_wire")
     d = 6.5e-3
     D = 4 * d

@@ -3,7 +3,8 @@
 - :mod:`.materials`: the material table and the standard wire series (``counterpoise/data``);
 - :mod:`.physics`: the formulas of an extension spring with machine hooks (Shigley ch. 10);
 - :mod:`.design`: :func:`design` (the lightest spring for a rate and a force range, or the
-  reasons there is none) and :func:`largest_force` (the force limit of a designed spring);
+  reasons there is none), :func:`largest_force` (the force limit of a designed spring) and
+  :func:`force_limit` (the same for a spring's design options from the problem file);
 - :mod:`.workspace`: after a solve, each free-stiffness spring's requirement over the
   verified workspace and its design (imported on demand: it needs the mechanics).
 
@@ -13,7 +14,7 @@ This package imports only numpy and its data at import time, so any layer may us
 
 from __future__ import annotations
 
-from .design import RATE_TOLERANCE, Envelope, Requirement, SpringDesign, design, largest_force
+from .design import RATE_TOLERANCE, Envelope, Requirement, SpringDesign, design, force_limit, largest_force
 from .materials import DEFAULT_MATERIAL, Material, material, materials, wire_diameters, wire_series
 
 __all__ = [
@@ -24,6 +25,7 @@ __all__ = [
     "Requirement",
     "SpringDesign",
     "design",
+    "force_limit",
     "largest_force",
     "material",
     "materials",

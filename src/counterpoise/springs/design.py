@@ -324,3 +324,15 @@ def largest_force(
     dictionary look-up after). 0.0 when no standard wire fits the envelope."""
     key = material(mat).key
     return _largest(key, max_outer_diameter, max_body_length, float(min_safety_factor))
+
+
+def force_limit(options: object) -> float:
+    """The default force limit (N) of a designed spring: :func:`largest_force` for a
+    spring's design options (``ZeroFreeLengthSpring.design``: material, envelope, smallest
+    safety factor)."""
+    return largest_force(
+        getattr(options, "material", DEFAULT_MATERIAL),
+        getattr(options, "max_outer_diameter", None),
+        getattr(options, "max_body_length", None),
+        getattr(options, "min_safety_factor", 1.0),
+    )
