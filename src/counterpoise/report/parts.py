@@ -26,6 +26,7 @@ from dataclasses import replace
 from typing import Any
 
 from ..pipeline import DesignResult
+from ..springs.workspace import ALL
 from .rows import Row
 
 SPRINGS_COLUMNS = [
@@ -73,7 +74,7 @@ SPRINGS_COLUMNS = [
     "note",
 ]
 #: the scenario of a spring's summary row (extremes over every scenario)
-ALL_SCENARIOS = "all"
+ALL_SCENARIOS = ALL
 TOLERANCE_COLUMNS = ["case", "deviation", "residual_ratio", "adjusted_residual_ratio", "adjustment"]
 
 
@@ -159,6 +160,7 @@ def designed_rows(result: DesignResult) -> list[Row]:
     scenario and (several scenarios) over ``all`` of them."""
     mm, mpa = 1e3, 1e-6
     rows: list[Row] = []
+    several = any(u.scenario == ALL_SCENARIOS for u in result.springs)
     for u in result.springs:
         s = u.design
         row: Row = {
@@ -172,7 +174,7 @@ def designed_rows(result: DesignResult) -> list[Row]:
             "max_force_N": u.force_max,
             "rate_tolerance": s.rate_tolerance,
             "material": s.material.name,
-            "note": "; ".join(s.reasons + s.warnings),
+            "note": "; ".join(s.reasons + s.warnings) if not several or u.scenario == ALL_SCENARIOS else "",  # once per spring
         }
         if s.ok:
             row.update(
@@ -213,10 +215,10 @@ def designed_rows(result: DesignResult) -> list[Row]:
 def designed_status(result: DesignResult) -> str:
     """One status line per designed spring (the ``all`` design when there are several
     scenarios): what was designed, or why nothing could be, and what it cannot do."""
-    several = any(u.scenario == "all" for u in result.springs)
+    several = any(u.scenario == ALL_SCENARIOS for u in result.springs)
     lines = []
     for u in result.springs:
-        if several and u.scenario != "all":
+        if several and u.scenario != ALL_SCENARIOS:
             continue
         s = u.design
         if not s.ok:
