@@ -230,6 +230,24 @@ def test_catalogue_script_uses_the_package_and_its_output_is_unchanged():
     assert script.main(["--check"]) == 0
 
 
+@pytest.mark.parametrize("name", ["yasir2019_hybrid", "fourbar_springs"])
+def test_designed_springs_are_sized_on_the_sample_catalogue_parts_are_checked_on(name):
+    """The after-solve sample (drawn from the mechanics layer, without importing the part
+    search) is the catalogue check's, draw for draw: an open chain and a closed loop."""
+    from counterpoise.io.loader import load_problem
+    from counterpoise.mechanics.closure import scenario_base
+    from counterpoise.selection.geometry import sample_configurations
+    from counterpoise.springs.workspace import SEED_OFFSET, sample
+
+    problem = load_problem(PROBLEMS / f"{name}.toml", {"settings.verify_samples": 500})
+    seed = problem.settings.seed + SEED_OFFSET
+    theirs = sample_configurations(problem, 500, seed)
+    mine = sample(problem, scenario_base(problem, problem.scenarios[0].name), 500, seed)
+    assert theirs.keys() == mine.keys()
+    for key in theirs:
+        np.testing.assert_array_equal(theirs[key], mine[key])
+
+
 def _rows(capsys, tmp_path, name):
     from counterpoise.cli import main
 

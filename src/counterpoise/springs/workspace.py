@@ -3,7 +3,8 @@
 Each spring of the problem with a ``stiffness`` (no ``slot``) gets its requirement from the
 solved design over the dense sample of the workspace (the same random configurations plus
 box corners, or configuration-manifold samples for closed loops, that catalogue parts are
-checked on; a payload range: every payload of its schedule):
+checked on, drawn here from the mechanics layer; a payload range: every payload of its
+schedule):
 
 - behind a pulley (the default mount, docs/springs.md): the cable outside the pulley is
   d = |from − to| long and the spring pulls F = k·d, so the working forces are k·d_min to
@@ -20,6 +21,7 @@ all of them: the one spring that is made).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -91,6 +93,46 @@ def free_springs(problem: Any) -> list[Any]:
     return [s for s in problem.springs if s.slot is None]
 
 
+def sample(problem: Any, base: Mapping[str, float], samples: int, seed: int) -> dict[str, np.ndarray]:
+    """Per subsystem: ``samples`` random configurations plus the corners of its box, on
+    the configuration manifold (geometry ``base``) for closed loops. The same draws as the
+    sample catalogue parts are checked on (:func:`counterpoise.selection.geometry.sample_configurations`,
+    for one geometry), from the mechanics layer alone: the after-solve path imports no part search."""
+    from ..mechanics.closure import manifold_configurations
+    from ..mechanics.sampling import configurations
+
+    rng = np.random.default_rng(seed)
+    out = {}
+    for s in problem.subsystems:
+        if problem.subsystem_loops(s.name):
+            out[s.name] = manifold_configurations(problem, s.name, samples, rng, base).q
+        else:
+            out[s.name] = configurations(problem, s.name, samples, rng)
+    return out
+
+
+def distances(problem: Any, springs: list[Any], q: Mapping[str, np.ndarray], variables: Mapping[str, Any], base: Mapping[str, Any], gravity: Any) -> dict[str, np.ndarray]:
+    """|from − to| of each spring: (designs, configurations) arrays, designs (scenarios)
+    along axis 0 as in ``variables`` and ``base`` ((n, 1) arrays)."""
+    from ..mechanics import NUMPY_FUNCTIONS, Mechanics
+    from ..mechanics.kinematics import dot, sub
+
+    out: dict[str, np.ndarray] = {}
+    mechs: dict[Any, Any] = {}
+    for spring in springs:
+        key = spring.subsystem
+        if key not in mechs:
+            if key is not None:
+                coords = {c.name: q[key][None, :, i] for i, c in enumerate(problem.subsystem_coordinates(key))}
+            else:  # fixed to ground at both ends: one column
+                coords = {c.name: np.array([[c.home]]) for c in problem.coordinates}
+            mechs[key] = Mechanics(problem, base, variables, coords, gravity, NUMPY_FUNCTIONS)
+        mech = mechs[key]
+        v = sub(mech.position(spring.ends[0]), mech.position(spring.ends[1]))
+        out[spring.name] = np.sqrt(np.maximum(np.atleast_2d(np.asarray(dot(v, v), dtype=float)), 0.0))
+    return out
+
+
 def designed_springs(solution: Any) -> tuple[DesignedSpring, ...]:
     """One :class:`DesignedSpring` per free-stiffness spring and scenario of ``solution``
     (a payload design: per payload of its schedule), plus one per spring over ``all``
@@ -98,48 +140,53 @@ def designed_springs(solution: Any) -> tuple[DesignedSpring, ...]:
     if not free_springs(solution.problem):
         return ()
     from ..mechanics import Mechanics
-    from ..selection.geometry import sample_configurations, spring_lengths
+    from ..mechanics.closure import geometry_key
 
     outcome = getattr(solution, "payload", None)
     checked = outcome.schedule_solution() if outcome is not None and getattr(outcome, "schedule", None) is not None else solution
     problem = checked.problem
     springs = free_springs(problem)
-    names = [s.name for s in springs]
-    q = sample_configurations(problem, problem.settings.verify_samples, problem.settings.seed + SEED_OFFSET)
     # per spring: scenario -> (rate, d_min, d_max, cable, F0, L0)
-    found: dict[str, dict[str, tuple[float, ...]]] = {n: {} for n in names}
-    # scenarios with the same values (working modes differ in gravity alone) are evaluated once
+    found: dict[str, dict[str, tuple[float, ...]]] = {s.name: {} for s in springs}
+    # scenarios with the same values (working modes differ in gravity alone) are evaluated
+    # once; scenarios that share a geometry of their closed loops share one sample
     unique: dict[tuple[Any, ...], str] = {}
     same: dict[str, str] = {}
     every: dict[str, tuple[dict[str, float], dict[str, float]]] = {}
+    groups: dict[tuple[Any, ...], list[str]] = {}
+    loops = [s.name for s in problem.subsystems if problem.subsystem_loops(s.name)]
     for sc in problem.scenarios:
         values, base = checked.variable_values(sc.name), checked.scenario_parameters[sc.name][1]
         key = (tuple(sorted(values.items())), tuple(sorted(base.items())))
         same[sc.name] = unique.setdefault(key, sc.name)
         every[sc.name] = (values, base)
-    scenarios = list(unique.values())
-    for start in range(0, len(scenarios), CHUNK):  # scenarios along axis 0, configurations along axis 1
-        chunk = scenarios[start : start + CHUNK]
-        values = [every[name][0] for name in chunk]
-        bases = [every[name][1] for name in chunk]
-        gravity = checked.scenario_parameters[chunk[0]][0]  # positions do not depend on it
-        variables = {k: np.array([[v[k]] for v in values]) for k in values[0]}
-        base = {k: np.array([[b[k]] for b in bases]) for k in bases[0]}
-        lengths = spring_lengths(problem, names, q, variables, base, gravity)
-        mech = Mechanics(problem, base, variables, {c.name: c.home for c in problem.coordinates}, gravity)
+        if same[sc.name] == sc.name:
+            groups.setdefault(tuple(geometry_key(problem, name, base) for name in loops), []).append(sc.name)
+    settings = problem.settings
+    for names in groups.values():
+        q = sample(problem, every[names[0]][1], settings.verify_samples, settings.seed + SEED_OFFSET)
+        for start in range(0, len(names), CHUNK):  # scenarios along axis 0, configurations along axis 1
+            chunk = names[start : start + CHUNK]
+            values = [every[name][0] for name in chunk]
+            bases = [every[name][1] for name in chunk]
+            gravity = checked.scenario_parameters[chunk[0]][0]  # positions do not depend on it
+            variables = {k: np.array([[v[k]] for v in values]) for k in values[0]}
+            base = {k: np.array([[b[k]] for b in bases]) for k in bases[0]}
+            lengths = distances(problem, springs, q, variables, base, gravity)
+            mech = Mechanics(problem, base, variables, {c.name: c.home for c in problem.coordinates}, gravity)
 
-        def each(tree: Any) -> np.ndarray:
-            return np.broadcast_to(np.asarray(mech.value(tree), dtype=float).reshape(-1), (len(chunk),))
+            def each(tree: Any) -> np.ndarray:
+                return np.broadcast_to(np.asarray(mech.value(tree), dtype=float).reshape(-1), (len(chunk),))
 
-        for s in springs:
-            d = np.broadcast_to(lengths[s.name], (len(chunk), lengths[s.name].shape[1]))
-            columns = [each(s.stiffness), d.min(axis=1), d.max(axis=1)]
-            if s.direct is None:
-                columns += [np.zeros(len(chunk)), np.full(len(chunk), np.nan), np.full(len(chunk), np.nan)]
-            else:
-                columns += [each(s.direct.cable), each(s.direct.initial_tension), each(s.direct.free_length)]
-            for j, name in enumerate(chunk):
-                found[s.name][name] = tuple(float(c[j]) for c in columns)
+            for s in springs:
+                d = np.broadcast_to(lengths[s.name], (len(chunk), lengths[s.name].shape[1]))
+                columns = [each(s.stiffness), d.min(axis=1), d.max(axis=1)]
+                if s.direct is None:
+                    columns += [np.zeros(len(chunk)), np.full(len(chunk), np.nan), np.full(len(chunk), np.nan)]
+                else:
+                    columns += [each(s.direct.cable), each(s.direct.initial_tension), each(s.direct.free_length)]
+                for j, name in enumerate(chunk):
+                    found[s.name][name] = tuple(float(c[j]) for c in columns)
     out: list[DesignedSpring] = []
     for s in springs:
         rows = {sc.name: found[s.name][same[sc.name]] for sc in problem.scenarios}
