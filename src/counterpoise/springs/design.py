@@ -179,7 +179,9 @@ def design(
     Behind a pulley the initial tension is the middle of the windable band, lowered to
     ``force_min`` but not below the band; when some candidates keep F0 ≤ ``force_min``, the
     lightest of them is chosen, otherwise the one whose F0 exceeds it least, with a
-    warning (the cable goes slack near the shortest distance)."""
+    warning (the cable goes slack near the shortest distance). Attached directly, the
+    candidates whose hooks need at most one coil diameter each beyond machine hooks to
+    make up the given free length come first (otherwise the least excess, with a warning)."""
     m = material(mat)
     r = requirement
     k, f_lo, f_hi = r.rate, r.force_min, r.force_max
@@ -222,15 +224,21 @@ def design(
         keep &= ok
     mass = ph.mass(m, d, D, Nb)
     slack = np.maximum(F0 - f_lo, 0.0)  # > 0: the cable goes slack at the shortest distance
-    order = np.lexsort((f_hi / capacity, np.where(keep, mass, np.inf), np.where(keep, slack, np.inf)))
+    long_hooks = np.maximum((free - L0) / 2.0 - D, 0.0)  # direct mount: hooks longer than a coil diameter more
+    order = np.lexsort((f_hi / capacity, np.where(keep, mass, np.inf), np.where(keep, long_hooks, np.inf), np.where(keep, slack, np.inf)))
     i = int(order[0])
     f0 = float(F0[i])
     warnings: tuple[str, ...] = ()
     if slack[i] > 0:
-        warnings = (
+        warnings += (
             f"its force falls to {f_lo:.4g} N, below the smallest windable initial tension {f0:.4g} N of any spring strong "
             f"enough: the cable goes slack where the ends come closer than F0/k = {1e3 * f0 / k:.4g} mm, and the balance "
             f"is lost there (the spring pulls nothing instead of k·d < F0)",
+        )
+    if long_hooks[i] > 0:
+        warnings += (
+            f"its free length {1e3 * float(free[i]):.4g} mm leaves {1e3 * float(free[i] - L0[i]) / 2:.4g} mm per hook beyond "
+            f"machine hooks on every spring strong enough: extended hooks (or a longer cable and a shorter free length)",
         )
     return SpringDesign(
         warnings=warnings,
