@@ -162,6 +162,10 @@ MANIFEST: dict[str, Expect] = {
     ),
     "slot_unknown_catalogue.toml": Expect("slots.s.catalogue", "unknown catalogue 'shop'"),
     "spring_slot_and_stiffness.toml": Expect("springs.s.slot", "give either a stiffness or a slot"),
+    # the design options of a free-stiffness spring (docs/springs.md)
+    "spring_design_unknown_material.toml": Expect("springs.s_a.material", "unknown spring material 'unobtainium'"),
+    "spring_design_outer_diameter_not_a_length.toml": Expect("springs.s_a.max_outer_diameter", "expected a length"),
+    "spring_design_safety_factor_below_one.toml": Expect("springs.s_a.min_safety_factor", "greater than or equal to 1"),
     "slot_tolerance_above_100_percent.toml": Expect("slots.s.rate_tolerance", "a tolerance must be between 0 and 100 %, got '150 %'"),
     "catalogue_units_si_on_n_mm.toml": Expect(
         "catalogues.parts.units",

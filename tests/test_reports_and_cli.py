@@ -37,8 +37,8 @@ def test_design_and_summary_columns(tmp_path):
     assert k["unit"] == "N/mm" and float(k["lower"]) == 0.01 and float(k["upper"]) == 5
     # quantities have no bounds
     assert (design[design["kind"] == "quantity"]["lower"] == "").all()
-    # no temporary files are left behind
-    assert sorted(p.name for p in folder.iterdir()) == ["build.csv", "design.csv", "status.txt", "summary.csv", "verification.csv"]
+    # no temporary files are left behind; the free-stiffness springs get springs.csv (their designed springs)
+    assert sorted(p.name for p in folder.iterdir()) == ["build.csv", "design.csv", "springs.csv", "status.txt", "summary.csv", "verification.csv"]
 
 
 def test_verification_table_one_row_per_condition(tmp_path):

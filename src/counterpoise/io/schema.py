@@ -188,6 +188,12 @@ class SpringSpec(_Table):
     max_length: Value | None = None
     cable: Value | None = None
     max_force: Value | None = None  # the spring's largest force (a limit of the design)
+    # free-stiffness springs: the designed helical spring (docs/springs.md)
+    material: str | None = None  # a key of counterpoise/data/spring_materials.csv
+    max_outer_diameter: Value | None = None
+    max_body_length: Value | None = None
+    rate_tolerance: Value | None = None  # of the spring maker's spec: 0.1 or "10 %"
+    min_safety_factor: Annotated[FiniteFloat, Field(ge=1, le=100)] | None = None
     from_: PointSpec = Field(alias="from")
     to: PointSpec
     description: str = ""

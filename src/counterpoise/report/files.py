@@ -123,13 +123,13 @@ def atomic_folder(folder: Path, fill: Callable[[Path], None]) -> Path:
 def report_texts(result: DesignResult) -> dict[str, str]:
     """File name -> text of every report of ``result`` (substitution.csv only when the
     problem substitutes a body; payload problems add ``schedule.csv``; problems with
-    catalogue parts ``springs.csv`` and ``tolerance.csv``; problems with springs or
-    counter-masses ``build.csv``, :mod:`.build`)."""
+    catalogue parts ``springs.csv`` and ``tolerance.csv``; problems with free-stiffness
+    springs ``springs.csv``; problems with springs or counter-masses ``build.csv``, :mod:`.build`)."""
     texts = {
         "design.csv": csv_text(design_rows(result) + parts.part_design_rows(result), DESIGN_COLUMNS),
         "summary.csv": csv_text([summary_row(result)], SUMMARY_COLUMNS),
         "verification.csv": csv_text(verification_rows(result), VERIFICATION_COLUMNS),
-        "status.txt": status_text(result) + parts.parts_status(result),
+        "status.txt": status_text(result) + parts.parts_status(result) + parts.designed_status(result),
     }
     from ..formulation.assumptions import degeneracies
 
@@ -142,8 +142,9 @@ def report_texts(result: DesignResult) -> dict[str, str]:
         texts["status.txt"] += payload_status_lines(result)
         if result.payload.schedule is not None:
             texts["schedule.csv"] = csv_text(schedule_rows(result), schedule_columns(result))
-    if result.parts is not None:
+    if result.parts is not None or result.springs:
         texts["springs.csv"] = csv_text(parts.springs_rows(result), parts.SPRINGS_COLUMNS)
+    if result.parts is not None:
         texts["tolerance.csv"] = csv_text(parts.tolerance_rows(result), parts.TOLERANCE_COLUMNS)
     if result.problem.springs or result.problem.counter_masses:
         from .build import BUILD_COLUMNS, BUILD_FLOAT_FORMAT, build_rows
