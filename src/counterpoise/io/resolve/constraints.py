@@ -39,12 +39,19 @@ def designed_spring_force_limit(spring: ZeroFreeLengthSpring) -> tuple[float, st
     """HOOK: the default largest force (N, and where it comes from) of a designed spring,
     one whose stiffness is free (not a catalogue slot), when the file gives no ``max_force``.
 
-    This is where ``counterpoise.springs.largest_force(...)`` (the "springs" work: the
-    largest force a helical spring of the design's rate can take) plugs in. Until it
-    exists, such a spring keeps no force limit: None.
+    It is the largest force a helical extension spring of the spring's material can carry
+    within its envelope and smallest safety factor (``counterpoise.springs.force_limit``,
+    docs/springs.md): a design that needs more cannot be wound, whatever its rate. A
+    catalogue slot's spring is limited by its part instead (None here).
     """
-    del spring
-    return None
+    if spring.slot is not None:
+        return None
+    from ...springs.design import force_limit
+
+    options = getattr(spring, "design", None)
+    limit = force_limit(options)
+    material = getattr(options, "material", None) or "music wire"
+    return limit, f"the largest force a designed {material.replace('_', ' ')} spring can carry"
 
 
 def constraints(
