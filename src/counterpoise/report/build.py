@@ -170,6 +170,7 @@ def realisations(result: DesignResult, mech: Mechanics | None = None) -> dict[st
     need = [s.name for s in problem.springs if s.name not in uses]
     extremes = workspace_distances(result) if need else {}
     out: dict[str, tuple[Realisation, str]] = {}
+    designed = {d.spring: d.design for d in getattr(result, "springs", ()) if d.design.ok}
     for s in problem.springs:
         l0 = f0 = math.nan
         part = ""
@@ -177,6 +178,10 @@ def realisations(result: DesignResult, mech: Mechanics | None = None) -> dict[st
             i = parts.chosen[s.slot]
             cat = slots[s.slot].catalogue
             l0, f0, part = float(cat.free_length[i]), float(cat.initial_tension[i]), str(cat.part_number[i])
+        elif s.slot is None and s.direct is None and s.name in designed:
+            # a pulley-mounted designed spring (docs/springs.md): its own free length and
+            # initial tension place its fixed end; a direct mount keeps the file's
+            l0, f0 = designed[s.name].free_length, designed[s.name].initial_tension
         use = uses.get(s.name)
         distances = (use.distance_min, use.distance_max) if use is not None else extremes[s.name]
         out[s.name] = (realise_spring(mech, s, distances, l0, f0), part)
