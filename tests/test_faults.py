@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 
 from conftest import PROBLEMS, ROOT
+from counterpoise.errors import ProblemFileError
 
 #: how long the signal tests wait for a study's pool workers to start (a loaded machine is slow)
 START_WAIT_S = 120
@@ -180,3 +181,72 @@ def test_the_reference_torque_is_the_box_maximum_not_the_sampled_one():
     exact = 0.4 * 9.81 * (0.135 + 0.195 + 0.200)
     assert check.max_gravity_torque == pytest.approx(exact, rel=1e-6)
     assert verification.reference(check.kind) == pytest.approx(exact, rel=1e-6)
+
+
+# --------------------------------------------------------------------------------------
+# Issue 24: nothing silently wrong
+# --------------------------------------------------------------------------------------
+
+BAD_ROBOTS = ROOT / "tests" / "bad_problems" / "robots"
+
+
+def _robot_problem(folder: Path, model: str, fmt: str = "urdf", joint: str = "shoulder") -> Path:
+    """The problem of tests/bad_problems/robots/robot_negative_link_mass.toml on ``model``."""
+    text = (BAD_ROBOTS / "robot_negative_link_mass.toml").read_text(encoding="utf-8").split("\n", 1)[1]
+    text = text.replace('urdf = "negative_mass.urdf"', f'{fmt} = "{model}"').replace("joints.shoulder", f"joints.{joint}")
+    path = folder / "problem.toml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def test_a_urdf_with_a_comment_over_libxml2s_limit_is_read(tmp_path):
+    """Item 14: a 50 MB comment ("Comment too big" from libxml2's default 10 MB limit) is read
+    with lxml's huge_tree option; a file over MAX_MODEL_BYTES is refused with its size."""
+    from counterpoise.io import robot
+    from counterpoise.io.loader import load_problem
+
+    urdf = (BAD_ROBOTS / "negative_mass.urdf").read_text(encoding="utf-8").replace('value="-1.0"', 'value="1.0"')
+    big = urdf.replace("<robot ", "<!-- " + "x" * (50 * 2**20) + " -->\n<robot ", 1)
+    (tmp_path / "big.urdf").write_text(big, encoding="utf-8")
+    problem = load_problem(_robot_problem(tmp_path, "big.urdf"))
+    assert {b.name: b.mass.value for b in problem.bodies} == {"arm": 1.0, "hand": 0.2}
+    limit = robot.MAX_MODEL_BYTES
+    try:
+        robot.MAX_MODEL_BYTES = 2**20
+        with pytest.raises(ProblemFileError) as info:
+            load_problem(tmp_path / "problem.toml")
+    finally:
+        robot.MAX_MODEL_BYTES = limit
+    assert info.value.key == "robot.urdf" and "big.urdf is 50 MB; robot models up to 1 MB are read" in info.value.message
+
+
+_MESH_ARM = """<mujoco model="meshed">
+  <asset><mesh name="arm_mesh" file="meshes/arm.stl"/></asset>
+  <worldbody>
+    <body name="base">
+      <body name="arm" pos="0 0 0.1">
+        <joint name="shoulder" type="hinge" axis="0 1 0" range="-120 120"/>
+        {inertial}
+        <geom type="mesh" mesh="arm_mesh"/>
+        <geom type="sphere" size="0.01" pos="0.4 0 0" contype="0" conaffinity="0"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_an_mjcf_with_missing_meshes_loads_when_its_inertials_are_explicit(tmp_path):
+    """Item 16: meshes/arm.stl does not exist; the arm's <inertial> gives its mass (1.5 kg at
+    200 mm), so the model is read without the mesh. Without the <inertial> the mesh would
+    weigh, and the error says what to do."""
+    from counterpoise.io.loader import load_problem
+
+    (tmp_path / "arm.xml").write_text(_MESH_ARM.format(inertial='<inertial pos="0.2 0 0" mass="1.5" diaginertia="0.01 0.01 0.01"/>'), encoding="utf-8")
+    problem = load_problem(_robot_problem(tmp_path, "arm.xml", "mjcf"))
+    arm = next(b for b in problem.bodies if b.name == "arm")
+    assert arm.mass.value == 1.5 and [c.value for c in arm.com.position] == [0.2, 0.0, 0.0]
+    (tmp_path / "arm.xml").write_text(_MESH_ARM.format(inertial=""), encoding="utf-8")
+    with pytest.raises(ProblemFileError) as info:
+        load_problem(tmp_path / "problem.toml")
+    assert info.value.key == "robot.mjcf" and "Error opening file" in info.value.message and "explicit <inertial>" in info.value.message
