@@ -179,6 +179,14 @@ MANIFEST: dict[str, Expect] = {
         "scenarios.tilted.parameters.phi", "a bare number used as an angle (deg elsewhere): write '90 deg' or '1.5708 rad'"
     ),
     "angle_bare_dh_alpha.toml": Expect("frames.link_c.transforms.0.dh.alpha", "a bare number used as an angle ('90' would be radians): write '90 deg'"),
+    # issue 24: a length too large to compute with, a name too long for a folder
+    "length_out_of_range.toml": Expect(
+        "parameters.r_a", "value out of range: '1e308 mm' is 1e+305 m; lengths up to 1e+06 m (1000 km) are accepted"
+    ),
+    "problem_name_too_long.toml": Expect("problem.name", "too long (300 characters; at most 128, since it names the report folder)"),
+    "angle_bare_home.toml": Expect(
+        "subsystems.leg.coordinates.theta_a.home", "a bare number used as an angle (deg elsewhere): write '90 deg' or '1.5708 rad'"
+    ),
     "expr_unknown_unit.toml": Expect("frames.link_b.transforms.1.angle", "cannot parse 'theta_b + 90 xdeg': unknown unit 'xdeg' (or a missing '*')"),
     # unknown keys: the unknown key itself, with the nearest key its table knows
     "unknown_key_beside_union_tag.toml": Expect("frames.link_b.transforms.0.offset", "unknown key"),

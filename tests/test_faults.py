@@ -250,3 +250,16 @@ def test_an_mjcf_with_missing_meshes_loads_when_its_inertials_are_explicit(tmp_p
     with pytest.raises(ProblemFileError) as info:
         load_problem(tmp_path / "problem.toml")
     assert info.value.key == "robot.mjcf" and "Error opening file" in info.value.message and "explicit <inertial>" in info.value.message
+
+
+def test_a_length_too_large_to_compute_with_is_bad_input(tmp_path, capsys):
+    """Item 10: 1e308 mm is finite, but its square is not (it gave "nothing to balance", then an
+    infeasible design with residuals of 1e305 N·m): lengths above 1e6 m are input errors."""
+    from counterpoise.cli import main
+
+    file = str(PROBLEMS / "yasir2019_counter_mass.toml")
+    with pytest.raises(SystemExit) as info:
+        main(["solve", file, "--out", str(tmp_path / "out"), "--set", "parameters.r_a=1e308 mm"])
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert info.value.code == 2 and lines == [f"{file}: parameters.r_a: value out of range: '1e308 mm' is 1e+305 m; lengths up to 1e+06 m (1000 km) are accepted"]
+    assert not (tmp_path / "out").exists()

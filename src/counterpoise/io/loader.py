@@ -265,6 +265,9 @@ def _pydantic_message(err: Mapping[str, Any]) -> str:
         else:
             rule = "letters, digits and '_', starting with a letter"
         return f"invalid name {err.get('input')!r}: use {rule}"
+    if kind == "string_too_long":
+        limit = (err.get("ctx") or {}).get("max_length")
+        return f"too long ({len(str(err.get('input', '')))} characters; at most {limit}, since it names the report folder)"
     if kind == "literal_error":
         return f"expected one of {(err.get('ctx') or {}).get('expected', '')}, got {err.get('input')!r}"
     msg = str(err.get("msg", "invalid value"))

@@ -29,6 +29,7 @@ from ...model.units import (
     Quantity,
     angle_hint,
     check_dimension,
+    check_length_range,
     dimensionality_of,
     display_unit,
     is_angle_unit,
@@ -396,6 +397,7 @@ def read_quantity(number: float, unit: str) -> float | None:
     si = number * u.to_si
     if not math.isfinite(si):
         raise UnitError(f"value must be finite, got '{number:g} {unit}' (too large once converted to SI units)")
+    check_length_range(si, u.dimension, f"{number:g} {unit}")
     return si
 
 
