@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 import signal
 import subprocess
@@ -263,3 +264,55 @@ def test_a_length_too_large_to_compute_with_is_bad_input(tmp_path, capsys):
     lines = capsys.readouterr().err.strip().splitlines()
     assert info.value.code == 2 and lines == [f"{file}: parameters.r_a: value out of range: '1e308 mm' is 1e+305 m; lengths up to 1e+06 m (1000 km) are accepted"]
     assert not (tmp_path / "out").exists()
+
+
+def _main(args, capsys):
+    from counterpoise.cli import main
+
+    with pytest.raises(SystemExit) as info:
+        main(args)
+    out = capsys.readouterr()
+    return info.value.code, out.err.strip().splitlines(), out.out
+
+
+@pytest.mark.parametrize("command", ["solve", "study"])
+@pytest.mark.parametrize("kind", ["file", "dangling", "file_on_path"])
+def test_out_that_cannot_be_a_folder_is_one_line(tmp_path, capsys, command, kind):
+    """Item 12: --out at a regular file or a dangling symbolic link said "File exists" after
+    the whole design; now one line saying what is wrong, exit 2, nothing written."""
+    (tmp_path / "a_file").write_text("x", encoding="utf-8")
+    (tmp_path / "dangling").symlink_to(tmp_path / "nowhere")
+    out = {"file": tmp_path / "a_file", "dangling": tmp_path / "dangling", "file_on_path": tmp_path / "a_file" / "sub"}[kind]
+    before = sorted(tmp_path.iterdir())
+    extra = ["--vary", "m_c=300 g:400 g:2", "--jobs", "1", "--no-plot"] if command == "study" else []
+    code, lines, _ = _main([command, str(PROBLEMS / "yasir2019_counter_mass.toml"), "--out", str(out), *extra], capsys)
+    expected = {
+        "file": f"--out: '{out}' is a file, not a folder",
+        "dangling": f"--out: '{out}' is a symbolic link to '{tmp_path / 'nowhere'}', which does not exist",
+        "file_on_path": f"--out: '{tmp_path / 'a_file'}' (on the path of '{out}') is a file, not a folder",
+    }[kind]
+    assert code == 2 and len(lines) == 1 and lines[0].startswith(expected), lines
+    assert sorted(tmp_path.iterdir()) == before
+
+
+def test_set_reads_an_array_as_toml_and_an_entry_by_its_index(capsys):
+    """Item 15: an array is set whole (TOML) or one entry by its index; a wrong index or a
+    scalar for an array says how."""
+    from counterpoise.io.loader import load_problem
+
+    file = PROBLEMS / "yasir2019_counter_mass.toml"
+    code, lines, _ = _main(["validate", str(file), "--set", "gravity.direction=[0, 1, 0]", "--set", "subsystems.leg.coordinates.theta_a.range.0=60 deg"], capsys)
+    assert code == 0, lines
+    from counterpoise.cli.light import coerce
+
+    problem = load_problem(file, {"gravity.direction": coerce("[0, 1, 0]"), "subsystems.leg.coordinates.theta_a.range.0": "60 deg"})
+    assert all(tuple(s.gravity.direction) == (0.0, 1.0, 0.0) for s in problem.scenarios)
+    assert problem.coordinate["theta_a"].lower == pytest.approx(math.radians(60))
+    for item, message in [
+        ("gravity.direction.3=1", "gravity.direction.3: the array has 3 entries: set one by its index 0 to 2, or the whole array as TOML"),
+        ("gravity.direction=0", "gravity.direction: expected an array such as [0, 0, -1], got 0 (with --set, write the array: --set 'KEY=[...]')"),
+    ]:
+        code, lines, _ = _main(["validate", str(file), "--set", item], capsys)
+        assert code == 2 and lines == [f"{file}: {message}" + lines[0].split(message, 1)[1]], lines
+    code, lines, _ = _main(["validate", str(file), "--set", "gravity.direction=[0, 0"], capsys)
+    assert code == 2 and lines == ["--set gravity.direction: cannot read '[0, 0' as a TOML array: Unclosed array (at end of document)"]

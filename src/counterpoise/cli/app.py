@@ -49,7 +49,11 @@ def _overrides(items: list[str] | None) -> dict[str, str]:
         if not sep or not key.strip():
             err_console.print(f"--set {clip(item)}: expected KEY=VALUE", markup=False)
             raise typer.Exit(2)
-        out[key.strip()] = _coerce(value.strip())
+        try:
+            out[key.strip()] = _coerce(value.strip())
+        except ValueError as exc:
+            err_console.print(f"--set {clip(key.strip())}: {clip(str(exc))}", markup=False)
+            raise typer.Exit(2) from None
     return out
 
 
@@ -63,6 +67,16 @@ def _load_all(files: list[Path], overrides: dict[str, str]) -> list:
     if problems is None:
         raise typer.Exit(2)
     return problems
+
+
+def _check_out(out: Path) -> None:
+    """``--out`` must be usable as a folder (one line and exit 2 before any work, else)."""
+    from .run import out_error
+
+    wrong = out_error(out)
+    if wrong is not None:
+        _err_line(wrong)
+        raise typer.Exit(2)
 
 
 def _err_line(line: str) -> None:
@@ -130,6 +144,7 @@ def solve(
         err_console.print(f"--starts: must be at least 1, got {starts}", markup=False)
         raise typer.Exit(2)
     problems = _load_all(files, _overrides(set_))
+    _check_out(out)
     rows, worst = solve_all(problems, out, plot, starts, _err_line)
     _print_summary(rows)
     raise typer.Exit(worst)
@@ -224,6 +239,7 @@ def study(
 
     overrides = _overrides(set_)
     problem = _load_all([file], overrides)[0]
+    _check_out(out)
     options = StudyOptions(tuple(vary), samples, method, seed, out, jobs, scheduler, scheduler_timeout, resume, time_limit, batch_size, plot,
                            overrides=tuple(overrides.items()))
     try:
@@ -279,6 +295,7 @@ def plot(
         from ..plots import energy_plot
 
         problem = _load_all([file], _overrides(set_))[0]
+        _check_out(out)
         try:
             paths = energy_plot(design(problem), out / problem.name)
         except (CounterpoiseError, OSError) as exc:
