@@ -316,3 +316,59 @@ def test_set_reads_an_array_as_toml_and_an_entry_by_its_index(capsys):
         assert code == 2 and lines == [f"{file}: {message}" + lines[0].split(message, 1)[1]], lines
     code, lines, _ = _main(["validate", str(file), "--set", "gravity.direction=[0, 0"], capsys)
     assert code == 2 and lines == ["--set gravity.direction: cannot read '[0, 0' as a TOML array: Unclosed array (at end of document)"]
+
+
+#: a lever balanced by a counter-mass M (shared) on an adjustable lever b, payload 0-1 kg at
+#: r = 300 mm on top of the 1 kg tip: M b = (1 kg + p) r, least M with b <= b.upper
+LEVER = """
+[problem]
+name = "lever_payload"
+[gravity]
+acceleration = "9.81 m/s^2"
+direction = [0, -1, 0]
+[parameters]
+m = "1 kg"
+r = "300 mm"
+[subsystems.arm]
+coordinates.q = { range = ["-180 deg", "180 deg"] }
+[frames.link]
+transforms = [{ rotate = "z", angle = "q" }]
+[bodies.tip]
+frame = "link"
+mass = "m"
+com = ["r", 0, 0]
+[payloads.tool]
+frame = "link"
+position = ["r", 0, 0]
+range = ["0 kg", "1 kg"]
+[variables.M]
+lower = "0 kg"
+upper = "3 kg"
+[variables.b]
+lower = "100 mm"
+upper = "250 mm"
+adjustable = true
+[counter_masses.cm]
+frame = "link"
+mass = "M"
+position = ["-b", 0, 0]
+"""
+
+
+def test_a_study_of_an_adjustments_bound_reaches_the_payload_schedule(tmp_path):
+    """Item 5: b.upper raised to 300 mm by a study. The least M puts b on its upper bound at
+    the largest payload: M = (1 + 1) kg · 0.3 m / 0.3 m = 2 kg, and at 0 kg b = 1 kg · 0.3 m / 2 kg
+    = 150 mm. The schedule used to keep the file's 250 mm ("failed ... b at its upper bound
+    250 mm"), and the column b@nominal was empty: the columns are b at the range's ends."""
+    from counterpoise.io.loader import load_problem_text
+    from counterpoise.studies.spec import plan_study
+    from counterpoise.studies.study import read_rows, run_study
+
+    problem = load_problem_text(LEVER, str(tmp_path / "lever.toml"))
+    plan = plan_study(problem, ["b.upper=300 mm:300 mm:1"], "lever")
+    outcome = run_study(problem, plan, tmp_path)
+    [row] = read_rows(outcome.folder / "study.csv")
+    assert row["status"] == "optimal", row["message"]
+    assert float(row["M [kg]"]) == pytest.approx(2.0, rel=1e-6)
+    assert float(row["b@tool_1kg [mm]"]) == pytest.approx(300.0, rel=1e-6)
+    assert float(row["b@tool_0kg [mm]"]) == pytest.approx(150.0, rel=1e-6)

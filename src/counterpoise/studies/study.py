@@ -46,11 +46,21 @@ def study_folder(problem: Problem, out: str | Path) -> Path:
 
 
 def variable_columns(problem: Problem) -> list[tuple[str, str, float]]:
-    """(result key, CSV header, SI size of the display unit) of every design-vector slot."""
+    """(result key, CSV header, SI size of the display unit) of every design-vector slot.
+
+    An adjustable variable has a value per scenario; with a payload range, per payload: its
+    columns are its settings at the lower end, the nominal and the upper end of the range
+    (``b@tool_0kg``...: the payloads every design is solved on), as in the design's slots."""
+    settings = [s.name for s in problem.scenarios]
+    if problem.payloads:
+        from ..payload.scenarios import payload_of, setting_name
+
+        payload = payload_of(problem)
+        settings = [setting_name(payload, m) for m in sorted({payload.lower, payload.nominal, payload.upper})]
     out = []
     for v in problem.variables:
-        for scenario in problem.scenarios if v.adjustable else [None]:
-            key = v.name if scenario is None else f"{v.name}@{scenario.name}"
+        for setting in settings if v.adjustable else [None]:
+            key = v.name if setting is None else f"{v.name}@{setting}"
             out.append((key, f"{key} [{v.unit.label}]", v.unit.to_si))
     return out
 
