@@ -372,3 +372,118 @@ def test_a_study_of_an_adjustments_bound_reaches_the_payload_schedule(tmp_path):
     assert float(row["M [kg]"]) == pytest.approx(2.0, rel=1e-6)
     assert float(row["b@tool_1kg [mm]"]) == pytest.approx(300.0, rel=1e-6)
     assert float(row["b@tool_0kg [mm]"]) == pytest.approx(150.0, rel=1e-6)
+
+
+# -- studies: one writer per folder, nothing lost, nothing kept that is not this plan's ----------
+
+
+def _pendulum():
+    """M b = m r balances; minimising M + w M b² gives b = 1/sqrt(w) = 0.2 m and M = m r / b
+    (tests/test_studies.py)."""
+    from builders import pendulum
+
+    return pendulum(0.8, 0.3, (0.02, 1.0), 25.0).build()
+
+
+def _rewrite(path: Path, change) -> None:  # noqa: ANN001 - change(rows) edits the rows in place
+    import csv
+
+    from counterpoise.studies.study import read_rows
+
+    rows = read_rows(path)
+    header = path.read_text(encoding="utf-8").splitlines()[0].split(",")
+    change(rows)
+    with path.open("w", newline="", encoding="utf-8") as handle:
+        writer = csv.DictWriter(handle, fieldnames=header)
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+def test_resume_recomputes_torn_rows_and_rows_of_another_plan(tmp_path):
+    """Items 4 and 2: a row with empty columns (torn) and a row whose varied value is not the
+    plan's (another study's row) are computed again; the others are kept. M = m r / b with
+    r = 0.3 m, b = 0.2 m: 0.5 kg -> 0.75 kg ... 0.9 kg -> 1.35 kg."""
+    from counterpoise.studies.spec import plan_study
+    from counterpoise.studies.study import read_rows, run_study
+
+    problem = _pendulum()
+    plan = plan_study(problem, ["m=500 g:900 g:5"], "f")
+    full = run_study(problem, plan, tmp_path, batch_size=2)
+    path = full.folder / "study.csv"
+    expected = [float(r["M [kg]"]) for r in read_rows(path)]
+    assert expected == pytest.approx([m * 0.3 / 0.2 for m in (0.5, 0.6, 0.7, 0.8, 0.9)], rel=1e-7)
+
+    def damage(rows):
+        for column in ("objective_kg", "added_mass_kg", "M [kg]", "b [m]", "residual_ratio"):
+            rows[1][column] = ""  # point 1 torn, still "optimal"
+        rows[3]["m [g]"] = "450"  # point 3: a row of another study (450 g is not this plan's)
+        rows[3]["M [kg]"] = "0.675"
+
+    _rewrite(path, damage)
+    resumed = run_study(problem, plan, tmp_path, resume=True, batch_size=2)
+    assert resumed.skipped == 3 and resumed.run == 2
+    rows = read_rows(path)
+    assert [r["m [g]"] for r in rows] == ["500", "600", "700", "800", "900"]
+    assert [float(r["M [kg]"]) for r in rows] == pytest.approx(expected, rel=1e-7)
+
+
+class _Interrupting:
+    """A runner that finishes its first batch, then is interrupted (Ctrl-C)."""
+
+    def map_batches(self, task, batches):  # noqa: ANN001, ANN201
+        from counterpoise.studies.runners import solve_batch
+
+        yield solve_batch(task, batches[0])
+        raise KeyboardInterrupt
+
+
+def test_a_new_study_keeps_the_old_one_until_it_completes(tmp_path):
+    """Item 3: a different study into the same folder, interrupted after one batch, leaves the
+    finished study whole; its own points are in <name>-study.partial, which --resume continues
+    and which replaces the folder once complete."""
+    from counterpoise.studies.spec import plan_study
+    from counterpoise.studies.study import read_rows, run_study, study_in_progress
+
+    problem = _pendulum()
+    first = run_study(problem, plan_study(problem, ["m=500 g:900 g:5"], "f"), tmp_path, batch_size=2)
+    before = (first.folder / "study.csv").read_text(encoding="utf-8")
+    second = plan_study(problem, ["m=400 g:600 g:3"], "f")
+    with pytest.raises(KeyboardInterrupt):
+        run_study(problem, second, tmp_path, _Interrupting(), batch_size=2)
+    assert (first.folder / "study.csv").read_text(encoding="utf-8") == before
+    partial = study_in_progress(problem, tmp_path)
+    assert partial.name == "pendulum-study.partial" and [r["point"] for r in read_rows(partial / "study.csv")] == ["0", "1"]
+    resumed = run_study(problem, second, tmp_path, resume=True, batch_size=2)
+    assert resumed.skipped == 2 and resumed.run == 1 and resumed.folder == first.folder
+    assert [r["m [g]"] for r in read_rows(first.folder / "study.csv")] == ["400", "500", "600"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["pendulum-study"]  # no partial, lock or old folder left
+
+
+def test_a_second_study_into_a_locked_folder_is_one_line_naming_the_holder(tmp_path, capsys):
+    """Item 2: while a study holds the folder's lock, another study into it exits 2 with one line
+    naming the holder (pid and host), and changes nothing."""
+    import socket
+
+    from counterpoise.io.loader import load_problem
+    from counterpoise.studies.study import study_folder, study_lock
+
+    file = PROBLEMS / "yasir2019_counter_mass.toml"
+    folder = study_folder(load_problem(file), tmp_path)
+    with study_lock(folder, str(file)):
+        code, lines, _ = _main(["study", str(file), "--vary", "m_c=300 g:400 g:2", "--jobs", "1", "--no-plot", "--out", str(tmp_path)], capsys)
+    assert code == 2 and lines == [
+        f"{file}: --out: {folder} is being written by another study (pid {os.getpid()} on host {socket.gethostname()}): "
+        "wait for it to end, or give another --out"
+    ]
+    assert list(tmp_path.iterdir()) == []  # the lock file went with its holder
+
+
+def test_a_refused_resume_is_one_line_without_a_progress_bar(tmp_path, capsys):
+    """Item 13: --resume of another plan is one line on stderr (a progress-bar line came first)."""
+    file = str(PROBLEMS / "yasir2019_counter_mass.toml")
+    args = ["study", file, "--jobs", "1", "--no-plot", "--out", str(tmp_path)]
+    code, _, _ = _main([*args, "--vary", "m_c=300 g:400 g:2"], capsys)
+    assert code == 0
+    code, lines, out = _main([*args, "--vary", "m_c=300 g:500 g:3", "--resume"], capsys)
+    assert code == 2 and len(lines) == 1 and "--resume" in lines[0] and "drop --resume to start again" in lines[0], lines
+    assert out == ""

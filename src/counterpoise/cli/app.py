@@ -263,12 +263,14 @@ EXIT_SIGINT, EXIT_SIGTERM = 130, 143
 
 def _study_interrupted(problem, out: Path, exc: KeyboardInterrupt) -> None:  # type: ignore[no-untyped-def]
     from ..studies.command import StudyTerminated
-    from ..studies.study import study_folder
+    from ..studies.study import study_folder, study_in_progress
 
-    folder = study_folder(problem, out)
+    folder = study_in_progress(problem, out)
+    kept = study_folder(problem, out)
+    earlier = f" (the earlier study in {kept} is kept until this one completes)" if folder != kept else ""
     what = "terminated" if isinstance(exc, StudyTerminated) else "interrupted"
     err_console.print(
-        f"{problem.path}: {what}; the finished points are in {folder / 'study.csv'}; "
+        f"{problem.path}: {what}; the finished points are in {folder / 'study.csv'}{earlier}; "
         "run the same command with --resume to continue",
         markup=False,
     )
