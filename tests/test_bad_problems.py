@@ -165,6 +165,16 @@ MANIFEST: dict[str, Expect] = {
         "(expected 1 N/m to 1000 N/mm); column free_length_m: median 30 m (expected 1 mm to 1 m); "
         'the values are most plausible in N-mm units: set units = "N-mm"',
     ),
+    # no diameter columns: the rates, lengths and loads alone are checked (issue 24). The file
+    # holds 15 parts of the shipped catalogue (25-100 mm free length) written in lbf/in, in and
+    # lbf. Read as N-mm, a force per area is 25.4² / 4.448 = 145 times its true value; 4.16 and
+    # 3.64 are the medians of the file's numbers rate / free length and max load / free length²
+    "catalogue_inch_read_as_n_mm.toml": Expect(
+        "catalogues.parts.units",
+        "inch_without_diameters.csv: not plausible for extension springs read in N-mm units: rate / free length "
+        "(columns rate_lbf_per_in, free_length_in): median 4.16 N/mm² (expected 5e-05 to 3 N/mm²); max load / free length² "
+        '(columns max_load_lbf, free_length_in): median 3.64 N/mm² (expected 1e-04 to 3 N/mm²); the values are most plausible in inch units: set units = "inch"',
+    ),
     # angles: a bare number is not taken as radians without a word (issue 14)
     "angle_bare_number.toml": Expect(
         "frames.link_a.transforms.1.angle", "a bare number used as an angle ('90' would be radians): write '90 deg' or '1.5708 rad'"

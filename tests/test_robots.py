@@ -51,6 +51,7 @@ MANIFEST = {
     "robot_negative_link_mass.toml": ("robot.urdf", "negative_mass.urdf: link 'arm' has a mass of -1 kg: a mass must be a finite number, not negative"),
     "robot_negative_inertia.toml": ("robot.urdf", "negative_inertia.urdf: link 'hand' has a negative inertia (principal moments (-0.001, 0.001, 0.001) kg m²)"),
     "robot_nonfinite_origin.toml": ("robot.urdf", "nan_origin.urdf: link 'hand' has a position (joint origin) that is not a finite number"),
+    "robot_origin_out_of_range.toml": ("robot.urdf", "huge_origin.urdf: link 'hand' has a position (joint origin) out of range: (1e+300, 0, 0) m; lengths up to 1e+06 m are accepted"),
     "robot_joint_missing_link.toml": ("robot.urdf", "missing_link.urdf: joint 'wrist' names link 'palm', which the model does not declare"),
     "robot_xacro.toml": ("robot.urdf", "arm.urdf.xacro is a xacro file (ROS macros, not plain URDF): expand it first, `xacro arm.urdf.xacro > arm.urdf`"),
     "robot_mjcf_nan.toml": ("robot.mjcf", "nan_pos.xml: the model contains a 'NaN'"),

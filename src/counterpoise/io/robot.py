@@ -16,6 +16,7 @@ from pathlib import Path
 
 from ..errors import InputError
 from ..model.expr import suggest
+from ..model.units import MAX_LENGTH_M
 
 Triple = tuple[float, float, float]
 Matrix = tuple[Triple, Triple, Triple]
@@ -92,6 +93,9 @@ def _check_link(path: Path, link: RobotLink) -> None:
     for what, values in (("position (joint origin)", link.xyz), ("centre of mass", link.com), ("orientation", sum(link.rotation, ()))):
         if not all(math.isfinite(c) for c in values):
             raise InputError(f"{where} has a {what} that is not a finite number: {_show(values)}")
+    for what, values in (("position (joint origin)", link.xyz), ("centre of mass", link.com), *(("joint position", j.anchor) for j in link.joints)):
+        if any(abs(c) > MAX_LENGTH_M for c in values):
+            raise InputError(f"{where} has a {what} out of range: {_show(values)} m; lengths up to {MAX_LENGTH_M:g} m are accepted")
     for joint in link.joints:
         if not all(math.isfinite(c) for c in joint.axis) or not any(joint.axis):
             raise InputError(f"{path.name}: joint '{joint.name}' has no usable axis {joint.axis}")

@@ -29,6 +29,7 @@ from ...model.units import (
     Quantity,
     angle_hint,
     check_dimension,
+    canonical_dimension,
     check_length_range,
     dimensionality_of,
     display_unit,
@@ -260,7 +261,10 @@ class Context:
             raise self.fail(key, f"{what} needs a unit: write e.g. '{raw} {example_unit(dimension)}'")
         with self.at(key):
             check_dimension(found, dimension, f"'{raw}'")
-        self.finite(tree, raw, key)
+        value = self.finite(tree, raw, key)
+        if not isinstance(tree, ex.Num):  # a literal was checked when it was read
+            with self.at(key):  # a length or position computed from parameters: the same bound
+                check_length_range(value, canonical_dimension(dimension), raw)
 
     def finite(self, tree: ex.Expr, raw: Any, key: str) -> float:
         """Evaluate at the given parameters and the initial design; the value must be finite."""
