@@ -56,6 +56,7 @@ MANIFEST = {
     "robot_xacro.toml": ("robot.urdf", "arm.urdf.xacro is a xacro file (ROS macros, not plain URDF): expand it first, `xacro arm.urdf.xacro > arm.urdf`"),
     "robot_mjcf_nan.toml": ("robot.mjcf", "nan_pos.xml: the model contains a 'NaN'"),
     "robot_mjcf_free_joint.toml": ("robot.mjcf", "joint 'float' of body 'base' is a free joint (a floating body); only hinge and slide joints are supported: in a copy of the model, delete <freejoint/>"),
+    "robot_urdf_floating_joint.toml": ("robot.urdf", "joint 'float' is of type 'floating'; only revolute, continuous, prismatic, fixed joints are supported: in a copy of the model, give it type=\"fixed\""),
     "robot_hyphenated_joint.toml": ("robot.joints.shoulder-joint", "rename the joint in a copy of the model, e.g. sed 's/\"shoulder-joint\"/\"shoulder_joint\"/g' hyphenated.urdf"),
 }
 

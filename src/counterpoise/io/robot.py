@@ -196,7 +196,10 @@ def _read_urdf(path: Path) -> RobotModel:
     by_child = {}
     for joint in robot.joints:
         if joint.type not in KINDS:
-            raise InputError(f"{path.name}: joint '{joint.name}' is of type '{joint.type}'; only {', '.join(KINDS)} joints are supported")
+            hint = ""
+            if joint.type in ("floating", "planar"):  # a floating base: fix it to its parent
+                hint = f": in a copy of the model, give it type=\"fixed\" so that link '{joint.child}' is fixed to '{joint.parent}' (see docs/robots.md)"
+            raise InputError(f"{path.name}: joint '{joint.name}' is of type '{joint.type}'; only {', '.join(KINDS)} joints are supported{hint}")
         missing = [name for name in dict.fromkeys((joint.parent, joint.child)) if name not in links]
         if missing:
             what = " and ".join(f"'{name}'" for name in missing)
