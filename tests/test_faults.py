@@ -275,7 +275,7 @@ def _main(args, capsys):
     return info.value.code, out.err.strip().splitlines(), out.out
 
 
-@pytest.mark.parametrize("command", ["solve", "study"])
+@pytest.mark.parametrize("command", ["solve", "study", "plot", "draw"])
 @pytest.mark.parametrize("kind", ["file", "dangling", "file_on_path"])
 def test_out_that_cannot_be_a_folder_is_one_line(tmp_path, capsys, command, kind):
     """Item 12: --out at a regular file or a dangling symbolic link said "File exists" after

@@ -342,6 +342,7 @@ def draw(
     from .mechanism import AtError, draw_files
 
     problem = _load_all([file], _overrides(set_))[0]
+    _check_out(out)
     try:
         paths = draw_files(problem, at, out)
     except AtError as exc:
