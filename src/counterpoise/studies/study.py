@@ -79,9 +79,13 @@ def study_lock(folder: Path, label: str) -> Iterator[None]:
     with this process's pid and host written in it); another holder is a
     :class:`ProblemFileError` naming it. The lock file is removed on release; a process that
     opened it just before then notices (its inode is no longer the path's) and tries again."""
-    import fcntl
     import socket
 
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX: no lock (one study at a time is then the user's care)
+        yield
+        return
     lock = folder.with_name(f".{folder.name}.lock")
     lock.parent.mkdir(parents=True, exist_ok=True)
     while True:
