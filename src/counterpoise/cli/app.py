@@ -49,7 +49,11 @@ def _overrides(items: list[str] | None) -> dict[str, str]:
         if not sep or not key.strip():
             err_console.print(f"--set {clip(item)}: expected KEY=VALUE", markup=False)
             raise typer.Exit(2)
-        out[key.strip()] = _coerce(value.strip())
+        try:
+            out[key.strip()] = _coerce(value.strip())
+        except ValueError as exc:
+            err_console.print(f"--set {clip(key.strip())}: {clip(str(exc))}", markup=False)
+            raise typer.Exit(2) from None
     return out
 
 
@@ -63,6 +67,16 @@ def _load_all(files: list[Path], overrides: dict[str, str]) -> list:
     if problems is None:
         raise typer.Exit(2)
     return problems
+
+
+def _check_out(out: Path) -> None:
+    """``--out`` must be usable as a folder (one line and exit 2 before any work, else)."""
+    from .run import out_error
+
+    wrong = out_error(out)
+    if wrong is not None:
+        _err_line(wrong)
+        raise typer.Exit(2)
 
 
 def _err_line(line: str) -> None:
@@ -138,6 +152,7 @@ def solve(
         err_console.print(f"--report: expected one of {', '.join(REPORTS)}, got '{report}'", markup=False)
         raise typer.Exit(2)
     problems = _load_all(files, _overrides(set_))
+    _check_out(out)
     rows, worst = solve_all(problems, out, plot, starts, _err_line, html=report == "html")
     _print_summary(rows, wide)
     raise typer.Exit(worst)
@@ -232,6 +247,7 @@ def study(
 
     overrides = _overrides(set_)
     problem = _load_all([file], overrides)[0]
+    _check_out(out)
     options = StudyOptions(tuple(vary), samples, method, seed, out, jobs, scheduler, scheduler_timeout, resume, time_limit, batch_size, plot,
                            overrides=tuple(overrides.items()))
     try:
@@ -255,12 +271,14 @@ EXIT_SIGINT, EXIT_SIGTERM = 130, 143
 
 def _study_interrupted(problem, out: Path, exc: KeyboardInterrupt) -> None:  # type: ignore[no-untyped-def]
     from ..studies.command import StudyTerminated
-    from ..studies.study import study_folder
+    from ..studies.study import study_folder, study_in_progress
 
-    folder = study_folder(problem, out)
+    folder = study_in_progress(problem, out)
+    kept = study_folder(problem, out)
+    earlier = f" (the earlier study in {kept} is kept until this one completes)" if folder != kept else ""
     what = "terminated" if isinstance(exc, StudyTerminated) else "interrupted"
     err_console.print(
-        f"{problem.path}: {what}; the finished points are in {folder / 'study.csv'}; "
+        f"{problem.path}: {what}; the finished points are in {folder / 'study.csv'}{earlier}; "
         "run the same command with --resume to continue",
         markup=False,
     )
@@ -287,6 +305,7 @@ def plot(
         from ..plots import energy_plot
 
         problem = _load_all([file], _overrides(set_))[0]
+        _check_out(out)
         try:
             paths = energy_plot(design(problem), out / problem.name)
         except (CounterpoiseError, OSError) as exc:
@@ -344,6 +363,7 @@ def draw(
     from .mechanism import AtError, draw_files
 
     problem = _load_all([file], _overrides(set_))[0]
+    _check_out(out)
     try:
         paths = draw_files(problem, at, out, design)
     except AtError as exc:

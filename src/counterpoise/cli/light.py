@@ -248,14 +248,29 @@ def overrides(items: tuple[str, ...]) -> dict[str, object] | None:
         key, sep, value = item.partition("=")
         if not sep or not key.strip():
             return None
-        out[key.strip()] = coerce(value.strip())
+        try:
+            out[key.strip()] = coerce(value.strip())
+        except ValueError:
+            return None  # the app says what is wrong
     return out
 
 
 def coerce(value: str) -> object:
-    """Numbers and booleans on the command line become TOML numbers and booleans."""
+    """Numbers and booleans on the command line become TOML numbers and booleans; an array
+    or inline table (``[0, 0, -1]``, ``{ range = [...] }``) is read as TOML, so an array is
+    set whole (``--set 'gravity.direction=[0, 0, -1]'``); :class:`ValueError` when it is
+    not valid TOML. One entry of an array is set by its index: ``KEY.0=VALUE``."""
     if value in ("true", "false"):
         return value == "true"
+    if value[:1] in ("[", "{"):
+        try:
+            import tomllib  # the standard library from Python 3.11
+        except ImportError:  # pragma: no cover
+            import tomli as tomllib
+        try:
+            return tomllib.loads(f"value = {value}")["value"]
+        except tomllib.TOMLDecodeError as exc:
+            raise ValueError(f"cannot read '{value}' as a TOML {'array' if value[0] == '[' else 'inline table'}: {exc}") from None
     for kind in (int, float):
         try:
             return kind(value)
@@ -267,13 +282,17 @@ def coerce(value: str) -> object:
 def _run(a: SolveArgs, paused_gc: bool = False) -> int:
     from pathlib import Path
 
-    from .run import load_all, solve_all
+    from .run import load_all, out_error, solve_all
 
     sets = overrides(a.sets)
     if sets is None:
         raise _Defer
     problems = load_all([Path(f) for f in a.files], sets, _err)
     if problems is None:
+        return 2
+    wrong = out_error(Path(a.out))
+    if wrong is not None:
+        _err(wrong)
         return 2
     if paused_gc:
         import gc

@@ -63,7 +63,9 @@ class _Table(BaseModel):
 
 
 class ProblemMeta(_Table):
-    name: Annotated[str, Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")]
+    #: it names the report folders (``<name>``, ``<name>-study`` and their temporary
+    #: siblings): at most 128 characters, well within a file name's 255 bytes
+    name: Annotated[str, Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]*$", max_length=128)]
     title: str = ""
     source: str = ""
     description: str = ""

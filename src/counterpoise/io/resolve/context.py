@@ -30,6 +30,8 @@ from ...model.units import (
     Quantity,
     angle_hint,
     check_dimension,
+    canonical_dimension,
+    check_length_range,
     dimensionality_of,
     display_unit,
     is_angle_unit,
@@ -263,7 +265,10 @@ class Context:
             raise self.fail(key, f"{what} needs a unit: write e.g. '{raw} {example_unit(dimension)}'")
         with self.at(key):
             check_dimension(found, dimension, f"'{raw}'")
-        self.finite(tree, raw, key)
+        value = self.finite(tree, raw, key)
+        if not isinstance(tree, ex.Num):  # a literal was checked when it was read
+            with self.at(key):  # a length or position computed from parameters: the same bound
+                check_length_range(value, canonical_dimension(dimension), raw)
 
     def finite(self, tree: ex.Expr, raw: Any, key: str) -> float:
         """Evaluate at the given parameters and the initial design; the value must be finite."""
@@ -400,6 +405,7 @@ def read_quantity(number: float, unit: str) -> float | None:
     si = number * u.to_si
     if not math.isfinite(si):
         raise UnitError(f"value must be finite, got '{number:g} {unit}' (too large once converted to SI units)")
+    check_length_range(si, u.dimension, f"{number:g} {unit}")
     return si
 
 

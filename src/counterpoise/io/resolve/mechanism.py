@@ -24,6 +24,7 @@ from ..schema import DHSpec, RotateSpec
 from . import loops
 from .context import RESERVED, Context, suggest, topological
 from .parts import tolerance
+from .quantities import same_angle_unit
 
 
 def subsystems(ctx: Context) -> tuple[tuple[Subsystem, ...], tuple[Coordinate, ...]]:
@@ -42,7 +43,11 @@ def subsystems(ctx: Context) -> tuple[tuple[Subsystem, ...], tuple[Coordinate, .
                 raise ctx.fail(f"{key}.range", f"a coordinate is an angle or a length, got {dimension_name(lo.dimension)}")
             if not lo.si < hi.si:
                 raise ctx.fail(f"{key}.range", f"empty range [{c.range[0]}, {c.range[1]}]: the lower end must be below the upper end")
-            home = ctx.literal(c.home, f"{key}.home").si if c.home is not None else 0.5 * (lo.si + hi.si)
+            home = 0.5 * (lo.si + hi.si)
+            if c.home is not None:
+                given = ctx.literal(c.home, f"{key}.home")
+                same_angle_unit(ctx, lo.unit, given, c.home, f"{key}.home")  # 'home = 90': radians? say so before the range
+                home = given.si
             if not lo.si <= home <= hi.si:
                 raise ctx.fail(f"{key}.home", "home lies outside the range")
             ctx.symbol_unit[cname] = lo.unit

@@ -67,7 +67,14 @@ def read(ctx: Context) -> RobotModel | None:
         raise ctx.fail("robot.subsystem", f"'{spec.subsystem}' is also a [subsystems] table: name the robot's subsystem otherwise")
     for name in spec.joints:
         if not IDENTIFIER.match(name):
-            raise ctx.fail(f"robot.joints.{name}", f"'{name}' cannot be a coordinate name (letters, digits and '_', starting with a letter)")
+            fixed_name = re.sub(r"[^A-Za-z0-9_]", "_", name)
+            fixed_name = fixed_name if fixed_name[:1].isalpha() else f"j_{fixed_name}"
+            raise ctx.fail(
+                f"robot.joints.{name}",
+                f"'{name}' cannot be a coordinate name (letters, digits and '_', starting with a letter): rename the joint in a copy "
+                f"of the model, e.g. sed 's/\"{name}\"/\"{fixed_name}\"/g' {path.name} > renamed_{path.name}, and list joints.{fixed_name} "
+                "(a joint that is only locked or held may keep its name; see docs/robots.md)",
+            )
         if name in RESERVED or name in ctx.symbol_kind:
             where = f" by {ctx.symbol_kind[name]}.{name}" if name in ctx.symbol_kind else " (reserved)"
             raise ctx.fail(f"robot.joints.{name}", f"name '{name}' is already used{where}")
