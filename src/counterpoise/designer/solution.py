@@ -53,6 +53,8 @@ class Solution:
     payload: Any = None
     #: designs with spring slots: the :class:`counterpoise.selection.PartsReport`
     parts: Any = None
+    #: designs with [robust]: the :class:`counterpoise.robust.RobustReport`
+    robust: Any = None
 
     def variable_values(self, scenario: str) -> dict[str, float]:
         """Value of every variable as seen by ``scenario``."""

@@ -281,6 +281,24 @@ class SelectionSpec(_Table):
     nearest: Annotated[int, Field(ge=1, le=100)] = 5
 
 
+#: a tolerance: "10 %" (of the nominal value) or a quantity ("0.5 mm", "20 N/m")
+ToleranceValue = Union[Value, dict[str, Value]]
+
+
+class RobustSpec(_Table):
+    """``[robust]``: tolerances of the built balancer and what the design does about them
+    (docs/robust.md)."""
+
+    mode: Literal["minimise", "limit", "none"] = "none"
+    weight: Value | None = None  # minimise: kg per unit of worst-case residual ratio
+    limit: Annotated[FiniteFloat, Field(gt=0, lt=1)] | None = None  # limit: the worst-case ratio allowed
+    shape: Literal["box", "ellipsoid"] = "box"
+    #: kind = value (every item of the kind) or kind = { item = value }
+    tolerances: dict[str, ToleranceValue] = Field(default_factory=dict)
+    tune: tuple[Name, ...] = ()
+    description: str = ""
+
+
 class RobotJointSpec(_Table):
     """A joint of a robot model that moves: it becomes a coordinate of the robot's subsystem."""
 
@@ -322,3 +340,4 @@ class ProblemFile(_Table):
     catalogues: dict[Name, CatalogueSpec] = Field(default_factory=dict)
     slots: dict[Name, SlotSpec] = Field(default_factory=dict)
     selection: SelectionSpec = Field(default_factory=SelectionSpec)
+    robust: RobustSpec | None = None

@@ -19,6 +19,7 @@ from .mechanism import Body, Coordinate, Frame, Subsystem
 from .substitution import Substitution
 from .payload import MIN_ADDED, Payload
 from .parts import SelectionSettings, SpringSlot
+from .robust import RobustSpec
 from .units import DisplayUnit
 
 
@@ -165,6 +166,7 @@ class Problem:
     slots: tuple[SpringSlot, ...] = ()  # catalogue slots (their names are base parameters: the rates)
     selection: SelectionSettings = field(default_factory=SelectionSettings)
     loops: tuple[Loop, ...] = ()  # closures of closed chains (counterpoise.model.loops)
+    robust: RobustSpec | None = None  # [robust]: tolerances, robust design, tuning (counterpoise.robust)
 
     @cached_property
     def frame(self) -> Mapping[str, Frame]:

@@ -10,7 +10,7 @@ from __future__ import annotations
 from ...errors import ProblemFileError, raise_errors
 from ...model.problem import Problem, Settings
 from ..schema import ProblemFile
-from . import loops, mechanism, parts, payloads, quantities, report, robot, substitution
+from . import loops, mechanism, parts, payloads, quantities, report, robot, robust, substitution
 from .context import REPORT_FUNCTIONS, RESERVED, Context
 
 __all__ = ["REPORT_FUNCTIONS", "RESERVED", "resolve"]
@@ -77,6 +77,7 @@ def _resolve(ctx: Context) -> Problem:
     scenarios = quantities.scenarios(ctx, gravity, parameters)
     objective = quantities.objective(ctx)
     reports = report.report(ctx, subsystems, by_name)
+    robust_spec = robust.robust(ctx, bodies, springs)
     meta = spec.problem
     return Problem(
         name=meta.name,
@@ -101,4 +102,5 @@ def _resolve(ctx: Context) -> Problem:
         slots=slots,
         selection=selection,
         loops=closures,
+        robust=robust_spec,
     )
