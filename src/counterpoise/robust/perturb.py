@@ -117,8 +117,10 @@ def corner_problem(perturbed_problem: Problem, deviations: tuple[Deviation, ...]
 
 
 def corner_name(scenario: str, signs: tuple[int, ...]) -> str:
-    body = "".join("+" if s > 0 else "-" if s < 0 else "0" for s in signs)
-    return f"{scenario}/{body}" if scenario else f"corner{body}"
+    """``corner_pm0``: p for +h, m for −h, 0 for nominal, per deviation in order (a name
+    CasADi accepts for a function); ``<scenario>_corner_...`` with several scenarios."""
+    body = "".join("p" if s > 0 else "m" if s < 0 else "0" for s in signs)
+    return f"{scenario}_corner_{body}" if scenario else f"corner_{body}"
 
 
 def corner_text(deviations: tuple[Deviation, ...], signs: tuple[int, ...]) -> str:
