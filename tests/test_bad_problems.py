@@ -185,6 +185,9 @@ MANIFEST: dict[str, Expect] = {
     "unknown_key_typo_angel.toml": Expect("frames.link_b.transforms.1.angel", "unknown key (did you mean 'angle'?)"),
     "unknown_key_typo_transform.toml": Expect("frames.link_a.transform", "unknown key (did you mean 'transforms'?)"),
     "unknown_key_typo_stifness.toml": Expect("springs.s.stifness", "unknown key (did you mean 'stiffness'?)"),
+    # [robust]
+    "robust_unknown_body.toml": Expect("robust.tolerances.mass.tipp", "unknown body 'tipp' (did you mean 'tip'?)"),
+    "robust_limit_missing.toml": Expect("robust.limit", 'mode = "limit" needs a limit'),
     # every error of a file, one line each
     "frame_two_unknown_parents.toml": Expect(
         "frames.link_b.parent",

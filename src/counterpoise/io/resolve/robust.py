@@ -27,7 +27,7 @@ def robust(ctx: Context, bodies: Sequence[Body], springs: Sequence[ZeroFreeLengt
     if spec is None:
         return None
     key = "robust"
-    for section in ("payloads", "slots"):
+    for section in ("payloads", "slots", "loops"):
         if getattr(ctx.spec, section):
             raise ctx.fail(key, f"[robust] cannot be combined with [{section}] yet (docs/robust.md)")
     if spec.tolerances == {}:
@@ -49,7 +49,7 @@ def robust(ctx: Context, bodies: Sequence[Body], springs: Sequence[ZeroFreeLengt
         for item, value in given.items():
             ikey = f"{kkey}.{item}" if isinstance(raw, dict) else kkey
             if item not in names:
-                raise ctx.fail(ikey, f"unknown {section[:-1]} '{item}'{suggest(item, names)}")
+                raise ctx.fail(ikey, f"unknown {'spring' if section == 'springs' else 'body'} '{item}'{suggest(item, names)}")
             tolerances.append(_tolerance(ctx, kind, item, value, ikey))
     mode = spec.mode
     weight = limit = 0.0
