@@ -189,3 +189,37 @@ def test_ellipsoid_equals_box_for_one_deviation(folder):
     result = design(load_problem(_pendulum(folder, "ellipse", 'mode = "limit"\nlimit = 0.04\nshape = "ellipsoid"\ntolerances.rate = "10 %"')))
     assert result.optimal, result.message
     assert _values(result)["M"] == pytest.approx(3.6, rel=1e-6)
+
+
+@pytest.fixture(scope="module")
+def lamp():
+    from conftest import PROBLEMS
+
+    return design(load_problem(PROBLEMS / "lamp_robust.toml"))
+
+
+def test_lamp_robust_design_halves_the_band(lamp):
+    """Acceptance (issue 22): the robust design's worst case is at most half the nominal
+    design's, and the added mass it needs is reported. The nominal band is derived in
+    docs/robust.md#lamp: (0.1·T_1 + 0.05·g(m_1 L_1/2 + m_2 L_1))/T_1 = 0.12222 with
+    T_1 = g(m_1 L_1/2 + (m_2 + m_head) L_1) = 2.6487 N·m the largest gravity torque."""
+    assert lamp.optimal, lamp.message
+    report = lamp.solution.robust
+    nominal, robust = report.bands["nominal"]["all"], report.bands["robust"]["all"]
+    assert nominal == pytest.approx((0.1 * 0.27 + 0.05 * (0.3 * 0.15 + 0.25 * 0.3)) / 0.27, rel=1e-6)
+    assert robust <= nominal / 2
+    # the mass tolerance cannot be bought off with exact counter-masses: 0.05·0.12/0.27
+    assert report.bands["robust"]["mass"] == pytest.approx(0.05 * 0.12 / 0.27, rel=1e-6)
+    assert report.added_mass["nominal"] == pytest.approx(0.0, abs=1e-9)
+    assert 0 < report.added_mass["robust"] < 10  # two counter-masses of at most 5 kg
+    assert f"added mass {report.added_mass['robust']:.6g} kg" in lamp.message
+
+
+def test_lamp_tuning_balances_every_corner(lamp):
+    report = lamp.solution.robust
+    assert report.tuning_status == "balanced"
+    assert len(report.corners) == 1 + 2**4  # the nominal and every corner of 2 rates and 2 masses
+    assert all(c.after <= 1e-8 for c in report.corners)
+    for name in ("h_1", "h_2"):
+        lo, hi = report.tuning_range[name]
+        assert 0.020 <= lo < hi <= 0.120  # within the screw's bounds

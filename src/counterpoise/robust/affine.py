@@ -62,7 +62,8 @@ def grid(lower: np.ndarray, upper: np.ndarray, count: int, rng: np.random.Genera
     coordinates, else the box's corners (up to 4096) and random points."""
     n_q = lower.size
     if n_q <= 3:
-        m = max(2, int(round(count ** (1.0 / n_q))))
+        m = max(3, int(round(count ** (1.0 / n_q))))
+        m += 1 - m % 2  # odd: the middle of each range (where |cos| of a symmetric range peaks) is a node
         axes = [np.linspace(lo, hi, m) for lo, hi in zip(lower, upper)]
         return np.stack([g.reshape(-1) for g in np.meshgrid(*axes, indexing="ij")], axis=1)
     corners = np.array(np.meshgrid(*[[lo, hi] for lo, hi in zip(lower, upper)], indexing="ij")).reshape(n_q, -1).T
