@@ -11,9 +11,9 @@ the tuning table (docs/robust.md).
 3. measures the worst case over the tolerance box of both designs, per tolerance kind and
    over all (:mod:`.affine`), on a dense grid of configurations;
 4. with ``tune``, re-solves the ``tune`` variables at every corner of the tolerance box
-   (every other variable held at the design's value; the corners are the scenarios of one
-   problem, designed by the ordinary designer) and verifies each corner densely: the tuning
-   range of each variable and the tuning table.
+   (every other variable held at the design's value; one designer of the perturbed problem,
+   solved with each corner's deviations as parameter values) and verifies each corner
+   densely: the tuning range of each variable and the tuning table.
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ from ..formulation.layout import Slot
 from ..model.problem import Problem, Settings
 from ..solvers.base import SolverOutput, Status
 from .affine import LP_CONFIGURATIONS, Decomposition, Rows, worst
-from .perturb import Deviation, corner_name, corner_problem, corner_text, perturbed
+from .perturb import Deviation, corner_name, corner_text, perturbed
 
 #: configurations per block on which the worst case of a design is measured
 BAND_CONFIGURATIONS = 10_000
@@ -85,7 +85,7 @@ class RobustMethod:
         self.perturbed, self.deviations = perturbed(problem)
         self.decomposition = Decomposition(self.perturbed, self.deviations, problem)
         self._nonnegative: Any = None
-        self._tuner: dict[tuple[float, ...], Any] = {}
+        self._tuner: Any = None  # the designer of the tuning, built on first use
 
     # -- the method ----------------------------------------------------------------
     def solve(
@@ -135,7 +135,7 @@ class RobustMethod:
             objective["robust"] = design.objective
         report = RobustReport(spec.mode, spec.shape, self.deviations, bands, added, objective, lp_ratio, lp_seconds)
         if spec.tune and status is Status.OPTIMAL:
-            report = self._tune(design, z, p, dense, report)
+            report = self._tune(design, z, p, dense, report, parameters)
             if report.tuning_status != "balanced":
                 status, message = Status.INFEASIBLE, report.tuning_status
         key = "robust" if "robust" in bands else "nominal"
@@ -192,37 +192,40 @@ class RobustMethod:
             )
         return f"robust design failed: cvxpy/Clarabel returned {lp_status}"
 
-    def _tune(self, design: Solution, z: np.ndarray, p: np.ndarray, dense: list[np.ndarray], report: RobustReport) -> RobustReport:
-        """Re-solve the tune variables at every corner of the box (the other variables held)."""
+    def _tune(
+        self, design: Solution, z: np.ndarray, p: np.ndarray, dense: list[np.ndarray], report: RobustReport, parameters: Mapping[str, float] | None
+    ) -> RobustReport:
+        """Re-solve the tune variables at every corner of the box, the other variables held.
+
+        One designer of the perturbed problem is built once, with every deviation at +h
+        (so that no balance condition hides behind a deviation that is 0 at build time),
+        and solved per corner with the corner's deviations as parameter values; each
+        corner's design is verified densely (``TUNE_VERIFY_SAMPLES`` configurations)."""
         from ..designer.designer import Designer
         from ..verify.check import verify
 
         spec = self._spec()
-        signs = [tuple(s) for s in itertools.product((-1, 1), repeat=len(self.deviations))]
-        corners = [(0,) * len(self.deviations), *signs]
-        problem = corner_problem(self.perturbed, self.deviations, corners, spec.tune)
-        problem = replace(problem, settings=replace(problem.settings, verify_samples=min(problem.settings.verify_samples, TUNE_VERIFY_SAMPLES)))
+        corners = [(0,) * len(self.deviations), *(tuple(s) for s in itertools.product((-1, 1), repeat=len(self.deviations)))]
         held = {name: (value, value) for name, value in design.variable_values(self.problem.scenarios[0].name).items() if name not in spec.tune}
-        tuner = self._tuner.get(())
-        if tuner is None:
-            tuner = self._tuner[()] = Designer(problem)
-        solution = tuner.solve(bounds=held, certify=False)
-        verification = verify(solution)
-        # the untuned worst case at each corner, from the dense rows at the design
-        rows = self.decomposition.rows(dense, z, [], p)
-        ratio = {c.scenario: 0.0 for c in verification.checks}
-        for c in verification.checks:
-            ratio[c.scenario] = max(ratio[c.scenario], verification.ratio(c))
+        if self._tuner is None:
+            width = {d.parameter: d.half_width for d in self.deviations}
+            built = replace(
+                self.perturbed,
+                parameters=tuple(replace(q, value=width[q.name]) if q.name in width else q for q in self.perturbed.parameters),
+                settings=replace(self.perturbed.settings, verify_samples=min(self.perturbed.settings.verify_samples, TUNE_VERIFY_SAMPLES)),
+            )
+            self._tuner = Designer(built)
+        rows = self.decomposition.rows(dense, z, [], p)  # the untuned worst case at each corner
+        base = dict(parameters or {})
         out = []
-        names = [s.name for s in self.problem.scenarios]
-        for scenario in names:
-            for sign in corners:
-                name = corner_name(scenario if len(names) > 1 else "", sign)
-                shifted = rows.r0 + rows.S0 @ np.array(sign, dtype=float) if rows.S0.shape[1] else rows.r0
-                mine = np.isin(rows.block, [b for b, blk in enumerate(self.decomposition.formulation.blocks) if blk.scenario == scenario])
-                before = float(np.max(np.abs(shifted[mine]) / rows.reference[mine]))
-                values = solution.variable_values(name)
-                out.append(Corner(name, sign, corner_text(self.deviations, sign), before, ratio.get(name, float("nan")), tuple((t, values[t]) for t in spec.tune)))
+        for sign in corners:
+            overrides = {**base, **{d.parameter: s * d.half_width for d, s in zip(self.deviations, sign)}}
+            solution = self._tuner.solve(parameters=overrides, bounds=held, certify=False)
+            after = float(verify(solution).residual_ratio)
+            shifted = rows.r0 + rows.S0 @ np.array(sign, dtype=float) if rows.S0.shape[1] else rows.r0
+            before = float(np.max(np.abs(shifted) / rows.reference))
+            values = solution.variable_values(self.problem.scenarios[0].name)
+            out.append(Corner(corner_name("", sign), sign, corner_text(self.deviations, sign), before, after, tuple((t, values[t]) for t in spec.tune)))
         tuning_range = {t: (min(c.settings[i][1] for c in out), max(c.settings[i][1] for c in out)) for i, t in enumerate(spec.tune)}
         tolerance = self.problem.settings.verify_tolerance
         failed = [c for c in out if not c.after <= tolerance]

@@ -24,7 +24,7 @@ from dataclasses import dataclass, replace
 
 from ..model import expr as ex
 from ..model.mechanism import Point
-from ..model.problem import Parameter, Problem, Scenario
+from ..model.problem import Parameter, Problem
 from ..model.robust import Tolerance
 from ..model.units import display_unit
 
@@ -103,22 +103,9 @@ def perturbed(problem: Problem) -> tuple[Problem, tuple[Deviation, ...]]:
     return out, tuple(deviations)
 
 
-def corner_problem(perturbed_problem: Problem, deviations: tuple[Deviation, ...], corners: list[tuple[int, ...]], tune: tuple[str, ...]) -> Problem:
-    """The perturbed problem with one scenario per (scenario, corner): corner signs ±1 per
-    deviation (0: nominal), the ``tune`` variables adjustable (one setting per scenario)."""
-    scenarios = []
-    for s in perturbed_problem.scenarios:
-        for signs in corners:
-            values = {d.parameter: sign * d.half_width for d, sign in zip(deviations, signs)}
-            name = corner_name(s.name if len(perturbed_problem.scenarios) > 1 else "", signs)
-            scenarios.append(Scenario(name, s.gravity, {**s.parameters, **values}, f"tolerance corner {corner_text(deviations, signs)}"))
-    variables = tuple(replace(v, adjustable=True) if v.name in tune else v for v in perturbed_problem.variables)
-    return replace(perturbed_problem, scenarios=tuple(scenarios), variables=variables)
-
-
 def corner_name(scenario: str, signs: tuple[int, ...]) -> str:
     """``corner_pm0``: p for +h, m for −h, 0 for nominal, per deviation in order (a name
-    CasADi accepts for a function); ``<scenario>_corner_...`` with several scenarios."""
+    name); ``<scenario>_corner_...`` when a scenario is named."""
     body = "".join("p" if s > 0 else "m" if s < 0 else "0" for s in signs)
     return f"{scenario}_corner_{body}" if scenario else f"corner_{body}"
 
