@@ -27,9 +27,7 @@ from typing import Any
 import numpy as np
 
 from ..formulation.formulation import Formulation
-from ..mechanics.sampling import configurations  # noqa: F401 - kept for callers that want the verifier's sampling
 from ..model.problem import Problem
-from ..selection.geometry import spring_length_gradients
 from .perturb import Deviation
 
 #: configurations per (subsystem, scenario) block in the robust LP
@@ -169,6 +167,8 @@ class Decomposition:
         out = np.zeros((len(qb), len(block.coordinates)))
         if not self.tensions:
             return out.reshape(-1)
+        from ..selection.geometry import spring_length_gradients
+
         f = self.formulation
         gravity_base = f.parameters.scenario_values(p)[block.scenario]
         variables = f.design.symbols(f.design.to_x(z), block.scenario)

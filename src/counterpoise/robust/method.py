@@ -29,7 +29,7 @@ from ..designer.convex import geometric_variables
 from ..designer.methods import DesignMethod
 from ..designer.solution import Solution, build_solution
 from ..formulation.layout import Slot
-from ..model.problem import Problem, Settings
+from ..model.problem import Problem
 from ..solvers.base import SolverOutput, Status
 from .affine import LP_CONFIGURATIONS, Decomposition, Rows, worst
 from .perturb import Deviation, corner_name, corner_text, perturbed
