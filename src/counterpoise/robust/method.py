@@ -18,6 +18,7 @@ the tuning table (docs/robust.md).
 
 from __future__ import annotations
 
+import copy
 import itertools
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
@@ -86,6 +87,16 @@ class RobustMethod:
         self.decomposition = Decomposition(self.perturbed, self.deviations, problem)
         self._nonnegative: Any = None
         self._tuner: Any = None  # the designer of the tuning, built on first use
+
+    def with_spec(self, spec: Any) -> "RobustMethod":
+        """The same method (its inner method and decomposition shared) for another ``[robust]``
+        table of the same tolerances: a trade-off study varies the limit or the weight."""
+        if spec.tolerances != self._spec().tolerances:
+            raise ValueError("with_spec: the tolerances must stay the same")
+        other = copy.copy(self)
+        other.problem = replace(self.problem, robust=spec)
+        other._tuner = None if spec.tune != self._spec().tune else self._tuner
+        return other
 
     # -- the method ----------------------------------------------------------------
     def solve(
