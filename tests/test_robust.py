@@ -223,3 +223,34 @@ def test_lamp_tuning_balances_every_corner(lamp):
     for name in ("h_1", "h_2"):
         lo, hi = report.tuning_range[name]
         assert 0.020 <= lo < hi <= 0.120  # within the screw's bounds
+
+
+COUNT_CATALOGUE = """part_number,rate_N_per_m,free_length_m,initial_tension_N,max_load_N,max_length_m,outer_diameter_m,wire_diameter_m,material,mass_kg,price_eur,rate_tolerance,initial_tension_tolerance
+T-200,200,0.05,2,80,0.5,0.012,0.0015,music wire,0.01,1.5,0.1,0.2
+"""
+
+
+def test_slot_count_chooses_springs_in_parallel(folder, capsys):
+    """The pendulum without counter-mass, its spring from one catalogue part of 200 N/m with
+    ``count = { max = 3 }``, the anchor height h in [50, 100] mm: balance needs k h a = m g l,
+    k = 5.886/(0.2 h) N/m. One part needs h = 147.15 mm (> 100), three h = 49.05 mm (< 50);
+    two in parallel (400 N/m) need h = 5.886/(400 × 0.2) = 73.575 mm: the only fit."""
+    (folder / "parts.csv").write_text(COUNT_CATALOGUE, encoding="utf-8")
+    text = PENDULUM % {"robust": "", "h_lower": "50 mm", "h_upper": "100 mm"}
+    text = text.replace("[robust]\n", "").replace('upper = "10 kg"', 'upper = "0 kg"').replace('stiffness = "k"', 'slot = "s"')
+    text = text.replace("[variables.k]\nlower = \"0 N/m\"\nupper = \"2000 N/m\"\n", '[catalogues.mine]\nfile = "parts.csv"\n\n[slots.s]\ncatalogue = "mine"\ncount = { max = 3 }\n')
+    path = folder / "count.toml"
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(SystemExit) as stop:
+        main(["solve", str(path), "--out", str(folder / "count_out")])
+    assert stop.value.code == 0, capsys.readouterr()
+    reports = folder / "count_out" / "robust_pendulum"
+    assert "parts s: T-200 x2" in (reports / "status.txt").read_text()
+    design_csv = (reports / "design.csv").read_text()
+    assert "h,variable,,73.575," in design_csv
+    springs = (reports / "springs.csv").read_text().splitlines()
+    header = springs[0].split(",")
+    spring = dict(zip(header, springs[1].split(",")))
+    bom = dict(zip(header, springs[2].split(",")))
+    assert (spring["part_number"], spring["count"]) == ("T-200 x2", "2")
+    assert (bom["kind"], bom["part_number"], bom["count"], float(bom["price"])) == ("bom", "T-200", "2", 3.0)  # two parts at 1.5

@@ -264,10 +264,18 @@ class CatalogueSpec(_Table):
     description: str = ""
 
 
+class CountSpec(_Table):
+    """How many identical springs of the chosen part may work in parallel in a slot."""
+
+    min: Annotated[int, Field(ge=1, le=10)] = 1
+    max: Annotated[int, Field(ge=1, le=10)] = 1
+
+
 class SlotSpec(_Table):
     """A place for one catalogue part; springs name it with ``slot = "<name>"``."""
 
     catalogue: str
+    count: CountSpec | None = None  # n identical springs in parallel, n chosen with the part
     rate_tolerance: Value | None = None  # overrides the catalogue's
     initial_tension_tolerance: Value | None = None
     description: str = ""
