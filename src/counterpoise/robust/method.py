@@ -124,6 +124,9 @@ class RobustMethod:
         if spec.mode != "none":
             geometric = geometric_variables(self.problem)
             free = [i for i, slot in enumerate(d.slots) if slot.variable not in geometric and lbz[i] < ubz[i]]
+            if not free:
+                design.verdict = (Status.FAILED, f"[robust] mode = \"{spec.mode}\" needs a free mass or stiffness variable: every variable moves a point or is held")
+                return design
             z_ref = z_nom.copy()
             z_ref[free] = 0.0
             rows = self.decomposition.rows(self.decomposition.configurations(LP_CONFIGURATIONS, self.problem.settings.seed), z_ref, free, p)
@@ -155,12 +158,14 @@ class RobustMethod:
             text += f" (nominal design {bands['nominal']['all']:.4g}); added mass {added['robust']:.6g} kg (nominal design {added['nominal']:.6g} kg)"
         if report.corners and report.tuning_status == "balanced":
             text += f"; tuned at {len(report.corners)} corners, largest residual ratio after tuning {report.tuned_residual:.2g}"
-        if status is not Status.OPTIMAL:
-            text = message
-        elif nominal.status is not Status.OPTIMAL and key == "nominal":
-            status, text = nominal.status, nominal.message
         design.robust = report
-        design.verdict = (status, text)
+        if status is not Status.OPTIMAL:
+            if key == "robust" or report.tuning_status not in ("", "balanced"):
+                design.verdict = (status, message)  # the counterpart or the tuning failed: say which
+        elif key == "robust":
+            design.verdict = (status, text)  # the counterpart may leave the nominal unbalanced by choice
+        else:
+            design.message = text  # the ordinary design: judged by its dense check as usual
         return design
 
     # -- pieces --------------------------------------------------------------------
@@ -217,7 +222,7 @@ class RobustMethod:
 
         spec = self._spec()
         corners = [(0,) * len(self.deviations), *(tuple(s) for s in itertools.product((-1, 1), repeat=len(self.deviations)))]
-        held = {name: (value, value) for name, value in design.variable_values(self.problem.scenarios[0].name).items() if name not in spec.tune}
+        held = {slot: (value, value) for slot, value in design.values.items() if slot.variable not in spec.tune}
         if self._tuner is None:
             width = {d.parameter: d.half_width for d in self.deviations}
             built = replace(
