@@ -254,3 +254,16 @@ def test_slot_count_chooses_springs_in_parallel(folder, capsys):
     bom = dict(zip(header, springs[2].split(",")))
     assert (spring["part_number"], spring["count"]) == ("T-200 x2", "2")
     assert (bom["kind"], bom["part_number"], bom["count"], float(bom["price"])) == ("bom", "T-200", "2", 3.0)  # two parts at 1.5
+
+
+def test_limit_mode_with_free_geometry_is_the_minimax_nlp(folder):
+    """h free in [50, 150] mm: the spring's share depends on k·h only, so the minimax NLP over
+    the corners (IPOPT) finds the same optimum as the LP: M = 3.6 kg and k·h = 0.4 × m g l/a
+    = 11.772 N (docs/robust.md#pendulum)."""
+    result = design(load_problem(_pendulum(folder, "minimax", 'mode = "limit"\nlimit = 0.04\ntolerances.rate = "10 %"', h=("50 mm", "150 mm"))))
+    assert result.optimal, result.message
+    assert "minimax NLP" in result.message
+    v = _values(result)
+    assert v["M"] == pytest.approx(3.6, rel=1e-6)
+    assert v["k"] * v["h"] == pytest.approx(0.4 * MGL / 0.2, rel=1e-6)
+    assert result.solution.robust.bands["robust"]["all"] == pytest.approx(0.04, rel=1e-5)

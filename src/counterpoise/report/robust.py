@@ -123,7 +123,7 @@ def status_lines(result: DesignResult) -> str:
             f"added mass {report.added_mass[design]:.6g} kg, objective {report.objective[design]:.6g} kg"  # type: ignore[attr-defined]
         )
     if report.lp_seconds:  # type: ignore[attr-defined]
-        lines.append(f"robust: counterpart ({report.mode}, {report.shape}) solved by cvxpy/Clarabel in {report.lp_seconds:.3g} s")  # type: ignore[attr-defined]
+        lines.append(f"robust: counterpart ({report.mode}, {report.shape}) solved by {report.solver} in {report.lp_seconds:.3g} s")  # type: ignore[attr-defined]
     units = {v.name: v.unit for v in result.problem.variables}
     for name, (lo, hi) in report.tuning_range.items():  # type: ignore[attr-defined]
         u = units[name]

@@ -5,9 +5,10 @@ the tuning table (docs/robust.md).
 
 1. designs the nominal balancer with the inner method, the ``tune`` variables held at their
    ``initial`` value (the factory setting);
-2. with ``mode = "minimise"`` or ``"limit"``, solves the robust counterpart at the nominal
-   design's geometry (every variable that moves a point is held; masses and stiffnesses are
-   free): an LP (box) or SOCP (ellipsoid) written with cvxpy (:mod:`.convex`);
+2. with ``mode = "minimise"`` or ``"limit"``, solves the robust counterpart: when no free
+   variable moves a point, an LP (box) or SOCP (ellipsoid) in the masses and stiffnesses,
+   written with cvxpy (:mod:`.convex`); otherwise the minimax NLP over every corner of the
+   box in CasADi/IPOPT (:mod:`.minimax`), started from the nominal design;
 3. measures the worst case over the tolerance box of both designs, per tolerance kind and
    over all (:mod:`.affine`), on a dense grid of configurations;
 4. with ``tune``, re-solves the ``tune`` variables at every corner of the tolerance box
@@ -66,6 +67,7 @@ class RobustReport:
     objective: Mapping[str, float]  # kg, per design
     lp_ratio: float = float("nan")  # the worst case on the LP's rows
     lp_seconds: float = 0.0
+    solver: str = ""  # of the counterpart: "cvxpy/Clarabel" (LP, SOCP) or "IPOPT" (minimax NLP)
     corners: tuple[Corner, ...] = ()
     tuning_range: Mapping[str, tuple[float, float]] = field(default_factory=dict)  # SI
     tuning_status: str = ""  # "" (no tune), "balanced" or the failure
@@ -87,6 +89,7 @@ class RobustMethod:
         self.decomposition = Decomposition(self.perturbed, self.deviations, problem)
         self._nonnegative: Any = None
         self._tuner: Any = None  # the designer of the tuning, built on first use
+        self._minimax: Any = None  # the minimax NLP (free geometry), built on first use
 
     def with_spec(self, spec: Any) -> "RobustMethod":
         """The same method (its inner method and decomposition shared) for another ``[robust]``
@@ -96,6 +99,7 @@ class RobustMethod:
         other = copy.copy(self)
         other.problem = replace(self.problem, robust=spec)
         other._tuner = None if spec.tune != self._spec().tune else self._tuner
+        other._minimax = None if (spec.mode, spec.weight) != (self._spec().mode, self._spec().weight) else self._minimax
         return other
 
     # -- the method ----------------------------------------------------------------
@@ -123,31 +127,49 @@ class RobustMethod:
         design, z, status, message = nominal, z_nom, nominal.status, nominal.message
         if spec.mode != "none":
             geometric = geometric_variables(self.problem)
+            moving = [i for i, slot in enumerate(d.slots) if slot.variable in geometric and lbz[i] < ubz[i]]
             free = [i for i, slot in enumerate(d.slots) if slot.variable not in geometric and lbz[i] < ubz[i]]
-            if not free:
-                design.verdict = (Status.FAILED, f"[robust] mode = \"{spec.mode}\" needs a free mass or stiffness variable: every variable moves a point or is held")
-                return design
-            z_ref = z_nom.copy()
-            z_ref[free] = 0.0
-            rows = self.decomposition.rows(self.decomposition.configurations(LP_CONFIGURATIONS, self.problem.settings.seed), z_ref, free, p)
-            from .convex import solve_robust
+            if moving:  # the geometry is free: the minimax NLP over every corner (robust/minimax.py)
+                from .minimax import RobustMinimax
 
-            lp = solve_robust(rows, self._objective(z_ref, free, p), self._signs(z_ref, free, p), (lbz[free], ubz[free]), spec.mode, spec.weight, spec.limit, spec.shape)
-            lp_ratio, lp_seconds = lp.ratio, lp.seconds
-            z = z_ref.copy()
-            z[free] = lp.dz
-            ok = lp.status == "optimal"
-            status = Status.OPTIMAL if ok else Status.INFEASIBLE
-            out = SolverOutput(z, status, lp.status, 0, lp.seconds, "cvxpy/clarabel")
-            message = f"robust design ({'LP' if spec.shape == 'box' else 'SOCP'}, cvxpy/Clarabel)"
-            if not ok:
-                message = self._infeasible_text(lp.status)
-            design = build_solution(f, z, p, lbz, ubz, out, message, 0, f"robust counterpart on {rows.r0.size} sampled rows")
+                if self._minimax is None:
+                    self._minimax = RobustMinimax(self.decomposition, spec.mode, spec.weight, self.problem.settings.seed)
+                mm = self._minimax.solve(z_nom, p, lbz, ubz, spec.limit)
+                z = np.clip(mm.z, lbz, ubz)
+                lp_ratio, lp_seconds = mm.ratio, mm.seconds
+                status = mm.status
+                out = SolverOutput(z, status, mm.solver_status, mm.iterations, mm.seconds, "ipopt")
+                message = "robust design (minimax NLP over the tolerance corners, IPOPT)"
+                if status is not Status.OPTIMAL:
+                    message = self._infeasible_text(mm.solver_status) if status is Status.INFEASIBLE else f"robust minimax NLP: IPOPT {mm.solver_status}"
+                summary = f"minimax over {len(self._minimax.offsets)} corners on sampled configurations"
+            elif not free:
+                design.verdict = (Status.FAILED, f"[robust] mode = \"{spec.mode}\" needs a free mass or stiffness variable: every variable is held")
+                return design
+            else:
+                z_ref = z_nom.copy()
+                z_ref[free] = 0.0
+                rows = self.decomposition.rows(self.decomposition.configurations(LP_CONFIGURATIONS, self.problem.settings.seed), z_ref, free, p)
+                from .convex import solve_robust
+
+                lp = solve_robust(rows, self._objective(z_ref, free, p), self._signs(z_ref, free, p), (lbz[free], ubz[free]), spec.mode, spec.weight, spec.limit, spec.shape)
+                lp_ratio, lp_seconds = lp.ratio, lp.seconds
+                z = z_ref.copy()
+                z[free] = lp.dz
+                ok = lp.status == "optimal"
+                status = Status.OPTIMAL if ok else Status.INFEASIBLE
+                out = SolverOutput(z, status, lp.status, 0, lp.seconds, "cvxpy/clarabel")
+                message = f"robust design ({'LP' if spec.shape == 'box' else 'SOCP'}, cvxpy/Clarabel)"
+                if not ok:
+                    message = self._infeasible_text(lp.status)
+                summary = f"robust counterpart on {rows.r0.size} sampled rows"
+            design = build_solution(f, z, p, lbz, ubz, out, message, 0, summary)
             design = replace(design, problem=self.problem, scenario_parameters=_without_deviations(design.scenario_parameters, self.deviations))
             bands["robust"] = self._band(self.decomposition.rows(dense, np.clip(z, lbz, ubz), [], p))
             added["robust"] = design.added_mass
             objective["robust"] = design.objective
-        report = RobustReport(spec.mode, spec.shape, self.deviations, bands, added, objective, lp_ratio, lp_seconds)
+        solver = "" if spec.mode == "none" else ("IPOPT" if out.solver == "ipopt" else "cvxpy/Clarabel")
+        report = RobustReport(spec.mode, spec.shape, self.deviations, bands, added, objective, lp_ratio, lp_seconds, solver=solver)
         if spec.tune and status is Status.OPTIMAL:
             report = self._tune(design, z, p, dense, report, parameters)
             if report.tuning_status != "balanced":
