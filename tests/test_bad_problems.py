@@ -158,6 +158,7 @@ MANIFEST: dict[str, Expect] = {
     ),
     "slot_unknown_catalogue.toml": Expect("slots.s.catalogue", "unknown catalogue 'shop'"),
     "spring_slot_and_stiffness.toml": Expect("springs.s.slot", "give either a stiffness or a slot"),
+    "slot_count_min_above_max.toml": Expect("slots.s.count", "min 3 is greater than max 2"),
     "slot_tolerance_above_100_percent.toml": Expect("slots.s.rate_tolerance", "a tolerance must be between 0 and 100 %, got '150 %'"),
     "catalogue_units_si_on_n_mm.toml": Expect(
         "catalogues.parts.units",
