@@ -45,7 +45,7 @@ def robust(ctx: Context, bodies: Sequence[Body], springs: Sequence[ZeroFreeLengt
         names = items[section]
         given = raw if isinstance(raw, dict) else {name: raw for name in names}
         if not given:
-            raise ctx.fail(kkey, f"the problem has no {section} to tolerance")
+            raise ctx.fail(kkey, f"an empty table: name at least one of the {section}" if isinstance(raw, dict) else f"the problem has no {section} to tolerance")
         for item, value in given.items():
             ikey = f"{kkey}.{item}" if isinstance(raw, dict) else kkey
             if item not in names:
