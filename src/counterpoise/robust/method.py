@@ -133,7 +133,11 @@ class RobustMethod:
                 from .minimax import RobustMinimax
 
                 if self._minimax is None:
-                    self._minimax = RobustMinimax(self.decomposition, spec.mode, spec.weight, self.problem.settings.seed)
+                    try:
+                        self._minimax = RobustMinimax(self.decomposition, spec.mode, spec.weight, self.problem.settings.seed)
+                    except ValueError as exc:  # too many corners
+                        design.verdict = (Status.FAILED, f"robust design with free geometry: {exc}; hold the geometry or tolerance fewer items")
+                        return design
                 mm = self._minimax.solve(z_nom, p, lbz, ubz, spec.limit)
                 z = np.clip(mm.z, lbz, ubz)
                 lp_ratio, lp_seconds = mm.ratio, mm.seconds

@@ -12,6 +12,9 @@ from ...model.units import FORCE, LENGTH, MASS, STIFFNESS, check_dimension
 from .context import Context, suggest
 from .parts import tolerance as fraction
 
+#: tuning enumerates 2ⁿ corners: at most this many deviations
+MAX_TUNED_DEVIATIONS = 10
+
 #: per kind: the dimension of an absolute tolerance, whether a percentage is accepted, the elements' section
 _KIND = {
     "rate": (STIFFNESS, True, "springs"),
@@ -75,6 +78,13 @@ def robust(ctx: Context, bodies: Sequence[Body], springs: Sequence[ZeroFreeLengt
             raise ctx.fail(f"{key}.tune.{i}", f"unknown variable '{name}'{suggest(name, list(ctx.spec.variables))}")
         if ctx.spec.variables[name].adjustable:
             raise ctx.fail(f"{key}.tune.{i}", f"'{name}' is adjustable per scenario; a tuning variable must not be")
+    deviations = sum({"rate": 1, "mass": 1, "com": 3, "point": 6}.get(t.kind, 0) for t in tolerances if t.amount > 0)
+    if spec.tune and deviations > MAX_TUNED_DEVIATIONS:
+        raise ctx.fail(
+            f"{key}.tune",
+            f"tuning re-balances every corner of the tolerance box: {deviations} deviations (a centre of mass counts 3, "
+            f"a spring's points 6) give 2^{deviations} corners; at most {MAX_TUNED_DEVIATIONS} deviations can be tuned",
+        )
     if spec.tune and all(t.kind == "initial_tension" for t in tolerances):
         raise ctx.fail(f"{key}.tune", "tuning re-balances rate, mass, centre-of-mass and point corners; only initial tensions are toleranced")
     return RobustSpec(tuple(tolerances), mode, weight, limit, spec.shape, tuple(spec.tune), spec.description)
