@@ -274,10 +274,12 @@ class RobustMethod:
         if failed:
             c = max(failed, key=lambda c: c.after)
             at = [f"{t} at its {self.problem.variable[t].bound_side(v)} bound" for t, v in c.settings if self.problem.variable[t].bound_side(v)]
-            status = (
-                f"tuning infeasible: corner {c.name} ({c.deviation}) keeps a residual ratio of {c.after:.3g} after tuning "
-                f"(> {tolerance:g}); the bounds of {', '.join(spec.tune)} are too narrow" + (f" ({', '.join(at)})" if at else "")
+            reason = (
+                f"the bounds of {', '.join(spec.tune)} are too narrow ({', '.join(at)})"
+                if at
+                else f"{', '.join(spec.tune)} cannot re-balance this corner (the deviation changes the residual in a way the tuning does not reach)"
             )
+            status = f"tuning infeasible: corner {c.name} ({c.deviation}) keeps a residual ratio of {c.after:.3g} after tuning (> {tolerance:g}); {reason}"
         else:
             status = "balanced"
         return replace(report, corners=tuple(out), tuning_range=tuning_range, tuning_status=status)

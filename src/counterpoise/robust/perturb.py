@@ -116,6 +116,17 @@ def corner_text(deviations: tuple[Deviation, ...], signs: tuple[int, ...]) -> st
         if s == 0:
             continue
         t = d.tolerance
-        amount = f"{100 * t.amount:g} %" if t.relative else f"{t.amount:g} SI"
+        amount = f"{100 * t.amount:g} %" if t.relative else _absolute(t.kind, t.amount)
         parts.append(f"{d.label} {'+' if s > 0 else '-'}{amount}")
     return ", ".join(parts) or "nominal"
+
+
+def _absolute(kind: str, amount: float) -> str:
+    """An absolute tolerance in the unit people write it in (mm, N, N/m, g)."""
+    if kind in ("com", "point"):
+        return f"{amount * 1e3:g} mm"
+    if kind == "initial_tension":
+        return f"{amount:g} N"
+    if kind == "rate":
+        return f"{amount:g} N/m"
+    return f"{amount * 1e3:g} g"
