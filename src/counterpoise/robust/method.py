@@ -38,6 +38,9 @@ from .perturb import Deviation, corner_name, corner_text, perturbed
 
 #: configurations per block on which the worst case of a design is measured
 BAND_CONFIGURATIONS = 10_000
+#: a deviation whose effect on every residual is below this share of the reference torque
+#: changes nothing (rounding): it is not one of the tuned corners' signs
+ZERO_EFFECT = 1e-12
 #: configurations per (subsystem, corner) on which the tuned corners are verified
 TUNE_VERIFY_SAMPLES = 2_000
 
@@ -247,7 +250,17 @@ class RobustMethod:
         from ..verify.check import verify
 
         spec = self._spec()
-        corners = [(0,) * len(self.deviations), *(tuple(s) for s in itertools.product((-1, 1), repeat=len(self.deviations)))]
+        rows = self.decomposition.rows(dense, z, [], p)  # the untuned worst case at each corner
+        # a deviation that changes no residual at this design (the z component of a point in a
+        # planar mechanism) is left at 0: it would only double the corners
+        scale = float(np.max(rows.reference)) * ZERO_EFFECT
+        active = [i for i in range(len(self.deviations)) if float(np.max(np.abs(rows.S0[:, i]), initial=0.0)) > scale]
+        corners = [(0,) * len(self.deviations)]
+        for signs in itertools.product((-1, 1), repeat=len(active)):
+            full = [0] * len(self.deviations)
+            for i, sign in zip(active, signs):
+                full[i] = sign
+            corners.append(tuple(full))
         held = {slot: (value, value) for slot, value in design.values.items() if slot.variable not in spec.tune}
         if self._tuner is None:
             width = {d.parameter: d.half_width for d in self.deviations}
@@ -257,7 +270,6 @@ class RobustMethod:
                 settings=replace(self.perturbed.settings, verify_samples=min(self.perturbed.settings.verify_samples, TUNE_VERIFY_SAMPLES)),
             )
             self._tuner = Designer(built)
-        rows = self.decomposition.rows(dense, z, [], p)  # the untuned worst case at each corner
         base = dict(parameters or {})
         out = []
         for sign in corners:
