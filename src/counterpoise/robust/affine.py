@@ -44,7 +44,7 @@ class Rows:
     SB: np.ndarray  # (M, n_dev, n_free) change of S per unit step of each free slot
     tension: np.ndarray  # (M,) Σ ΔF0 |∂d/∂q| (N·m or N)
     reference: np.ndarray  # (M,) the largest gravity torque (force) of the row's kind
-    kinds: np.ndarray  # (M,) the deviation kind index per deviation (n_dev,) - see ``deviation_kinds``
+    kinds: np.ndarray  # (n_dev,) the tolerance kind of each deviation ("rate", "mass", ...)
     block: np.ndarray  # (M,) index of the row's block
     q: list[np.ndarray]  # configurations of each block
 
@@ -77,7 +77,7 @@ class Decomposition:
         self.original = original
         self.deviations = tuple(deviations)
         self.formulation = Formulation(perturbed)
-        self._maps: dict[tuple[int, int], Any] = {}
+        self._maps: dict[tuple[int, int, str], Any] = {}  # (block, configurations, function) -> mapped CasADi function
         spec = original.robust
         self.tensions = {t.item: t.amount for t in (spec.tolerances if spec else ()) if t.kind == "initial_tension" and t.amount > 0}
 
@@ -92,8 +92,8 @@ class Decomposition:
     def _map(self, b: int, n: int, which: str = "residual") -> Any:
         key = (b, n, which)
         if key not in self._maps:
-            self._maps[key] = getattr(self.formulation.blocks[b], which).map(n)  # type: ignore[index]
-        return self._maps[key]  # type: ignore[index]
+            self._maps[key] = getattr(self.formulation.blocks[b], which).map(n)
+        return self._maps[key]
 
     def p_with(self, p: np.ndarray, deviation: int | None) -> np.ndarray:
         """``p`` with deviation ``deviation`` at +h in every scenario (None: unchanged)."""
