@@ -23,7 +23,7 @@ Built once; :meth:`solve` takes parameters and bounds per call, like :class:`Des
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from typing import Any
 
 import numpy as np
@@ -81,12 +81,25 @@ def _independent(block: Any, tangent: tuple[np.ndarray, np.ndarray, np.ndarray] 
 class MinimaxDesigner:
     """Smallest worst-case residual ratio on sampled configurations (see the module docstring)."""
 
-    def __init__(self, problem: Problem, ipopt_options: Mapping[str, Any] | None = None) -> None:
+    def __init__(
+        self,
+        problem: Problem,
+        ipopt_options: Mapping[str, Any] | None = None,
+        *,
+        coordinates: Collection[str] | None = None,
+        springs: Collection[str] | None = None,
+    ) -> None:
+        """``coordinates``, ``springs`` (None: all): only the residual rows of these
+        coordinates and the length rows of these springs enter the NLP (the part search of
+        a group of slots that do not interact with the rest, :mod:`counterpoise.selection.groups`);
+        the reference torque is the whole problem's either way, so ratios compare."""
         import casadi as ca
 
         limit_blas_threads()
         self.problem = problem
         self._ipopt_options = dict(ipopt_options or {})
+        self._only = (None if coordinates is None else frozenset(coordinates), None if springs is None else frozenset(springs))
+        self._restricted: dict[tuple[frozenset[str], frozenset[str]], MinimaxDesigner] = {}
         self.formulation = f = Formulation(problem)
         self.parameters = f.parameters.values()
         rng = np.random.default_rng(problem.settings.seed + 5)
@@ -119,6 +132,8 @@ class MinimaxDesigner:
             q = samples[key]
             residual = _along(block.residual.map(q.shape[0])(ca.DM(q.T), f.z, f.p), tangents.get(key))  # (n_i, N)
             for j, name in enumerate(_independent(block, tangents.get(key))):
+                if self._only[0] is not None and name not in self._only[0]:
+                    continue
                 revolute = problem.coordinate[name].unit.dimension == ""
                 scale = torque[revolute] or 1.0
                 r = residual[j, :].T / scale
@@ -131,7 +146,7 @@ class MinimaxDesigner:
             variables = f.design.symbols(f.x, scenario.name)
             for spring in problem.springs:
                 m = spring.direct
-                if m is None or spring.subsystem is None:
+                if m is None or spring.subsystem is None or (self._only[1] is not None and spring.name not in self._only[1]):
                     continue
                 coords_sym = ca.SX.sym("q", len(problem.subsystem_coordinates(spring.subsystem)))
                 names = [k.name for k in problem.subsystem_coordinates(spring.subsystem)]
@@ -153,13 +168,20 @@ class MinimaxDesigner:
         self.options = {**IPOPT_DEFAULTS, "max_iter": max(problem.settings.max_iterations, 1000), "tol": 1e-9, **dict(ipopt_options or {})}
         self.backend = IpoptBackend({"x": self.z, "p": f.p, "f": t, "g": g}, self.options, "minimax")
 
+    def restricted(self, coordinates: Collection[str], springs: Collection[str]) -> MinimaxDesigner:
+        """The designer of only these coordinates' residuals and springs' lengths (built once)."""
+        key = (frozenset(coordinates), frozenset(springs))
+        if key not in self._restricted:
+            self._restricted[key] = MinimaxDesigner(self.problem, self._ipopt_options, coordinates=key[0], springs=key[1])
+        return self._restricted[key]
+
     def solve(
         self,
         initial: Mapping[Slot, float] | None = None,
         parameters: Mapping[str, float] | None = None,
         bounds: Mapping[Slot | str, tuple[float, float]] | None = None,
     ) -> Solution:
-        other = for_geometry(self, parameters, lambda problem: MinimaxDesigner(problem, self._ipopt_options))
+        other = for_geometry(self, parameters, lambda problem: MinimaxDesigner(problem, self._ipopt_options, coordinates=self._only[0], springs=self._only[1]))
         if other is not self:  # closed loops: a new geometry is sampled on its own manifold
             return other.solve(initial, parameters, bounds)  # type: ignore[no-any-return]
         f = self.formulation
