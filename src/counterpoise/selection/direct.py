@@ -51,7 +51,9 @@ MAX_REFINED = 40
 BOUND_EVALUATIONS = 80000
 
 #: a coupled group too large to enumerate: combinations of each slot's best screened parts designed, at most
-COUPLED_COMBINATIONS = 64
+COUPLED_COMBINATIONS = 16
+#: sweeps of the slot-by-slot screening of a coupled group (each slot screened with the others at their best so far)
+COUPLED_SWEEPS = 2
 #: seed offset (added to settings.seed) of the random points of the grouping
 GROUP_SEED = 3
 
@@ -161,7 +163,9 @@ def refusal(problem: Problem, slots: list[Any], total: int, why: str) -> Problem
     )
 
 
-def _enumerate(problem: Problem, designer: MinimaxDesigner, progress: Progress, t0: float, note: str, slots: list[Any], reason_of_size: str = "") -> SearchResult:
+def _enumerate(problem: Problem, designer: MinimaxDesigner, progress: Progress, t0: float, note: str, slots: list[Any] | None = None, reason_of_size: str = "") -> SearchResult:
+    """Every combination of parts of ``slots`` (default: the problem's) designed."""
+    slots = list(problem.slots) if slots is None else slots
     sizes = [len(s.catalogue) for s in slots]
     counts = [SlotCount(s.name, len(s.catalogue), (math.nan, math.nan)) for s in slots]
     total = math.prod(sizes)
@@ -285,7 +289,8 @@ def _search_coupled(problem: Problem, designer: MinimaxDesigner, group: DirectGr
     starts: dict[str, list[dict[str, float]]] = {}
     counts = []
     lines = []
-    for slot in slots:
+    screens: dict[str, Screen] = {}
+    for slot in [s for _ in range(COUPLED_SWEEPS) for s in slots][: COUPLED_SWEEPS * len(slots) - 1]:  # the last slot's screen is the last sweep's
         screened = screen(problem, designer, part_parameters(problem, reference), slot.name, group.coordinates, exclude, group.variables)
         if not screened.supported:
             raise refusal(problem, slots, total, f"slot {slot.name} cannot be screened ({screened.reason})")
@@ -295,12 +300,15 @@ def _search_coupled(problem: Problem, designer: MinimaxDesigner, group: DirectGr
         best[slot.name] = order[:keep]
         starts[slot.name] = screened.start
         reference[slot.name] = int(order[0])
+        screens[slot.name] = screened
+    for slot in slots:
+        screened, kept = screens[slot.name], best[slot.name]
         count = SlotCount(slot.name, len(slot.catalogue), (math.nan, math.nan))
-        count.pruned = len(slot.catalogue) - len(order)
+        count.pruned = screened.infeasible
         counts.append(count)
         lines.append(
-            f"screening of slot {slot.name} (the other slots at their best screened part so far): {len(slot.catalogue)} parts, {screened.infeasible} pruned "
-            f"(no grid geometry within their lengths); the best {len(best[slot.name])} kept (screened ratios {screened.ratio[order[0]]:.4g} to {screened.ratio[order[len(best[slot.name]) - 1]]:.4g})"
+            f"screening of slot {slot.name} (the other slots at their best screened part, {COUPLED_SWEEPS} sweeps): {len(slot.catalogue)} parts, {screened.infeasible} pruned "
+            f"(no grid geometry within their lengths); the best {len(kept)} kept (screened ratios {screened.ratio[kept[0]]:.4g} to {screened.ratio[kept[-1]]:.4g})"
         )
     combos = list(itertools.product(*(best[s.name] for s in slots)))
     found: list[Choice] = []
