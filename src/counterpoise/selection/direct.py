@@ -15,6 +15,16 @@ least the best ratio are skipped, and the search stops, certified, when every re
 part's is. Otherwise it stops when no remaining part's screened ratio is within
 :data:`SCREEN_MARGIN` of the incumbent (or after :data:`MAX_REFINED` designs). Without
 screening every combination of parts is designed.
+
+Several slots are first split into groups that do not interact (:func:`.groups.direct_groups`:
+no slot's part or geometry enters another group's residual rows or spring lengths); each
+group is searched alone, by the minimax designer of its own rows
+(:meth:`~counterpoise.designer.minimax.MinimaxDesigner.restricted`), and the groups' best
+parts together are the best combination (the worst ratio is the largest of the groups').
+A group of interacting slots is enumerated when it has at most :data:`MAX_COMBINATIONS`
+combinations of parts; above that it is screened slot by slot, then the combinations of
+each slot's best screened parts are designed (:data:`COUPLED_COMBINATIONS` in all). A search
+that can do neither is refused as an input limit (:func:`refusal`, exit status 2).
 """
 
 from __future__ import annotations
@@ -24,10 +34,9 @@ import math
 import sys
 import time
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
-
-from typing import Any
 
 from ..designer.minimax import MinimaxDesigner
 from ..errors import ProblemFileError
