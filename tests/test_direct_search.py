@@ -205,12 +205,12 @@ def test_coupled_group_too_large_is_screened_slot_by_slot(tmp_path, monkeypatch)
 
 
 def test_a_search_that_can_neither_enumerate_nor_screen_is_an_input_limit(tmp_path, capsys):
-    """Coupled slots over the shipped catalogue (572 × 572 = 327184 combinations) in two
-    scenarios (the screening takes one): exit 2, one line naming the file and the slot's
-    catalogue key and saying what to change; nothing written; never 'infeasible'."""
-    extra = '[scenarios.light]\nparameters = { m_2 = "0.2 kg" }\n[scenarios.heavy]\nparameters = { m_2 = "0.4 kg" }\n'
-    body = SERIAL + variables("y_1", "b_1", "c_1", "y_2", "b_2", "c_2") + spring("one", "s_1", "y_1", "a", "b_1", "c_1") + spring("two", "s_2", "y_2", "b", "b_2", "c_2")
-    path = write(tmp_path, "refused", body, extra=extra)
+    """Coupled slots over the shipped catalogue (572 × 572 = 327184 combinations), spring
+    one's cable an expression (the screening needs a cable variable of its own): exit 2,
+    one line naming the file and the slot's catalogue key and saying what to change;
+    nothing written; never 'infeasible'."""
+    body = SERIAL + variables("y_1", "b_1", "c_1", "y_2", "b_2", "c_2") + spring("one", "s_1", "y_1", "a", "b_1", "c_1 + 5 mm") + spring("two", "s_2", "y_2", "b", "b_2", "c_2")
+    path = write(tmp_path, "refused", body)
     with pytest.raises(ProblemFileError) as info:
         search_direct(load_problem(path), MinimaxDesigner(load_problem(path)), QUIET)
     assert info.value.key == "slots.s_1.catalogue"
@@ -221,8 +221,24 @@ def test_a_search_that_can_neither_enumerate_nor_screen_is_an_input_limit(tmp_pa
     lines = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
     assert len(lines) == 1, lines
     assert lines[0].startswith(f"{path}: slots.s_1.catalogue: 327184 combinations")
-    assert "use a smaller catalogue" in lines[0] and "infeasible" not in lines[0]
+    assert "cannot be screened" in lines[0] and "use a smaller catalogue" in lines[0] and "infeasible" not in lines[0]
     assert not (out / "refused").exists()
+
+
+def test_a_slot_over_several_scenarios_is_screened(tmp_path):
+    """One arm, its link's mass in two scenarios (a payload range): every part is screened
+    on both scenarios' configurations at once (not designed one by one); the design found
+    keeps its spring within its lengths in both."""
+    catalogue = small_catalogue(tmp_path, [f"CP-EXT-{i:04d}" for i in (25, 100, 125, 200, 318, 343, 363, 400)])
+    extra = '[scenarios.light]\nparameters = { m_1 = "0.2 kg" }\n[scenarios.heavy]\nparameters = { m_1 = "0.4 kg" }\n'
+    body = TWO_ARMS.split("[subsystems.right]")[0] + '[frames.a]\ntransforms = [{ rotate = "z", angle = "theta_1" }]\n[bodies.a]\nframe = "a"\nmass = "m_1"\ncom = ["l_1/2", 0, 0]\n'
+    text = (HEAD.format(name="payload", catalogue=catalogue).split("[slots.s_2]")[0] + body + variables("y_1", "b_1", "c_1") + spring("one", "s_1", "y_1", "a", "b_1", "c_1") + extra)
+    path = tmp_path / "payload.toml"
+    path.write_text(text, encoding="utf-8")
+    problem = load_problem(path)
+    result = search_direct(problem, MinimaxDesigner(problem), QUIET)
+    assert result.methods == ["screening"], result.text()
+    assert result.choice is not None and result.solves <= len(problem.slots[0].catalogue)
 
 
 # -- the lamp (acceptance) ----------------------------------------------------------------

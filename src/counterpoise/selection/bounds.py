@@ -95,6 +95,8 @@ def certifiable(ctx: Any) -> str:
         return "the bound covers one spring per slot"
     if not ctx.rest_fixed:
         return "the rest of the mechanism depends on the geometry variables"
+    if ctx.others:
+        return "the bound covers a single scenario"
     if ctx.columns is not None:
         return "the bound covers a slot alone in its subsystem, not one of a group of rows"
     variables = set(ctx.names)

@@ -19,6 +19,10 @@ separate geometry variables: each spring's arrays are computed once on its own g
 all unordered pairs of grid geometries are screened per part (symmetry), the two offsets
 by box-constrained least squares (a feasible point: an upper estimate of that pair's best).
 
+Several scenarios (a payload range's samples, working modes) are screened together: each
+scenario's configurations follow the previous one's in the arrays (the part, its offset and
+the geometry are common to all; adjustable variables are not screened).
+
 From each part's best grid design a compass search (vectorised over parts) improves its
 geometry. A part's *screened ratio* is that of a real design (its lengths within limits on
 the screening configurations), not a lower bound; the certified bound is :mod:`.bounds`
@@ -87,8 +91,8 @@ def _structure(problem: Problem, slot: Any, exclude: frozenset[str], grid_only: 
     variables, variables the rest of the mechanism depends on),
     or the reason screening does not apply. ``exclude``: springs left out of the rest (they
     do not act on the screened rows); ``grid_only``: the variables that can matter (None: all)."""
-    if len(problem.scenarios) != 1:
-        return "screening needs a single scenario"
+    if len(problem.scenarios) > 1 and any(v.adjustable for v in problem.variables):
+        return "screening needs design variables shared by every scenario (none adjustable)"
     springs = [s for s in problem.springs if s.slot == slot.name]
     if not springs or any(s.direct is None or s.subsystem is None for s in springs):
         return "screening needs directly attached springs in a subsystem"
@@ -273,24 +277,34 @@ class _Context:
     columns: np.ndarray | None = None
     #: ... on which these springs (of other slot groups) do not act: left out of G
     exclude: frozenset[str] = frozenset()
+    #: the further scenarios' (base, gravity): their configurations follow the first's
+    others: tuple[tuple[dict[str, float], Sequence[float]], ...] = ()
     _rest: np.ndarray | None = None
 
     def arrays(self, designs: Mapping[str, np.ndarray], springs: Sequence[Any] | None = None) -> tuple[np.ndarray, list[tuple[np.ndarray, np.ndarray, np.ndarray]]]:
-        """G (n, M) and per spring (d (n, N), A = d ∂d/∂q (n, M), B = ∂d/∂q (n, M)), scaled by the reference."""
+        """G (n, M) and per spring (d (n, N), A = d ∂d/∂q (n, M), B = ∂d/∂q (n, M)), scaled by the
+        reference; with several scenarios, each scenario's configurations one after the other."""
         n = len(next(iter(designs.values()))) if designs else 1
         variables = {**{k: np.full(n, v) for k, v in self.home.items()}, **designs}
         springs = self.springs if springs is None else springs
+        scenarios = [(self.base, self.gravity), *self.others]
         if self.rest_fixed and self._rest is None:
-            g, _ = energy_arrays(self.problem, self.subsystem, self.q, {k: np.array([v]) for k, v in self.home.items()}, self.base, self.gravity, self.springs, True, self.exclude, self.columns)
-            self._rest = g.reshape(1, -1) / self.reference  # type: ignore[union-attr]
-        g, arr = energy_arrays(self.problem, self.subsystem, self.q, variables, self.base, self.gravity, springs, not self.rest_fixed, self.exclude, self.columns)
+            home = {k: np.array([v]) for k, v in self.home.items()}
+            rest = [energy_arrays(self.problem, self.subsystem, self.q, home, b, g, self.springs, True, self.exclude, self.columns)[0] for b, g in scenarios]
+            self._rest = np.concatenate([g.reshape(1, -1) for g in rest], axis=1) / self.reference  # type: ignore[union-attr]
+        parts = [energy_arrays(self.problem, self.subsystem, self.q, variables, b, g, springs, not self.rest_fixed, self.exclude, self.columns) for b, g in scenarios]
         if self.rest_fixed:
             gflat = np.broadcast_to(self._rest, (n, self._rest.shape[1]))  # type: ignore[union-attr]
         else:
-            gflat = np.broadcast_to(g.reshape(g.shape[0], -1), (n, g.shape[1] * g.shape[2])) / self.reference  # type: ignore[union-attr]
+            flat = [np.broadcast_to(g.reshape(g.shape[0], -1), (n, g.shape[1] * g.shape[2])) for g, _ in parts]  # type: ignore[union-attr]
+            gflat = (flat[0] if len(flat) == 1 else np.concatenate(flat, axis=1)) / self.reference
         out = []
         for s in springs:
-            d, grad = arr[s.name]
+            if len(parts) == 1:
+                d, grad = parts[0][1][s.name]
+            else:
+                d = np.concatenate([np.broadcast_to(arr[s.name][0], (n, arr[s.name][0].shape[1])) for _, arr in parts], axis=1)
+                grad = np.concatenate([np.broadcast_to(arr[s.name][1], (n, *arr[s.name][1].shape[1:])) for _, arr in parts], axis=1)
             out.append((d, (d[:, :, None] * grad).reshape(n, -1) / self.reference, grad.reshape(n, -1) / self.reference))
         return gflat, out
 
@@ -412,10 +426,13 @@ def screen(
         return Screen(False, "screening needs coordinates of one kind (all revolute or all prismatic)")
     f = designer.formulation
     p = f.parameters.values(parameters)
-    gravity, base = f.parameters.scenario_values(p)[problem.scenarios[0].name]
-    base = dict(base)
-    base[slot_name] = 0.0  # the slot's springs are added per part: G is the rest
-    base[f"{slot_name}:initial_tension"] = 0.0
+    scenarios = []
+    for scenario_gravity, scenario_base in f.parameters.scenario_values(p).values():
+        scenario_base = dict(scenario_base)
+        scenario_base[slot_name] = 0.0  # the slot's springs are added per part: G is the rest
+        scenario_base[f"{slot_name}:initial_tension"] = 0.0
+        scenarios.append((scenario_base, scenario_gravity))
+    (base, gravity), others = scenarios[0], tuple(scenarios[1:])
     reference = designer.reference[next(iter(kinds))] or 1.0
     home = {v.name: v.initial for v in problem.variables}
     boxes = []
@@ -432,7 +449,7 @@ def screen(
     columns = None
     if coordinates is not None and (set(names) - coordinates or mine):
         columns = np.array([i for i, c in enumerate(names) if c in coordinates], dtype=int)
-    ctx = _Context(problem, springs, q, base, gravity, home, cables, boxes, _part_arrays(slot), reference, subsystem, grid_names, not other, columns, frozenset(mine))
+    ctx = _Context(problem, springs, q, base, gravity, home, cables, boxes, _part_arrays(slot), reference, subsystem, grid_names, not other, columns, frozenset(mine), others)
     n_parts = len(slot.catalogue)
     if len(springs) == 1:
         return _screen_one(ctx, n_parts)
