@@ -241,6 +241,31 @@ def test_a_slot_over_several_scenarios_is_screened(tmp_path):
     assert result.choice is not None and result.solves <= len(problem.slots[0].catalogue)
 
 
+def test_a_groups_part_bounds_are_below_every_design_of_it(tmp_path):
+    """The lamp's elbow group (its rows: theta_2 alone, the shoulder spring left out): the
+    certified per-part lower bound on the group's rows is at most the worst ratio of every
+    design of that part by the group's own designer (brute force over a few parts)."""
+    from counterpoise.selection.bounds import certifiable, part_bounds
+    from counterpoise.selection.screening import screen
+
+    catalogue = small_catalogue(tmp_path, [f"CP-EXT-{i:04d}" for i in (300, 318, 330, 343, 350, 363)])
+    text = LAMP.read_text(encoding="utf-8").replace('file = "shipped"', f'file = "{catalogue}"')
+    (tmp_path / "lamp.toml").write_text(text, encoding="utf-8")
+    problem = load_problem(tmp_path / "lamp.toml")
+    designer = MinimaxDesigner(problem)
+    group = next(g for g in direct_groups(problem, designer, lambda rows: part_parameters(problem, rows), 3) if g.slots == ("elbow_spring",))
+    restricted = designer.restricted(group.coordinates, group.springs)
+    slot = next(s for s in problem.slots if s.name == "elbow_spring")
+    brute = _enumerate(problem, restricted, QUIET, 0.0, "test", [slot])
+    ratio = {c.parts["elbow_spring"]: c.robust for c in brute.candidates}
+    assert ratio, "no part fits: the test checks nothing"
+    screened = screen(problem, restricted, part_parameters(problem, {"elbow_spring": 0}), "elbow_spring", group.coordinates, frozenset({"shoulder"}), group.variables)
+    assert screened.supported and certifiable(screened.context) == ""
+    bounds = part_bounds(screened.context, restricted, 1.0, math.inf, max_depth=2)
+    for row, value in ratio.items():
+        assert bounds.value[row] <= value
+
+
 # -- the lamp (acceptance) ----------------------------------------------------------------
 
 
