@@ -56,7 +56,8 @@ SCREEN_MARGIN = 2.0
 MIN_REFINED = 6
 #: at most this many parts are designed after screening
 MAX_REFINED = 40
-#: (part, cell) bounds of the branch and bound of the per-part lower bounds (≈ 0.6 s for 80000)
+#: (part, cell) bounds of the branch and bound of the per-part lower bounds (≈ 0.6 s for 80000),
+#: shared by the slots of a problem whose slots are searched in groups
 BOUND_EVALUATIONS = 80000
 
 #: a coupled group too large to enumerate: combinations of each slot's best screened parts designed, at most
@@ -139,7 +140,8 @@ def _search_slot(
         coordinates, variables = (None, None) if group is None else (group.coordinates, group.variables)
         screened = screen(problem, designer, part_parameters(problem, {slot.name: 0}), slot.name, coordinates, exclude, variables)
         if screened.supported and np.isfinite(screened.ratio).any():
-            return _search_screened(problem, designer, screened, progress, t0, slot)
+            share = len(problem.slots) if group is not None else 1  # the bound's budget is shared by the groups
+            return _search_screened(problem, designer, screened, progress, t0, slot, BOUND_EVALUATIONS // share)
         reason = screened.reason or "no part within its lengths at any grid geometry"
         note = f"every part designed ({reason})"
     else:
@@ -204,7 +206,7 @@ def _enumerate(problem: Problem, designer: MinimaxDesigner, progress: Progress, 
     return SearchResult(found[0] if found else None, counts, [tuple(s.name for s in slots)], ["enumeration"], [], solves, time.perf_counter() - t0, message, found, evidence=evidence)
 
 
-def _search_screened(problem: Problem, designer: MinimaxDesigner, screened: Screen, progress: Progress, t0: float, slot: Any) -> SearchResult:
+def _search_screened(problem: Problem, designer: MinimaxDesigner, screened: Screen, progress: Progress, t0: float, slot: Any, budget_of_bound: int = BOUND_EVALUATIONS) -> SearchResult:
     count = SlotCount(slot.name, len(slot.catalogue), (math.nan, math.nan))
     order = screened_order(screened)
     count.pruned = len(slot.catalogue) - len(order)  # no grid geometry keeps the spring within its lengths
@@ -219,7 +221,7 @@ def _search_screened(problem: Problem, designer: MinimaxDesigner, screened: Scre
     designed: list[int] = []
     for rank, i in enumerate(order):
         if bounds is None and not why_not and math.isfinite(incumbent):
-            bounds = part_bounds(screened.context, designer, incumbent, BOUND_EVALUATIONS)
+            bounds = part_bounds(screened.context, designer, incumbent, budget_of_bound)
         if bounds is not None:
             rest = order[rank:]
             if (bounds.value[rest] >= incumbent).all():
