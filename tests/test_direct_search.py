@@ -188,6 +188,22 @@ def test_independent_groups_find_the_best_combination_with_fewer_designs(tmp_pat
     assert "searched one by one" in result.text()
 
 
+def test_rows_no_part_can_change_are_left_out_of_the_search(tmp_path):
+    """Two coupled slots (a shared anchor height) and a third, heavier arm with no spring:
+    its residual, the same for every part, would be the worst ratio of every combination
+    (1: it sets the reference torque) and tie them all. The group's search leaves its row
+    out: the combinations' ratios are those of the sprung arms, below 1, and differ."""
+    catalogue = small_catalogue(tmp_path, ["CP-EXT-0125", "CP-EXT-0318"])
+    idle = '[subsystems.idle]\ncoordinates.theta_3 = { range = ["0 deg", "60 deg"] }\n[frames.c]\ntransforms = [{ rotate = "z", angle = "theta_3" }]\n[bodies.c]\nframe = "c"\nmass = "3 kg"\ncom = ["l_1", 0, 0]\n'
+    body = TWO_ARMS + idle + variables("y_1", "b_1", "c_1", "b_2", "c_2") + spring("one", "s_1", "y_1", "a", "b_1", "c_1") + spring("two", "s_2", "y_1", "b", "b_2", "c_2")
+    problem = load_problem(write(tmp_path, "idle", body, catalogue))
+    (group,) = direct_groups(problem, MinimaxDesigner(problem), lambda rows: part_parameters(problem, rows), 3)
+    assert group.coordinates == {"theta_1", "theta_2"}
+    result = search_direct(problem, MinimaxDesigner(problem), QUIET)
+    ratios = [c.robust for c in result.candidates]
+    assert ratios and max(ratios) < 0.99 and len(set(ratios)) > 1
+
+
 def test_coupled_group_too_large_is_screened_slot_by_slot(tmp_path, monkeypatch):
     """Coupled slots whose combinations exceed the enumeration limit (lowered here to 10,
     below the 4 × 4 = 16 combinations): each slot is screened, then only the combinations of

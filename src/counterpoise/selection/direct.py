@@ -118,7 +118,11 @@ def search_direct(problem: Problem, designer: MinimaxDesigner, progress: Progres
         return _search_slot(problem, designer, slots[0], progress, t0)
     groups = direct_groups(problem, designer, lambda rows: part_parameters(problem, rows), problem.settings.seed + GROUP_SEED)
     if len(groups) == 1:
-        return _search_group(problem, designer, groups[0], progress, t0)
+        (group,) = groups
+        direct = {s.name for s in problem.springs if s.direct is not None}
+        if group.coordinates != {c.name for c in problem.coordinates} or group.springs != direct:
+            designer = designer.restricted(group.coordinates, group.springs)  # rows no part can change left out
+        return _search_group(problem, designer, group, progress, t0)
     results = []
     for group in groups:
         restricted = designer.restricted(group.coordinates, group.springs)
