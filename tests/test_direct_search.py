@@ -161,6 +161,24 @@ def test_a_reference_link_decouples_the_joints_of_one_subsystem():
     assert groups[("elbow_spring",)].springs == {"elbow"}
 
 
+def test_a_turntable_row_that_vanishes_joins_nothing(tmp_path):
+    """The lamp on a base that turns about the vertical (psi): gravity and both springs turn
+    with it, so psi's residual vanishes (rounding only) and must join neither slot."""
+    text = LAMP.read_text(encoding="utf-8")
+    for old, new in [
+        ('coordinates.theta_1 =', 'coordinates.psi = { range = ["-90 deg", "90 deg"] }\ncoordinates.theta_1 ='),
+        ("[frames.lower]\n", '[frames.turntable]\ntransforms = [{ rotate = "y", angle = "psi" }]\n\n[frames.lower]\nparent = "turntable"\n'),
+        ('orientation = "ground"', 'orientation = "turntable"'),
+        ('from = { frame = "ground", point = ["x_1"', 'from = { frame = "turntable", point = ["x_1"'),
+    ]:
+        assert old in text
+        text = text.replace(old, new, 1)
+    path = tmp_path / "turntable.toml"
+    path.write_text(text, encoding="utf-8")
+    groups = {g.slots: g.coordinates for g in groups_of(path)}
+    assert groups == {("shoulder_spring",): {"theta_1"}, ("elbow_spring",): {"theta_2"}}
+
+
 def test_a_spring_spanning_both_joints_couples_them(tmp_path):
     """Spring two runs from the ground to the upper link: its length depends on both joint
     angles, so it enters the shoulder's row, as spring one does."""

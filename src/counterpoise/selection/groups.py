@@ -118,7 +118,7 @@ def slot_groups(designer: Designer, names: list[str], base_values: Any, seed: in
 
 # -- directly attached slots ---------------------------------------------------------------
 
-#: an entry of a residual row's scaled Jacobian below this fraction of the row's largest is zero
+#: an entry of a residual row's scaled Jacobian below this fraction of the block's largest is zero
 #: (a dependence that cancels, such as a parallelogram's R(θ1) R(θ2 − θ1), leaves rounding only)
 ROW_TOLERANCE = 1e-8
 #: random (configuration, design, part) points at which the residual rows' Jacobian is taken
@@ -155,7 +155,7 @@ def direct_groups(problem: Problem, designer: Any, parts: Callable[[dict[str, in
     coordinate, every scenario) joins the slots whose parameters (rate, free length,
     initial tension, longest length) and the design variables that enter it, read off its
     Jacobian with respect to (z, p) at random configurations, designs and parts (an entry
-    that is zero to rounding, relative to the row, does not count); each spring's length
+    that is zero to rounding, relative to the block's largest, does not count); each spring's length
     rows join its slot with its variables; sign constraints join their variables. A
     subsystem with closed loops counts as one row (its residuals are projected on the
     manifold). ``parts(rows)``: the parameters of the parts ``rows`` (slot -> catalogue row).
@@ -196,17 +196,21 @@ def direct_groups(problem: Problem, designer: Any, parts: Callable[[dict[str, in
         r = block.residual(q, f.z, f.p)
         jac = ca.Function("row_jacobian", [q, f.z, f.p], [ca.jacobian(r, ca.vertcat(f.z, p_cols))])
         ranges = [problem.coordinate[c] for c in block.coordinates]
+        points = []
         for _ in range(ROW_POINTS):
             qv = np.array([c.home if c.dependent else c.lower + (c.upper - c.lower) * rng.random() for c in ranges])
             z = f.design.to_z(lo + (hi - lo) * rng.random(n_z))
             rows = {s.name: int(rng.integers(len(s.catalogue))) for s in problem.slots}
             p = f.parameters.values(parts(rows))
             scale = np.concatenate([np.ones(n_z), np.maximum(np.abs(p[columns]), 1e-12)]) if columns else np.ones(n_z)
-            j = np.abs(np.array(jac(qv, z, p))) * scale[None, :]
+            points.append(np.abs(np.array(jac(qv, z, p))) * scale[None, :])
+        # relative to the block's largest entry: a row that vanishes (a turntable's about the
+        # vertical) has rounding entries only, which must not count relative to themselves
+        top = max((float(j.max(initial=0.0)) for j in points), default=0.0)
+        if top <= 0:
+            continue
+        for j in points:
             for i, name in enumerate(block.coordinates):
-                top = j[i].max(initial=0.0)
-                if top <= 0:
-                    continue
                 for col in np.flatnonzero(j[i] > ROW_TOLERANCE * top):
                     union.union(entity[("coordinate", name)], int(col) if col < n_z else owner[int(col) - n_z])
     frames = frame_names(problem)
