@@ -380,7 +380,8 @@ def _combine(groups: list[DirectGroup], results: list[SearchResult], t0: float) 
     )
     values: dict[Slot, float] = {}
     for g, c in zip(groups, best):
-        values.update({k: v for k, v in (c.values or {}).items() if k.variable in g.variables})  # type: ignore[union-attr]
+        # the variables shared by every scenario (a payload range's design has scenarios of its own)
+        values.update({k: v for k, v in (c.values or {}).items() if k.variable in g.variables and k.scenario is None})  # type: ignore[union-attr]
     choice.values = values
     bounds = [r.lower_bound_ratio for r in results if not math.isnan(r.lower_bound_ratio)]
     lower = max(bounds) if bounds else math.nan  # the worst ratio is at least each group's
