@@ -330,3 +330,21 @@ def test_lamp_with_two_direct_slots_is_searched_and_verified(lamp_run):
     # a real spring cannot balance exactly; the gravity torque is 2.4 N m at most (the
     # problem file's hand figures): a worst residual below 10 % of it is a working lamp
     assert 0 < float(summary["residual_ratio"]) < 0.1
+
+
+def test_minimax_designer_builds_without_design_variables(tmp_path):
+    """A payload range's adjustment problem with nothing adjustable has no design variable:
+    the minimax designer's length rows were scaled by the largest bound of none (a
+    ValueError after the part search of a lamp with a payload range)."""
+    text = (
+        '[problem]\nname = "fixed"\n[gravity]\nacceleration = "9.81 m/s^2"\ndirection = [0, -1, 0]\n'
+        '[subsystems.arm]\ncoordinates.phi = { range = ["0 deg", "60 deg"] }\n'
+        '[frames.link]\ntransforms = [{ rotate = "z", angle = "phi" }]\n'
+        '[bodies.link]\nframe = "link"\nmass = "0.5 kg"\ncom = ["0.2 m", 0, 0]\n'
+        '[springs.s]\nstiffness = "300 N/m"\nmount = "direct"\nfree_length = "20 mm"\ncable = "10 mm"\n'
+        'from = { frame = "ground", point = [0, "0.1 m", 0] }\nto = { frame = "link", point = ["0.05 m", 0, 0] }\n'
+    )
+    path = tmp_path / "fixed.toml"
+    path.write_text(text, encoding="utf-8")
+    designer = MinimaxDesigner(load_problem(path))
+    assert designer.n_rows > 0

@@ -160,7 +160,7 @@ class MinimaxDesigner:
                 q = samples[(spring.subsystem, scenario.name)]
                 values = fun.map(q.shape[0])(ca.DM(q.T), f.z, f.p)
                 for i in range(values.shape[0]):
-                    rows.append(values[i, :].T / max(float(np.max(np.abs(f.design.upper))), 1e-3))
+                    rows.append(values[i, :].T / max(float(np.max(np.abs(f.design.upper), initial=0.0)), 1e-3))
         self.n_rows = int(sum(r.numel() for r in rows))
         g = ca.vertcat(*rows, f.nonnegative)
         self.n_signs = int(f.nonnegative.numel())
