@@ -93,7 +93,8 @@ def loops(ctx: Context, frames: Mapping[str, Frame], coordinates: tuple[Coordina
             raise ctx.fail(f"{key}.axis", "a spherical joint has no axis (remove it, or joint = \"revolute\")")
         if lp.axis_b is not None:
             if lp.joint != REVOLUTE_JOINT:
-                raise ctx.fail(f"{key}.axis_b", f"only a revolute joint has axis_b (a {lp.joint} joint keeps the frames' relative orientation of home)")
+                why = "a spherical joint has no axis" if lp.joint != PRISMATIC_JOINT else "a prismatic joint keeps the frames' relative orientation of home"
+                raise ctx.fail(f"{key}.axis_b", f"only a revolute joint has axis_b ({why})")
             axis_b = ctx.axis(lp.axis_b, f"{key}.axis_b")
         sub = next(iter(subs))
         out.append(Loop(name, lp.joint, a, b, axis, sub, lp.description, axis_b))  # type: ignore[arg-type]
