@@ -245,3 +245,22 @@ def test_the_papers_design_is_not_balanced_once_the_planes_tilt():
     assert values["k"] == pytest.approx(516.1, rel=1e-12) and values["M_b_l"] == pytest.approx(1.64978, rel=1e-12)
     assert not r.optimal
     assert 0.01 <= r.verification.residual_ratio <= 1.0
+
+
+def test_the_assembled_home_is_the_problems_home_and_frames_shows_it(holders, capsys):
+    """The loaded problem carries the assembled homes (every later step sees them), and
+    `counterpoise frames` prints them: q_c_l = -39.0435 deg (the file says -39.043 deg; the
+    exact value from the closed-form legs of _exact_homes is -39.043452 deg)."""
+    from counterpoise.cli import main
+
+    rounded, exact = holders
+    for name in ("q_c_l", "q_b_m", "q_a_r"):
+        assert rounded.coordinate[name].home == pytest.approx(exact.coordinate[name].home, abs=1e-13)
+        assert rounded.coordinate[name].lower == rounded.coordinate[name].upper == rounded.coordinate[name].home
+    shown = f"{np.degrees(exact.coordinate['q_c_l'].home):.6g}"
+    assert shown == "-39.0435"
+    with pytest.raises(SystemExit) as exited:
+        main(["frames", str(PROBLEMS / "yasir2019_holder.toml")])
+    assert exited.value.code in (0, None)
+    out = " ".join(capsys.readouterr().out.split())
+    assert f"q_c_l = {shown} deg" in out

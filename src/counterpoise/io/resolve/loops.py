@@ -8,6 +8,7 @@ loading, and by the formulation), which raises the same one-line ProblemFileErro
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from typing import Any
@@ -15,6 +16,7 @@ from typing import Any
 from ...model import expr as ex
 from ...model.loops import MAX_POSITION, PRISMATIC_JOINT, REVOLUTE_JOINT, Loop
 from ...model.mechanism import GROUND, Coordinate, Frame, Point
+from ...model.problem import Problem
 from ...model.units import LENGTH, canonical_dimension, dimension_name
 from .context import Context
 
@@ -120,3 +122,28 @@ def loops(ctx: Context, frames: Mapping[str, Frame], coordinates: tuple[Coordina
     return tuple(out)
 
 
+
+
+def assembled_homes(problem: Problem) -> Problem:
+    """The problem with every dependent coordinate's home replaced by the assembled home.
+
+    The file's homes are starting guesses (a few digits do); the closure's home solve
+    (:class:`counterpoise.mechanics.closure.Closure`, at the first scenario's parameter
+    values) corrects them on every closure equation, and the corrected values are what every
+    later step sees: report quantities at home, `frames`, `draw`, the part search's home
+    design. A loop that cannot close at home raises the same ProblemFileError as
+    :func:`counterpoise.mechanics.closure.check_assembly`.
+    """
+    if not problem.loops:
+        return problem
+    from ...mechanics.closure import closure, scenario_base  # the kinematics: only for files with loops
+
+    base = scenario_base(problem, problem.scenarios[0].name)
+    home: dict[str, float] = {}
+    for sub in dict.fromkeys(loop.subsystem for loop in problem.loops):
+        c = closure(problem, sub, base)
+        home.update({c.names[i]: float(c.home[i]) for i in c.dependent})
+    coordinates = tuple(
+        dataclasses.replace(co, home=home[co.name], lower=home[co.name], upper=home[co.name]) if co.name in home else co for co in problem.coordinates
+    )
+    return dataclasses.replace(problem, coordinates=coordinates)
