@@ -3,12 +3,20 @@
 For a subsystem whose coordinates split into independent ones q_i (with ranges) and
 dependent ones q_d (solved), the closure equations of its loops (:mod:`counterpoise.model.loops`)
 
-    h(q_i, q_d) = 0        (3 rows per loop: the joint's two points coincide;
-                            3 more for a revolute joint: its axis keeps its home direction in frame b)
+    h(q_i, q_d) = 0        (per loop, 3 point rows: the joint's two points coincide, or for a
+                            prismatic joint (p_a − p_b) × axis = 0; then the orientation rows:
+                            a revolute axis keeps its direction in frame b (3), a prismatic
+                            joint keeps the frames' relative rotation (9))
 
-define the configuration manifold. :class:`Closure` builds h and its Jacobian once (CasADi,
-at one scenario's parameter values) and solves it for many configurations at once:
+define the configuration manifold. :class:`Closure` builds h and its Jacobian once (at one
+scenario's parameter values) and solves it for many configurations at once:
 
+- **The assembled home** (:meth:`Closure._home`): the file's homes are starting guesses.
+  The point rows are closed first; the orientation targets are then given (``axis_b``) or
+  measured and snapped onto exact directions (:func:`_snap`); Gauss-Newton with truncated-SVD
+  steps then corrects every dependent coordinate on every row, and the mobility
+  n − rank ∂h/∂q is checked there. Homes rounded to a few digits give the configuration
+  exact ones give, also for over-constrained loops (docs/loops.md#the-home).
 - **Newton with a rank-revealing pseudo-inverse**: Δq_d = −(∂h/∂q_d)⁺ h. Redundant rows (a
   planar loop's out-of-plane rows, identically zero) only add zero singular values, which
   the pseudo-inverse drops; nobody has to remove equations.
@@ -16,10 +24,11 @@ at one scenario's parameter values) and solves it for many configurations at onc
   from the home configuration in q_i, in small steps, each predicted along the tangent
   dq_d/dq_i and corrected by Newton. Steps are small against the ranges
   (:data:`STEPS_PER_RANGE`), so the solution stays on the assembly branch of home.
-- **Input errors**: a loop that does not close at home, a configuration of the ranges that
-  cannot be assembled (the first one met from home is named), and a singular configuration
-  (∂h/∂q_d loses rank: the dependent coordinates are not determined there, and the generalized
-  force along the manifold is not defined) are :class:`ProblemFileError` naming the loop.
+- **Input errors**: a loop that does not close at home, too few degrees of freedom at home,
+  a configuration of the ranges that cannot be assembled (the first one met from home is
+  named), and a singular configuration (∂h/∂q_d loses rank: the dependent coordinates are not
+  determined there, and the generalized force along the manifold is not defined) are
+  :class:`ProblemFileError` naming the loop; messages at home state the home used.
 - **Tangent**: dq_d/dq_i = −(∂h/∂q_d)⁺ ∂h/∂q_i (implicit function theorem), used for the
   residual along the manifold (:mod:`counterpoise.formulation.manifold`,
   :mod:`counterpoise.verify.manifold`).
