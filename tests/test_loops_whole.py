@@ -264,3 +264,46 @@ def test_the_assembled_home_is_the_problems_home_and_frames_shows_it(holders, ca
     assert exited.value.code in (0, None)
     out = " ".join(capsys.readouterr().out.split())
     assert f"q_c_l = {shown} deg" in out
+
+
+def test_homes_off_by_a_thousandth_of_a_degree_assemble_the_same_configuration(holders):
+    """Every dependent home of the exact file moved by ±1e-3° (signs alternating): the
+    assembled home is the exact one to 1e-9 mm at every frame origin."""
+    _, exact = holders
+    text = _exact_homes(HOLDER)
+    sign = 1.0
+    for name in ("psi_m", "q_b_m", "q_c_m", "q_a_l", "q_b_l", "q_c_l", "q_a_r", "q_b_r", "q_c_r"):
+        home = np.degrees(exact.coordinate[name].home) + sign * 1e-3
+        text, n = re.subn(rf'(coordinates\.{name} = \{{.*?home = ")[^"]*(")', lambda m: m.group(1) + f"{home:.12f} deg" + m.group(2), text)
+        assert n == 1
+        sign = -sign
+    moved = load_problem_text(text, "moved.toml")
+    frames = [f.name for f in exact.frames]
+    for problem in (moved,):
+        here = {p.name: np.array(p.position) for p in place(problem, {c.name: c.home for c in problem.coordinates}, {v.name: v.initial for v in problem.variables}) if p.kind == "frame"}
+        there = {p.name: np.array(p.position) for p in place(exact, {c.name: c.home for c in exact.coordinates}, {v.name: v.initial for v in exact.variables}) if p.kind == "frame"}
+        assert max(float(np.abs(here[f] - there[f]).max()) for f in frames) <= 1e-12
+
+
+def test_builder_axis_b_closes_the_four_bar_the_same_way():
+    from counterpoise.io.builder import ProblemBuilder, rotate, translate
+
+    b = ProblemBuilder("fourbar_axis_b", gravity="9.81 m/s^2", direction=(0, -1, 0))
+    for name, value in (("a", "120 mm"), ("b", "300 mm"), ("c", "250 mm"), ("d", "280 mm")):
+        b.parameter(name, value)
+    b.subsystem("fourbar", theta2=("0 deg", "360 deg"), homes={"theta2": "0 deg"}, dependent={"theta3": "56 deg", "theta4": "89 deg"})
+    b.frame("crank", rotate("z", "theta2"))
+    b.frame("coupler", translate("a"), rotate("z", "theta3 - theta2"), parent="crank")
+    b.frame("rocker", translate("d"), rotate("z", "theta4"))
+    b.loop("B", "revolute", a=("coupler", ("b", 0, 0)), b=("rocker", ("c", 0, 0)), axis=(0, 0, 1), axis_b=(0, 0, 1))
+    b.body("crank", "crank", "0.3 kg", ("60 mm", 0, 0)).body("coupler", "coupler", "0.8 kg", ("150 mm", 0, 0))
+    b.body("rocker", "rocker", "0.4 kg", ("125 mm", 0, 0))
+    problem = b.build()
+    c = closure(problem, "fourbar", scenario_base(problem, problem.scenarios[0].name))
+    assert c.snapped == set() and np.allclose(c.targets["B"], [0.0, 0.0, 1.0])
+    # the open assembly of docs/loops.md at theta2 = 0: |A − O4| = d − a = 160 mm, and the
+    # angle at O4 between O4A (along −x) and O4B has cos = ((d − a)² + c² − b²)/(2 (d − a) c)
+    # = (25600 + 62500 − 90000)/80000 = −0.02375, so θ4 = 180° − 91.361° = 88.639°
+    theta4 = np.pi - np.arccos(((0.28 - 0.12) ** 2 + 0.25**2 - 0.3**2) / (2 * 0.16 * 0.25))
+    assert np.degrees(theta4) == pytest.approx(88.639, abs=1e-3)
+    assert c.home[c.names.index("theta4")] == pytest.approx(theta4, abs=1e-12)
