@@ -510,7 +510,8 @@ class Closure:
                 self.problem.path,
                 f"loops.{self.loops[0].name}",
                 f"the mechanism is singular at {where}: the loops do not determine the dependent coordinates there "
-                f"(the closure's Jacobian in them loses rank: a change point or a dead centre); narrow the ranges to keep away from it",
+                f"(the closure's Jacobian in them loses rank: a change point or a dead centre, met going out from {self.home_text()}); "
+                f"narrow the ranges to keep away from it",
             )
         # the least-squares gap where the continuation stopped, from the last assembled configuration
         before = start + max(0.0, t - 1.0 / steps) * delta[k]
@@ -521,7 +522,7 @@ class Closure:
             self.problem.path,
             f"loops.{self.loops[worst].name}",
             f"the loop cannot be assembled at {where} (closure gap {_mm(gaps[worst])}): "
-            f"the ranges go beyond the mechanism's mobility on the branch of home",
+            f"the ranges go beyond the mechanism's mobility on the branch of {self.home_text()}",
         )
 
     def solve_from(self, before: np.ndarray, qi: np.ndarray) -> np.ndarray:
