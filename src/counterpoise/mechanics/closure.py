@@ -339,7 +339,7 @@ class Closure:
         with np.errstate(all="ignore"):
             for _ in range(HOME_ITERATIONS):
                 h, jac = self.equations(q)
-                if not np.isfinite(h).all():
+                if not (np.isfinite(h).all() and np.isfinite(jac).all()):
                     return q, False
                 if float(np.abs(h).max(initial=0.0)) <= CLOSURE_TOLERANCE:
                     return q, True
@@ -361,7 +361,7 @@ class Closure:
         independent coordinates (n − rank ∂h/∂q < n_i), or dependent coordinates that the
         loops do not determine (σ_min/σ_max of ∂h/∂q_d below SINGULAR_CONDITIONING)."""
         _, jac = self.equations(q)
-        sigma = np.linalg.svd(jac[0], compute_uv=False)
+        sigma = np.linalg.svd(np.nan_to_num(jac[0], nan=0.0, posinf=0.0, neginf=0.0), compute_uv=False)
         rank = int(np.sum(sigma > RANK_TOLERANCE * sigma[0])) if sigma.size and sigma[0] > 0 else 0
         mobility = len(self.names) - rank
         where = self.home_text(q[0])
