@@ -2,9 +2,11 @@
 """Generate the catalogue of helical extension springs shipped with counterpoise.
 
 Every row is computed from the spring design formulas of Shigley's Mechanical
-Engineering Design, chapter 10 ("Mechanical Springs", extension springs); no
-row is taken from a vendor catalogue.  See ``docs/spring-catalogue.md`` for the
-schema, the formulas and the assumptions.
+Engineering Design, chapter 10 ("Mechanical Springs", extension springs), as
+coded once in ``counterpoise.springs`` (materials and physics); no row is taken
+from a vendor catalogue, so its part numbers cannot be bought.  See
+``docs/spring-catalogue.md`` for the schema and the assumptions and
+``docs/springs.md`` for the formulas.
 
 Usage::
 
@@ -19,7 +21,7 @@ order, so they stay the same from run to run as long as the grid below is not
 changed (append new grid entries at the end of ``GRID`` to keep existing
 numbers).
 
-Standard library + numpy only.
+Needs counterpoise installed (the venv); otherwise standard library + numpy.
 """
 
 from __future__ import annotations
@@ -29,10 +31,12 @@ import csv
 import io
 import math
 import sys
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+from counterpoise.springs import physics as ph
+from counterpoise.springs.materials import Material, material
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_OUT = REPO_ROOT / "src" / "counterpoise" / "data" / "extension_springs.csv"
@@ -58,39 +62,11 @@ INITIAL_TENSION_TOLERANCE = 0.20  # +/- fraction of the nominal initial tension
 SIG_DIGITS = 6  # significant digits written to the CSV
 
 
-@dataclass(frozen=True)
-class Material:
-    name: str  # value of the ``material`` column
-    G: float  # shear modulus, Pa            (Shigley table 10-5)
-    E: float  # Young's modulus, Pa          (Shigley table 10-5)
-    A: float  # Sut = A / d**m, A in MPa*mm**m (Shigley table 10-4)
-    m: float
-    body_shear_fraction: float  # allowable body shear / Sut (Shigley table 10-7)
-    density: float  # kg/m^3
-    price_per_kg: float  # EUR/kg, illustrative only
+MUSIC_WIRE = material("music_wire")
+STAINLESS_302 = material("stainless_302")
 
-
-MUSIC_WIRE = Material(
-    name="music wire ASTM A228",
-    G=81.7e9,
-    E=200.0e9,
-    A=2211.0,
-    m=0.145,
-    body_shear_fraction=0.45,
-    density=7850.0,
-    price_per_kg=15.0,
-)
-
-STAINLESS_302 = Material(
-    name="stainless steel 302",
-    G=69.0e9,
-    E=193.0e9,
-    A=1867.0,
-    m=0.146,
-    body_shear_fraction=0.35,
-    density=7900.0,
-    price_per_kg=40.0,
-)
+#: EUR/kg of wire, illustrative only (the price model below)
+PRICE_PER_KG = {MUSIC_WIRE.key: 15.0, STAINLESS_302.key: 40.0}
 
 # Design grid: (material, wire diameters in mm, spring indices C = D/d, body coil counts).
 # Wire diameters are preferred metric sizes (Shigley table A-17 style).
@@ -110,31 +86,11 @@ GRID = (
     ),
 )
 
-C_MIN, C_MAX = 4.0, 12.0
 
 # Illustrative price model (NOT a quotation): a fixed set-up share, a per-coil
 # forming cost (hooks counted as one coil each) and the wire material cost.
 PRICE_BASE_EUR = 0.50
 PRICE_PER_COIL_EUR = 0.02
-
-
-def ultimate_tensile_strength(mat: Material, d: np.ndarray) -> np.ndarray:
-    """Sut in Pa for wire diameter d in m (Shigley eq. 10-14, table 10-4, SI constants)."""
-    return mat.A / (d * 1e3) ** mat.m * 1e6
-
-
-def bergstrasser_factor(C: np.ndarray) -> np.ndarray:
-    """Curvature + direct-shear correction K_B = (4C + 2) / (4C - 3) (Shigley eq. 10-5)."""
-    return (4.0 * C + 2.0) / (4.0 * C - 3.0)
-
-
-def initial_stress_mid(C: np.ndarray) -> np.ndarray:
-    """Middle of the preferred band of uncorrected initial stress, Pa (Shigley eq. 10-51).
-
-    tau_i = 231 / exp(0.105 C) +/- 6.9 (4 - (C - 3) / 6.5) MPa; the band is
-    symmetric, so its middle is the first term.
-    """
-    return 231.0e6 * np.exp(-0.105 * C)
 
 
 def _rows_for(mat: Material, d: np.ndarray, C: np.ndarray, Nb: np.ndarray) -> tuple[list[dict[str, object]], int]:
@@ -144,34 +100,31 @@ def _rows_for(mat: Material, d: np.ndarray, C: np.ndarray, Nb: np.ndarray) -> tu
     rejected = 0
     D = C * d  # mean coil diameter, m
 
-    # Active coils: body coils plus the hook contribution G/E (Shigley eq. 10-40).
-    Na = Nb + mat.G / mat.E
-    # Rate (Shigley eq. 10-9).
-    k = mat.G * d**4 / (8.0 * D**3 * Na)
+    # Active coils: body coils plus the hook contribution G/E, and the rate.
+    Na = ph.active_coils(mat, Nb)
+    k = ph.rate(mat, d, D, Na)
 
     # Maximum load from the allowable body shear stress (K_B corrected).
-    Sut = ultimate_tensile_strength(mat, d)
-    tau_allow = mat.body_shear_fraction * Sut
-    F_max = tau_allow * math.pi * d**3 / (8.0 * bergstrasser_factor(C) * D)
+    tau_allow = mat.body_torsion * ph.tensile_strength(mat, d)
+    F_max = ph.force_at_shear(tau_allow, d, D, C)
 
     # Initial tension from the middle of the preferred initial-stress band.
-    F0 = math.pi * d**3 * initial_stress_mid(C) / (8.0 * D)
+    F0 = ph.tension_of_stress(ph.initial_stress_mid(C), d, D)
 
-    # Free length inside the hooks, two full machine hooks (Shigley eq. 10-39).
-    L0 = (Nb + 1.0) * d + 2.0 * (D - d)
+    # Free length inside two full machine hooks, and the length at the maximum load.
+    L0 = ph.free_length(d, D, Nb)
     L_max = L0 + (F_max - F0) / k
 
     # Mass: body coils plus each hook counted as one coil of mean diameter D.
-    wire_length = math.pi * D * (Nb + 2.0)
-    mass = mat.density * math.pi * d**2 / 4.0 * wire_length
+    mass = ph.mass(mat, d, D, Nb)
 
-    price = PRICE_BASE_EUR + PRICE_PER_COIL_EUR * (Nb + 2.0) + mat.price_per_kg * mass
+    price = PRICE_BASE_EUR + PRICE_PER_COIL_EUR * (Nb + 2.0) + PRICE_PER_KG[mat.key] * mass
 
     for i in range(d.size):
         values = (k[i], L0[i], F0[i], F_max[i], L_max[i], D[i] + d[i], d[i], mass[i], price[i])
         ok = (
             all(math.isfinite(float(v)) and v > 0 for v in values)
-            and C_MIN <= C[i] <= C_MAX
+            and ph.C_MIN <= C[i] <= ph.C_MAX
             and F_max[i] > F0[i]
             and L_max[i] > L0[i]
         )
@@ -217,7 +170,7 @@ def design_rows() -> tuple[list[dict[str, object]], int]:
 #: the large synthetic catalogue (benchmarks): wire diameters (mm), spring indices and
 #: body coil counts drawn uniformly (log-uniform for the wire) within these ranges
 LARGE_WIRE_MM = (0.3, 3.0)
-LARGE_INDEX = (C_MIN, C_MAX)
+LARGE_INDEX = (ph.C_MIN, ph.C_MAX)
 LARGE_COILS = (4, 120)
 
 

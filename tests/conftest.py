@@ -14,15 +14,15 @@ PROBLEMS = ROOT / "problems"
 
 try:
     from hypothesis import HealthCheck, settings
+    from hypothesis.configuration import set_hypothesis_home_dir
+
+    # hypothesis keeps its files (example database, constants cache) outside the repository
+    set_hypothesis_home_dir(os.path.join(tempfile.gettempdir(), "counterpoise-hypothesis"))
 
     # CI (the CI variable is set) replays the same examples on every run; locally the
     # property tests keep exploring new ones. HYPOTHESIS_PROFILE chooses explicitly.
     settings.register_profile("ci", derandomize=True, database=None, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-    # the example database lives outside the repository (tests write nothing into it)
-    from hypothesis.database import DirectoryBasedExampleDatabase
-
-    _DATABASE = DirectoryBasedExampleDatabase(os.path.join(tempfile.gettempdir(), "counterpoise-hypothesis"))
-    settings.register_profile("dev", database=_DATABASE, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+    settings.register_profile("dev", deadline=None, suppress_health_check=[HealthCheck.too_slow])
     settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci" if os.environ.get("CI") else "dev"))
 except ImportError:  # pragma: no cover
     pass
@@ -64,3 +64,35 @@ def value(result, name: str, unit: str | None = None) -> float:
 def approx():
     """pytest.approx with the acceptance tolerance of the seed reproductions (0.1 %)."""
     return lambda expected: pytest.approx(expected, rel=1e-3)
+
+
+class CliRun:
+    """What an in-process CLI call returned: as ``subprocess.CompletedProcess`` has it."""
+
+    def __init__(self, returncode: int, stdout: str, stderr: str) -> None:
+        self.returncode, self.stdout, self.stderr = returncode, stdout, stderr
+
+
+def run_cli(*args: str, cwd: "Path | None" = None) -> CliRun:
+    """Run ``counterpoise ARGS`` in this process (its entry point, as the console script
+    calls it, without the process start-up: ~2 s a call under load). A test about the
+    process itself (exit codes of a real process, signals, start-up) starts a subprocess."""
+    import contextlib
+    import io
+
+    from counterpoise.cli import main
+
+    out, err = io.StringIO(), io.StringIO()
+    here = os.getcwd()
+    code = 0
+    try:
+        if cwd is not None:
+            os.chdir(cwd)
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            try:
+                main(list(args))
+            except SystemExit as exc:
+                code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+    finally:
+        os.chdir(here)
+    return CliRun(code, out.getvalue(), err.getvalue())

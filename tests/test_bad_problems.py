@@ -24,10 +24,11 @@ import os
 import subprocess
 import sys
 from pathlib import Path
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import pytest
 
+from conftest import run_cli
 from counterpoise.model import expr as ex
 from counterpoise.errors import ExpressionError, ProblemFileError
 from counterpoise.io.loader import load_problem
@@ -130,6 +131,9 @@ MANIFEST: dict[str, Expect] = {
     # spatial mechanisms, working modes, substitution (issue 6)
     "rotation_zero_axis.toml": Expect("frames.link_a.transforms.0.rotate", "the rotation axis must not be the zero vector"),
     "gravity_zero_direction.toml": Expect("gravity.direction", "must be a non-zero vector"),
+    # a tilting base (issue 23)
+    "tilt_bare_angles.toml": Expect("gravity.tilt[0].range", "bare numbers used as an angle: write ['-15 deg', '15 deg']"),
+    "tilt_zero_axis.toml": Expect("gravity.tilt[1].axis", "must be a non-zero vector"),
     "scenario_unknown_parameter.toml": Expect("scenarios.long.parameters.r_aa", "unknown parameter 'r_aa' (did you mean 'r_a'?)"),
     "substitution_impossible.toml": Expect(
         "substitutions.tip", "no substitution exists for body 'tip': its centre of mass must lie on the line through the two points"
@@ -158,12 +162,26 @@ MANIFEST: dict[str, Expect] = {
     ),
     "slot_unknown_catalogue.toml": Expect("slots.s.catalogue", "unknown catalogue 'shop'"),
     "spring_slot_and_stiffness.toml": Expect("springs.s.slot", "give either a stiffness or a slot"),
+    # the design options of a free-stiffness spring (docs/springs.md)
+    "spring_design_unknown_material.toml": Expect("springs.s_a.material", "unknown spring material 'unobtainium'"),
+    "spring_design_outer_diameter_not_a_length.toml": Expect("springs.s_a.max_outer_diameter", "expected a length"),
+    "spring_design_safety_factor_below_one.toml": Expect("springs.s_a.min_safety_factor", "greater than or equal to 1"),
     "slot_tolerance_above_100_percent.toml": Expect("slots.s.rate_tolerance", "a tolerance must be between 0 and 100 %, got '150 %'"),
     "catalogue_units_si_on_n_mm.toml": Expect(
         "catalogues.parts.units",
         "in_n_mm.csv: not plausible for extension springs read in SI units: column rate_N_per_m: median 0.52 N/m "
         "(expected 1 N/m to 1000 N/mm); column free_length_m: median 30 m (expected 1 mm to 1 m); "
         'the values are most plausible in N-mm units: set units = "N-mm"',
+    ),
+    # no diameter columns: the rates, lengths and loads alone are checked (issue 24). The file
+    # holds 15 parts of the shipped catalogue (25-100 mm free length) written in lbf/in, in and
+    # lbf. Read as N-mm, a force per area is 25.4² / 4.448 = 145 times its true value; 4.16 and
+    # 3.64 are the medians of the file's numbers rate / free length and max load / free length²
+    "catalogue_inch_read_as_n_mm.toml": Expect(
+        "catalogues.parts.units",
+        "inch_without_diameters.csv: not plausible for extension springs read in N-mm units: rate / free length "
+        "(columns rate_lbf_per_in, free_length_in): median 4.16 N/mm² (expected 5e-05 to 3 N/mm²); max load / free length² "
+        '(columns max_load_lbf, free_length_in): median 3.64 N/mm² (expected 1e-04 to 3 N/mm²); the values are most plausible in inch units: set units = "inch"',
     ),
     # angles: a bare number is not taken as radians without a word (issue 14)
     "angle_bare_number.toml": Expect(
@@ -179,12 +197,30 @@ MANIFEST: dict[str, Expect] = {
         "scenarios.tilted.parameters.phi", "a bare number used as an angle (deg elsewhere): write '90 deg' or '1.5708 rad'"
     ),
     "angle_bare_dh_alpha.toml": Expect("frames.link_c.transforms.0.dh.alpha", "a bare number used as an angle ('90' would be radians): write '90 deg'"),
+    # issue 24: a length too large to compute with, a name too long for a folder
+    "length_out_of_range.toml": Expect(
+        "parameters.r_a", "value out of range: '1e308 mm' is 1e+305 m; lengths up to 1e+06 m (1000 km) are accepted"
+    ),
+    "problem_name_too_long.toml": Expect("problem.name", "too long (300 characters; at most 128, since it names the report folder)"),
+    "angle_bare_home.toml": Expect(
+        "subsystems.leg.coordinates.theta_a.home", "a bare number used as an angle (deg elsewhere): write '90 deg' or '1.5708 rad'"
+    ),
     "expr_unknown_unit.toml": Expect("frames.link_b.transforms.1.angle", "cannot parse 'theta_b + 90 xdeg': unknown unit 'xdeg' (or a missing '*')"),
     # unknown keys: the unknown key itself, with the nearest key its table knows
     "unknown_key_beside_union_tag.toml": Expect("frames.link_b.transforms.0.offset", "unknown key"),
     "unknown_key_typo_angel.toml": Expect("frames.link_b.transforms.1.angel", "unknown key (did you mean 'angle'?)"),
     "unknown_key_typo_transform.toml": Expect("frames.link_a.transform", "unknown key (did you mean 'transforms'?)"),
     "unknown_key_typo_stifness.toml": Expect("springs.s.stifness", "unknown key (did you mean 'stiffness'?)"),
+    # design constraints ([constraints.<name>])
+    "constraint_unknown_name.toml": Expect("constraints.cap.expression", "unknown name 'M_q' in 'M_a + M_q'"),
+    "constraint_function_not_allowed.toml": Expect("constraints.cap.expression", "function 'open' is not allowed"),
+    "constraint_bound_dimension.toml": Expect("constraints.cap.upper", "'300 mm' is a length but 'M_a + M_b' is a mass"),
+    "constraint_no_bounds.toml": Expect("constraints.cap", "give lower and/or upper"),
+    "constraint_unknown_counter_mass.toml": Expect("constraints.inside.expression", "unknown counter-mass 'M_z' in 'x_home(M_z)'"),
+    "constraint_spring_without_springs.toml": Expect("constraints.pull.expression", "unknown spring 'M_a' in 'force_max(M_a)' (the problem has no spring)"),
+    "constraint_lower_above_upper.toml": Expect("constraints.cap", "lower 3 kg is greater than upper 2 kg"),
+    "constraint_inconsistent_units.toml": Expect("constraints.cap.expression", "inconsistent units in 'M_a + b_a'"),
+    "constraint_total_with_argument.toml": Expect("constraints.cap.expression", "added_mass() takes no argument"),
     # every error of a file, one line each
     "frame_two_unknown_parents.toml": Expect(
         "frames.link_b.parent",
@@ -206,7 +242,13 @@ def _params() -> list:
     ]
 
 
-def _run(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
+def _run(*args: str, cwd: Path) -> Any:
+    """The command line, in process (conftest.run_cli); test_one_bad_file_stops_the_whole_run
+    keeps a real process for the exit status of the console script."""
+    return run_cli(*args, cwd=cwd)
+
+
+def _run_process(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
     env = {k: v for k, v in os.environ.items() if k != "PYTHONWARNINGS"}
     return subprocess.run(
         [str(CLI), *args], cwd=cwd, env=env, capture_output=True, text=True, encoding="utf-8", errors="replace", timeout=300
@@ -310,7 +352,7 @@ def test_validate_rejects_every_file(tmp_path):
 def test_one_bad_file_stops_the_whole_run(tmp_path):
     """A good file followed by a bad one: nothing is solved or written, exit 2."""
     bad = BAD / "negative_body_mass.toml"
-    proc = _run("solve", str(GOOD), str(bad), "--out", str(tmp_path / "out"), cwd=tmp_path)
+    proc = _run_process("solve", str(GOOD), str(bad), "--out", str(tmp_path / "out"), cwd=tmp_path)
     _assert_no_traceback(proc.stdout)
     _assert_no_traceback(proc.stderr)
     assert proc.returncode == 2

@@ -9,13 +9,13 @@ from __future__ import annotations
 
 import csv
 import math
-import os
-import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+
+from conftest import run_cli
 
 from builders import OVERDETERMINED_TOML, pendulum, pendulum_toml
 from counterpoise.designer import Designer
@@ -32,9 +32,9 @@ CLI = Path(sys.executable).with_name("counterpoise")
 BIG = "1" * 400
 
 
-def _cli(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONWARNINGS"}
-    return subprocess.run([str(CLI), *args], cwd=cwd, env=env, capture_output=True, text=True, timeout=300)
+def _cli(*args: str, cwd: Path):  # noqa: ANN202 - conftest.CliRun
+    """The command line, in process (conftest.run_cli)."""
+    return run_cli(*args, cwd=cwd)
 
 
 # --------------------------------------------------------------------------------------

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 import signal
 import subprocess
@@ -12,6 +13,7 @@ from pathlib import Path
 import pytest
 
 from conftest import PROBLEMS, ROOT
+from counterpoise.errors import ProblemFileError
 
 #: how long the signal tests wait for a study's pool workers to start (a loaded machine is slow)
 START_WAIT_S = 120
@@ -180,3 +182,308 @@ def test_the_reference_torque_is_the_box_maximum_not_the_sampled_one():
     exact = 0.4 * 9.81 * (0.135 + 0.195 + 0.200)
     assert check.max_gravity_torque == pytest.approx(exact, rel=1e-6)
     assert verification.reference(check.kind) == pytest.approx(exact, rel=1e-6)
+
+
+# --------------------------------------------------------------------------------------
+# Issue 24: nothing silently wrong
+# --------------------------------------------------------------------------------------
+
+BAD_ROBOTS = ROOT / "tests" / "bad_problems" / "robots"
+
+
+def _robot_problem(folder: Path, model: str, fmt: str = "urdf", joint: str = "shoulder") -> Path:
+    """The problem of tests/bad_problems/robots/robot_negative_link_mass.toml on ``model``."""
+    text = (BAD_ROBOTS / "robot_negative_link_mass.toml").read_text(encoding="utf-8").split("\n", 1)[1]
+    text = text.replace('urdf = "negative_mass.urdf"', f'{fmt} = "{model}"').replace("joints.shoulder", f"joints.{joint}")
+    path = folder / "problem.toml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def test_a_urdf_with_a_comment_over_libxml2s_limit_is_read(tmp_path):
+    """Item 14: a 50 MB comment ("Comment too big" from libxml2's default 10 MB limit) is read
+    with lxml's huge_tree option; a file over MAX_MODEL_BYTES is refused with its size."""
+    from counterpoise.io import robot
+    from counterpoise.io.loader import load_problem
+
+    urdf = (BAD_ROBOTS / "negative_mass.urdf").read_text(encoding="utf-8").replace('value="-1.0"', 'value="1.0"')
+    big = urdf.replace("<robot ", "<!-- " + "x" * (50 * 2**20) + " -->\n<robot ", 1)
+    (tmp_path / "big.urdf").write_text(big, encoding="utf-8")
+    problem = load_problem(_robot_problem(tmp_path, "big.urdf"))
+    assert {b.name: b.mass.value for b in problem.bodies} == {"arm": 1.0, "hand": 0.2}
+    limit = robot.MAX_MODEL_BYTES
+    try:
+        robot.MAX_MODEL_BYTES = 2**20
+        with pytest.raises(ProblemFileError) as info:
+            load_problem(tmp_path / "problem.toml")
+    finally:
+        robot.MAX_MODEL_BYTES = limit
+    assert info.value.key == "robot.urdf" and "big.urdf is 50 MB; robot models up to 1 MB are read" in info.value.message
+
+
+_MESH_ARM = """<mujoco model="meshed">
+  <asset><mesh name="arm_mesh" file="meshes/arm.stl"/></asset>
+  <worldbody>
+    <body name="base">
+      <body name="arm" pos="0 0 0.1">
+        <joint name="shoulder" type="hinge" axis="0 1 0" range="-120 120"/>
+        {inertial}
+        <geom type="mesh" mesh="arm_mesh"/>
+        <geom type="sphere" size="0.01" pos="0.4 0 0" contype="0" conaffinity="0"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_an_mjcf_with_missing_meshes_loads_when_its_inertials_are_explicit(tmp_path):
+    """Item 16: meshes/arm.stl does not exist; the arm's <inertial> gives its mass (1.5 kg at
+    200 mm), so the model is read without the mesh. Without the <inertial> the mesh would
+    weigh, and the error says what to do."""
+    from counterpoise.io.loader import load_problem
+
+    (tmp_path / "arm.xml").write_text(_MESH_ARM.format(inertial='<inertial pos="0.2 0 0" mass="1.5" diaginertia="0.01 0.01 0.01"/>'), encoding="utf-8")
+    problem = load_problem(_robot_problem(tmp_path, "arm.xml", "mjcf"))
+    arm = next(b for b in problem.bodies if b.name == "arm")
+    assert arm.mass.value == 1.5 and [c.value for c in arm.com.position] == [0.2, 0.0, 0.0]
+    (tmp_path / "arm.xml").write_text(_MESH_ARM.format(inertial=""), encoding="utf-8")
+    with pytest.raises(ProblemFileError) as info:
+        load_problem(tmp_path / "problem.toml")
+    assert info.value.key == "robot.mjcf" and "Error opening file" in info.value.message and "explicit <inertial>" in info.value.message
+
+
+def test_a_length_too_large_to_compute_with_is_bad_input(tmp_path, capsys):
+    """Item 10: 1e308 mm is finite, but its square is not (it gave "nothing to balance", then an
+    infeasible design with residuals of 1e305 N·m): lengths above 1e6 m are input errors."""
+    from counterpoise.cli import main
+
+    file = str(PROBLEMS / "yasir2019_counter_mass.toml")
+    with pytest.raises(SystemExit) as info:
+        main(["solve", file, "--out", str(tmp_path / "out"), "--set", "parameters.r_a=1e308 mm"])
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert info.value.code == 2 and lines == [f"{file}: parameters.r_a: value out of range: '1e308 mm' is 1e+305 m; lengths up to 1e+06 m (1000 km) are accepted"]
+    assert not (tmp_path / "out").exists()
+
+
+def _main(args, capsys):
+    from counterpoise.cli import main
+
+    with pytest.raises(SystemExit) as info:
+        main(args)
+    out = capsys.readouterr()
+    return info.value.code, out.err.strip().splitlines(), out.out
+
+
+@pytest.mark.parametrize("command", ["solve", "study", "plot", "draw"])
+@pytest.mark.parametrize("kind", ["file", "dangling", "file_on_path"])
+def test_out_that_cannot_be_a_folder_is_one_line(tmp_path, capsys, command, kind):
+    """Item 12: --out at a regular file or a dangling symbolic link said "File exists" after
+    the whole design; now one line saying what is wrong, exit 2, nothing written."""
+    (tmp_path / "a_file").write_text("x", encoding="utf-8")
+    (tmp_path / "dangling").symlink_to(tmp_path / "nowhere")
+    out = {"file": tmp_path / "a_file", "dangling": tmp_path / "dangling", "file_on_path": tmp_path / "a_file" / "sub"}[kind]
+    before = sorted(tmp_path.iterdir())
+    extra = ["--vary", "m_c=300 g:400 g:2", "--jobs", "1", "--no-plot"] if command == "study" else []
+    code, lines, _ = _main([command, str(PROBLEMS / "yasir2019_counter_mass.toml"), "--out", str(out), *extra], capsys)
+    expected = {
+        "file": f"--out: '{out}' is a file, not a folder",
+        "dangling": f"--out: '{out}' is a symbolic link to '{tmp_path / 'nowhere'}', which does not exist",
+        "file_on_path": f"--out: '{tmp_path / 'a_file'}' (on the path of '{out}') is a file, not a folder",
+    }[kind]
+    assert code == 2 and len(lines) == 1 and lines[0].startswith(expected), lines
+    assert sorted(tmp_path.iterdir()) == before
+
+
+def test_set_reads_an_array_as_toml_and_an_entry_by_its_index(capsys):
+    """Item 15: an array is set whole (TOML) or one entry by its index; a wrong index or a
+    scalar for an array says how."""
+    from counterpoise.io.loader import load_problem
+
+    file = PROBLEMS / "yasir2019_counter_mass.toml"
+    code, lines, _ = _main(["validate", str(file), "--set", "gravity.direction=[0, 1, 0]", "--set", "subsystems.leg.coordinates.theta_a.range.0=60 deg"], capsys)
+    assert code == 0, lines
+    from counterpoise.cli.light import coerce
+
+    problem = load_problem(file, {"gravity.direction": coerce("[0, 1, 0]"), "subsystems.leg.coordinates.theta_a.range.0": "60 deg"})
+    assert all(tuple(s.gravity.direction) == (0.0, 1.0, 0.0) for s in problem.scenarios)
+    assert problem.coordinate["theta_a"].lower == pytest.approx(math.radians(60))
+    for item, message in [
+        ("gravity.direction.3=1", "gravity.direction.3: the array has 3 entries: set one by its index 0 to 2, or the whole array as TOML"),
+        ("gravity.direction=0", "gravity.direction: expected an array such as [0, 0, -1], got 0 (with --set, write the array: --set 'KEY=[...]')"),
+    ]:
+        code, lines, _ = _main(["validate", str(file), "--set", item], capsys)
+        assert code == 2 and lines == [f"{file}: {message}" + lines[0].split(message, 1)[1]], lines
+    code, lines, _ = _main(["validate", str(file), "--set", "gravity.direction=[0, 0"], capsys)
+    assert code == 2 and lines == ["--set gravity.direction: cannot read '[0, 0' as a TOML array: Unclosed array (at end of document)"]
+
+
+#: a lever balanced by a counter-mass M (shared) on an adjustable lever b, payload 0-1 kg at
+#: r = 300 mm on top of the 1 kg tip: M b = (1 kg + p) r, least M with b <= b.upper
+LEVER = """
+[problem]
+name = "lever_payload"
+[gravity]
+acceleration = "9.81 m/s^2"
+direction = [0, -1, 0]
+[parameters]
+m = "1 kg"
+r = "300 mm"
+[subsystems.arm]
+coordinates.q = { range = ["-180 deg", "180 deg"] }
+[frames.link]
+transforms = [{ rotate = "z", angle = "q" }]
+[bodies.tip]
+frame = "link"
+mass = "m"
+com = ["r", 0, 0]
+[payloads.tool]
+frame = "link"
+position = ["r", 0, 0]
+range = ["0 kg", "1 kg"]
+[variables.M]
+lower = "0 kg"
+upper = "3 kg"
+[variables.b]
+lower = "100 mm"
+upper = "250 mm"
+adjustable = true
+[counter_masses.cm]
+frame = "link"
+mass = "M"
+position = ["-b", 0, 0]
+"""
+
+
+def test_a_study_of_an_adjustments_bound_reaches_the_payload_schedule(tmp_path):
+    """Item 5: b.upper raised to 300 mm by a study. The least M puts b on its upper bound at
+    the largest payload: M = (1 + 1) kg · 0.3 m / 0.3 m = 2 kg, and at 0 kg b = 1 kg · 0.3 m / 2 kg
+    = 150 mm. The schedule used to keep the file's 250 mm ("failed ... b at its upper bound
+    250 mm"), and the column b@nominal was empty: the columns are b at the range's ends."""
+    from counterpoise.io.loader import load_problem_text
+    from counterpoise.studies.spec import plan_study
+    from counterpoise.studies.study import read_rows, run_study
+
+    problem = load_problem_text(LEVER, str(tmp_path / "lever.toml"))
+    plan = plan_study(problem, ["b.upper=300 mm:300 mm:1"], "lever")
+    outcome = run_study(problem, plan, tmp_path)
+    [row] = read_rows(outcome.folder / "study.csv")
+    assert row["status"] == "optimal", row["message"]
+    assert float(row["M [kg]"]) == pytest.approx(2.0, rel=1e-6)
+    assert float(row["b@tool_1kg [mm]"]) == pytest.approx(300.0, rel=1e-6)
+    assert float(row["b@tool_0kg [mm]"]) == pytest.approx(150.0, rel=1e-6)
+
+
+# -- studies: one writer per folder, nothing lost, nothing kept that is not this plan's ----------
+
+
+def _pendulum():
+    """M b = m r balances; minimising M + w M b² gives b = 1/sqrt(w) = 0.2 m and M = m r / b
+    (tests/test_studies.py)."""
+    from builders import pendulum
+
+    return pendulum(0.8, 0.3, (0.02, 1.0), 25.0).build()
+
+
+def _rewrite(path: Path, change) -> None:  # noqa: ANN001 - change(rows) edits the rows in place
+    import csv
+
+    from counterpoise.studies.study import read_rows
+
+    rows = read_rows(path)
+    header = path.read_text(encoding="utf-8").splitlines()[0].split(",")
+    change(rows)
+    with path.open("w", newline="", encoding="utf-8") as handle:
+        writer = csv.DictWriter(handle, fieldnames=header)
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+def test_resume_recomputes_torn_rows_and_rows_of_another_plan(tmp_path):
+    """Items 4 and 2: a row with empty columns (torn) and a row whose varied value is not the
+    plan's (another study's row) are computed again; the others are kept. M = m r / b with
+    r = 0.3 m, b = 0.2 m: 0.5 kg -> 0.75 kg ... 0.9 kg -> 1.35 kg."""
+    from counterpoise.studies.spec import plan_study
+    from counterpoise.studies.study import read_rows, run_study
+
+    problem = _pendulum()
+    plan = plan_study(problem, ["m=500 g:900 g:5"], "f")
+    full = run_study(problem, plan, tmp_path, batch_size=2)
+    path = full.folder / "study.csv"
+    expected = [float(r["M [kg]"]) for r in read_rows(path)]
+    assert expected == pytest.approx([m * 0.3 / 0.2 for m in (0.5, 0.6, 0.7, 0.8, 0.9)], rel=1e-7)
+
+    def damage(rows):
+        for column in ("objective_kg", "added_mass_kg", "M [kg]", "b [m]", "residual_ratio"):
+            rows[1][column] = ""  # point 1 torn, still "optimal"
+        rows[3]["m [g]"] = "450"  # point 3: a row of another study (450 g is not this plan's)
+        rows[3]["M [kg]"] = "0.675"
+
+    _rewrite(path, damage)
+    resumed = run_study(problem, plan, tmp_path, resume=True, batch_size=2)
+    assert resumed.skipped == 3 and resumed.run == 2
+    rows = read_rows(path)
+    assert [r["m [g]"] for r in rows] == ["500", "600", "700", "800", "900"]
+    assert [float(r["M [kg]"]) for r in rows] == pytest.approx(expected, rel=1e-7)
+
+
+class _Interrupting:
+    """A runner that finishes its first batch, then is interrupted (Ctrl-C)."""
+
+    def map_batches(self, task, batches):  # noqa: ANN001, ANN201
+        from counterpoise.studies.runners import solve_batch
+
+        yield solve_batch(task, batches[0])
+        raise KeyboardInterrupt
+
+
+def test_a_new_study_keeps_the_old_one_until_it_completes(tmp_path):
+    """Item 3: a different study into the same folder, interrupted after one batch, leaves the
+    finished study whole; its own points are in <name>-study.partial, which --resume continues
+    and which replaces the folder once complete."""
+    from counterpoise.studies.spec import plan_study
+    from counterpoise.studies.study import read_rows, run_study, study_in_progress
+
+    problem = _pendulum()
+    first = run_study(problem, plan_study(problem, ["m=500 g:900 g:5"], "f"), tmp_path, batch_size=2)
+    before = (first.folder / "study.csv").read_text(encoding="utf-8")
+    second = plan_study(problem, ["m=400 g:600 g:3"], "f")
+    with pytest.raises(KeyboardInterrupt):
+        run_study(problem, second, tmp_path, _Interrupting(), batch_size=2)
+    assert (first.folder / "study.csv").read_text(encoding="utf-8") == before
+    partial = study_in_progress(problem, tmp_path)
+    assert partial.name == "pendulum-study.partial" and [r["point"] for r in read_rows(partial / "study.csv")] == ["0", "1"]
+    resumed = run_study(problem, second, tmp_path, resume=True, batch_size=2)
+    assert resumed.skipped == 2 and resumed.run == 1 and resumed.folder == first.folder
+    assert [r["m [g]"] for r in read_rows(first.folder / "study.csv")] == ["400", "500", "600"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["pendulum-study"]  # no partial, lock or old folder left
+
+
+def test_a_second_study_into_a_locked_folder_is_one_line_naming_the_holder(tmp_path, capsys):
+    """Item 2: while a study holds the folder's lock, another study into it exits 2 with one line
+    naming the holder (pid and host), and changes nothing."""
+    import socket
+
+    from counterpoise.io.loader import load_problem
+    from counterpoise.studies.study import study_folder, study_lock
+
+    file = PROBLEMS / "yasir2019_counter_mass.toml"
+    folder = study_folder(load_problem(file), tmp_path)
+    with study_lock(folder, str(file)):
+        code, lines, _ = _main(["study", str(file), "--vary", "m_c=300 g:400 g:2", "--jobs", "1", "--no-plot", "--out", str(tmp_path)], capsys)
+    assert code == 2 and lines == [
+        f"{file}: --out: {folder} is being written by another study (pid {os.getpid()} on host {socket.gethostname()}): "
+        "wait for it to end, or give another --out"
+    ]
+    assert list(tmp_path.iterdir()) == []  # the lock file went with its holder
+
+
+def test_a_refused_resume_is_one_line_without_a_progress_bar(tmp_path, capsys):
+    """Item 13: --resume of another plan is one line on stderr (a progress-bar line came first)."""
+    file = str(PROBLEMS / "yasir2019_counter_mass.toml")
+    args = ["study", file, "--jobs", "1", "--no-plot", "--out", str(tmp_path)]
+    code, _, _ = _main([*args, "--vary", "m_c=300 g:400 g:2"], capsys)
+    assert code == 0
+    code, lines, out = _main([*args, "--vary", "m_c=300 g:500 g:3", "--resume"], capsys)
+    assert code == 2 and len(lines) == 1 and "--resume" in lines[0] and "drop --resume to start again" in lines[0], lines
+    assert out == ""

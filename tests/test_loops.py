@@ -3,13 +3,13 @@ differences along the closed chain, branches, and loop input errors (docs/loops.
 
 from __future__ import annotations
 
-import os
-import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+
+from conftest import run_cli
 
 from counterpoise.errors import ProblemFileError
 from counterpoise.io.builder import ProblemBuilder, rotate, translate
@@ -320,9 +320,8 @@ def test_crank_too_long_gap_is_at_least_the_true_minimum(capsys):
 def test_loop_bad_file_is_one_line_exit_2_nothing_written(name, tmp_path):
     key, fragment = BAD_LOOPS[name]
     path = BAD / name
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONWARNINGS"}
     out = tmp_path / "out"
-    run = subprocess.run([str(CLI), "solve", str(path), "--out", str(out)], env=env, capture_output=True, text=True, timeout=300)
+    run = run_cli("solve", str(path), "--out", str(out), cwd=tmp_path)
     assert run.returncode == 2, run.stderr
     lines = run.stderr.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in run.stderr, run.stderr

@@ -151,12 +151,17 @@ def test_woo2019_hybrid_catalogue_part_holds_over_the_payload_range(tmp_path):
     assert result.payload.schedule.feasible and result.payload.checked == pytest.approx((0.0, 0.122))
     assert result.parts.fits
     rows = list(csv.DictReader(io.StringIO(report_texts(result)["springs.csv"])))
-    springs = [r for r in rows if r["kind"] == "spring"]
+    springs = [r for r in rows if r["kind"] == "spring" and r["scenario"] != "all"]
     plan = result.payload.schedule
     assert len(springs) == len(plan.rows) + len(plan.between)
     assert {r["scenario"] for r in springs} >= {"added_0g", "added_61g", "added_122g"}
     for r in springs:
         assert min(float(r["margin_slack_mm"]), float(r["margin_length_mm"]), float(r["margin_load_N"])) >= 0, r
+    # one summary row (issue 24): the extremes over every payload, the smallest margins
+    (summary,) = [r for r in rows if r["kind"] == "spring" and r["scenario"] == "all"]
+    assert float(summary["max_force_N"]) == max(float(r["max_force_N"]) for r in springs)
+    assert float(summary["min_distance_mm"]) == min(float(r["min_distance_mm"]) for r in springs)
+    assert float(summary["margin_load_N"]) == min(float(r["margin_load_N"]) for r in springs)
 
 
 TWO_TOOLS = """

@@ -18,12 +18,13 @@ Hand derivations (docs/derivations.md, section Woo 2019, and docs/payload.md), g
 
 from __future__ import annotations
 
-import subprocess
 import sys
 from pathlib import Path
 
 import pandas as pd
 import pytest
+
+from conftest import run_cli
 
 from conftest import PROBLEMS, solved, value
 
@@ -252,8 +253,9 @@ def test_schedule_csv_and_status(tmp_path):
     assert list(pinned["active_bound"]) == [""]  # fixed to its nominal, not an active bound
 
 
-def _cli(*args):
-    return subprocess.run([str(CLI), *args], capture_output=True, text=True, timeout=600)
+def _cli(*args):  # noqa: ANN202 - conftest.CliRun
+    """The command line, in process (conftest.run_cli)."""
+    return run_cli(*args)
 
 
 def test_cli_schedule_prints_the_settings():

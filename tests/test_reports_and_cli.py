@@ -26,7 +26,7 @@ def test_design_and_summary_columns(tmp_path):
         "problem", "status", "objective", "added_mass_kg", "added_inertia_kg_m2", "max_residual_N_m",
         "max_gravity_torque_N_m", "residual_ratio", "checked_configurations", "iterations", "solve_time_s", "solver",
         "max_residual_N", "max_gravity_force_N", "certificate_gap_kg", "starts_reaching_best", "worst_scenario",
-        "lower_bound_ratio",
+        "lower_bound_ratio", "parts",
     ] == SUMMARY_COLUMNS
     # masses, a stiffness and a payload share at a fixed geometry: an LP, solved by Clarabel
     assert len(summary) == 1 and summary.loc[0, "status"] == "optimal" and summary.loc[0, "solver"] == "clarabel"
@@ -37,8 +37,8 @@ def test_design_and_summary_columns(tmp_path):
     assert k["unit"] == "N/mm" and float(k["lower"]) == 0.01 and float(k["upper"]) == 5
     # quantities have no bounds
     assert (design[design["kind"] == "quantity"]["lower"] == "").all()
-    # no temporary files are left behind
-    assert sorted(p.name for p in folder.iterdir()) == ["design.csv", "status.txt", "summary.csv", "verification.csv"]
+    # no temporary files are left behind; the free-stiffness springs get springs.csv (their designed springs)
+    assert sorted(p.name for p in folder.iterdir()) == ["build.csv", "design.csv", "springs.csv", "status.txt", "summary.csv", "verification.csv"]
 
 
 def test_verification_table_one_row_per_condition(tmp_path):
@@ -113,3 +113,66 @@ def test_cli_two_files_with_one_problem_name_exit_2(tmp_path):
     assert run.returncode == 2
     assert run.stderr.strip().startswith(f"{copy}: problem.name: 'yasir2019_counter_mass' is also the name of")
     assert not out.exists()
+
+
+def test_energy_plot_does_not_magnify_rounding_noise():
+    """Issue 24: a flat residual of 1e-15 filled its panel with zig-zags. The axis is kept at
+    least ±tolerance × reference wide, so the noise stays a flat line."""
+    import numpy as np
+
+    from counterpoise.plots._mpl import pyplot
+    from counterpoise.plots.energy import _floor_axis
+
+    plt = pyplot()
+    fig, ax = plt.subplots()
+    noise = 1e-15 * np.sin(np.arange(50.0))
+    ax.plot(noise)
+    _floor_axis(ax, [noise], 1e-8 * 2.0)
+    lo, hi = ax.get_ylim()
+    assert lo <= -2e-8 and hi >= 2e-8
+    fig2, ax2 = plt.subplots()
+    big = np.linspace(-1, 1, 10)
+    ax2.plot(big)
+    before = ax2.get_ylim()
+    _floor_axis(ax2, [big], 1e-8)  # a real curve keeps its own scale
+    assert ax2.get_ylim() == before
+    plt.close(fig)
+    plt.close(fig2)
+
+
+def test_a_slow_phase_says_so_while_it_runs_and_a_quick_one_stays_quiet():
+    """Issue 24: solve printed nothing for 10-50 s on a catalogue or payload problem."""
+    import time
+
+    from counterpoise import progress
+
+    lines: list[str] = []
+    with progress.sink(lines.append):  # a sink that did not ask for timed notes (a log) gets none
+        with progress.phase("slow", after=0.01):
+            time.sleep(0.1)
+    assert lines == []
+    with progress.sink(lines.append, timed=True):
+        with progress.phase("quick", after=0.5):
+            pass
+        assert lines == []
+        with progress.phase("slow", after=0.05):
+            time.sleep(0.3)
+            assert lines == ["slow ..."]  # said while still running
+    assert lines[0] == "slow ..." and lines[1].startswith("slow: done in ")
+
+
+def test_a_value_within_the_bound_tolerance_is_reported_as_the_bound():
+    """Issue 24: values on a bound showed as 2.34e-08 mm off it."""
+    import dataclasses
+
+    from conftest import solved
+    from counterpoise.report.rows import design_rows
+
+    result = solved("yasir2019_counter_mass")
+    slot, value = next(iter(result.solution.values.items()))
+    v = result.problem.variable[slot.variable]
+    off = v.lower + 1e-9 * (v.upper - v.lower)  # within BOUND_TOLERANCE (1e-7 of the span)
+    solution = dataclasses.replace(result.solution, values={**result.solution.values, slot: off})
+    rows = design_rows(dataclasses.replace(result, solution=solution))
+    row = next(r for r in rows if r["name"] == v.name and r["kind"] == "variable")
+    assert row["value"] == v.unit.from_si(v.lower) and row["active_bound"] == "lower"

@@ -117,9 +117,33 @@ def test_the_solve_table_shows_summary_csv_solve_time(tmp_path, capsys):
     from counterpoise.cli.app import main
 
     with pytest.raises(SystemExit):
-        main(["solve", str(FILE), "--out", str(tmp_path)])
+        main(["solve", str(FILE), "--out", str(tmp_path), "--wide"])
     out = capsys.readouterr().out
     summary = next(csv.DictReader((tmp_path / "yasir2019_counter_mass" / "summary.csv").open()))
     assert "solve (s)" in out and "total (s)" in out
     row = next(line for line in out.splitlines() if "yasir2019_counter_mass" in line and "optimal" in line)
     assert f"{float(summary['solve_time_s']):.3f}" in row
+
+
+def test_the_default_summary_fits_80_columns_and_names_the_parts():
+    """Issue 24: at 80 columns the table read "optim…", "probl…". The default shows fewer
+    columns (--wide: all), folds rather than cuts, and names the chosen parts."""
+    import io
+
+    from rich.console import Console
+
+    from counterpoise.cli import light
+
+    row = {
+        "problem": "essomba2021_orientation_catalogue", "status": "optimal", "added_mass_kg": 0.0, "added_inertia_kg_m2": 0.0,
+        "objective": 0.0, "residual_ratio": 1.2e-15, "checked_configurations": 10004, "solve_time_s": 0.1, "wall_s": 1.5,
+        "parts": "spring_a: CP-EXT-0324; spring_b: CP-EXT-0111", "folder": "results/x", "message": "",
+    }
+    buffer = io.StringIO()
+    light.rich_summary([row], Console(file=buffer, width=80))
+    text = buffer.getvalue()
+    assert "…" not in text and max(len(line) for line in text.splitlines()) <= 80
+    assert "optimal" in text and "CP-EXT-0324" in text and "configs" not in text
+    wide = io.StringIO()
+    light.rich_summary([row], Console(file=wide, width=200), wide=True)
+    assert "configs" in wide.getvalue() and "solve (s)" in wide.getvalue()

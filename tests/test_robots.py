@@ -10,13 +10,14 @@ rejected with one line naming its key.
 from __future__ import annotations
 
 import math
-import os
 import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+
+from conftest import run_cli
 
 from counterpoise.errors import ProblemFileError
 from counterpoise.io.builder import ProblemBuilder, rotate, translate
@@ -47,6 +48,17 @@ MANIFEST = {
     "robot_broken_urdf.toml": ("robot.urdf", "cannot read the URDF broken.urdf: Opening and ending tag mismatch"),
     "robot_mjcf_not_mjcf.toml": ("robot.mjcf", "cannot read the MJCF broken.urdf"),
     "frame_unknown_orientation.toml": ("frames.elbow_ref.orientation", "unknown frame 'shoulder_lnk' (did you mean 'shoulder_link'?)"),
+    # issue 24: nothing silently wrong in a robot model, and a way round what is not supported
+    "robot_negative_link_mass.toml": ("robot.urdf", "negative_mass.urdf: link 'arm' has a mass of -1 kg: a mass must be a finite number, not negative"),
+    "robot_negative_inertia.toml": ("robot.urdf", "negative_inertia.urdf: link 'hand' has a negative inertia (principal moments (-0.001, 0.001, 0.001) kg m²)"),
+    "robot_nonfinite_origin.toml": ("robot.urdf", "nan_origin.urdf: link 'hand' has a position (joint origin) that is not a finite number"),
+    "robot_origin_out_of_range.toml": ("robot.urdf", "huge_origin.urdf: link 'hand' has a position (joint origin) out of range: (1e+300, 0, 0) m; lengths up to 1e+06 m are accepted"),
+    "robot_joint_missing_link.toml": ("robot.urdf", "missing_link.urdf: joint 'wrist' names link 'palm', which the model does not declare"),
+    "robot_xacro.toml": ("robot.urdf", "arm.urdf.xacro is a xacro file (ROS macros, not plain URDF): expand it first, `xacro arm.urdf.xacro > arm.urdf`"),
+    "robot_mjcf_nan.toml": ("robot.mjcf", "nan_pos.xml: the model contains a 'NaN'"),
+    "robot_mjcf_free_joint.toml": ("robot.mjcf", "joint 'float' of body 'base' is a free joint (a floating body); only hinge and slide joints are supported: in a copy of the model, delete <freejoint/>"),
+    "robot_urdf_floating_joint.toml": ("robot.urdf", "joint 'float' is of type 'floating'; only revolute, continuous, prismatic, fixed joints are supported: in a copy of the model, give it type=\"fixed\""),
+    "robot_hyphenated_joint.toml": ("robot.joints.shoulder-joint", "rename the joint in a copy of the model, e.g. sed 's/\"shoulder-joint\"/\"shoulder_joint\"/g' hyphenated.urdf"),
 }
 
 
@@ -65,10 +77,9 @@ def test_bad_robot_input_names_the_key(name):
     assert fragment in info.value.message
 
 
-@pytest.mark.parametrize("name", ["robot_broken_urdf.toml", "robot_unknown_joint.toml", "robot_range_beyond_limits.toml"])
+@pytest.mark.parametrize("name", ["robot_broken_urdf.toml", "robot_unknown_joint.toml", "robot_range_beyond_limits.toml", "robot_mjcf_nan.toml"])
 def test_bad_robot_input_is_one_line_through_the_cli(name, tmp_path):
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONWARNINGS"}
-    proc = subprocess.run([str(CLI), "solve", str(BAD / name), "--out", str(tmp_path / "out")], capture_output=True, text=True, env=env, timeout=300)
+    proc = run_cli("solve", str(BAD / name), "--out", str(tmp_path / "out"), cwd=tmp_path)
     assert proc.returncode == 2
     assert len(proc.stderr.splitlines()) == 1, proc.stderr
     assert proc.stderr.startswith(f"{BAD / name}: {MANIFEST[name][0]}: ")
@@ -186,3 +197,17 @@ def test_draw_writes_the_picture(tmp_path):
     assert proc.returncode == 0, proc.stderr
     png = tmp_path / "mjcf_arm" / "mechanism.png"
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_a_limit_just_inside_180_deg_is_not_shown_as_180(tmp_path):
+    """Issue 24: limits of ±3.14159 rad and a ±180 deg range were reported as
+    "beyond the joint's limits [-180 deg, 180 deg]": the limit rounded to the range it misses.
+    3.14159 rad = 179.999848 deg; the range passes it by 2.65e-6 rad = 0.000152 deg."""
+    from counterpoise.errors import CounterpoiseError
+
+    (tmp_path / "m.urdf").write_text(MIMIC_URDF.replace('lower="-2" upper="2"', 'lower="-3.14159" upper="3.14159"'), encoding="utf-8")
+    text = '[problem]\nname = "m"\n[gravity]\nacceleration = "9.81 m/s^2"\ndirection = [0, 0, -1]\n[robot]\nurdf = "m.urdf"\njoints.drive = { range = ["-180 deg", "180 deg"] }\n'
+    with pytest.raises(CounterpoiseError) as caught:
+        load_problem_text(text, str(tmp_path / "m.toml"))
+    message = str(caught.value)
+    assert "[-179.999848 deg, 179.999848 deg]" in message and "by 0.000152 deg" in message, message

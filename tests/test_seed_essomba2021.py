@@ -171,3 +171,42 @@ class TestPositionLockedAdjustment:
     def test_horizontal_mode_alone_would_balance(self, result):
         """Control: with θ_L = 0 the horizontal mode is the design's own mode and is not the worst."""
         assert summary_row(result)["worst_scenario"] != "horizontal"
+
+
+def _position_with_catalogue_rates(factor: str) -> str:
+    """essomba2021_position.toml with the springs fixed at Table 6's catalogue rates (3.73 and
+    2.39 N/mm) times ``factor`` and the adjustment-link points l12, l22 free."""
+    from conftest import PROBLEMS
+
+    text = (PROBLEMS / "essomba2021_position.toml").read_text(encoding="utf-8")
+    text = text.replace('l12 = { value = "95 mm", description = "spring 1 on adjustment link 1" }\n', "")
+    text = text.replace('l22 = { value = "95 mm", description = "spring 2 on adjustment link 2" }\n', "")
+    start, end = text.index("[variables.k1]"), text.index("[springs.s1]")
+    variables = (
+        '[variables.l12]\nlower = "10 mm"\nupper = "300 mm"\n[variables.l22]\nlower = "10 mm"\nupper = "300 mm"\n'
+        '[parameters.k1]\nvalue = "3.73 N/mm"\n[parameters.k2]\nvalue = "2.39 N/mm"\n\n'
+    )
+    text = text[:start] + variables + text[end:]
+    return text.replace('stiffness = "k1"', f'stiffness = "k1 * {factor}"').replace('stiffness = "k2"', f'stiffness = "k2 * {factor}"')
+
+
+@pytest.mark.parametrize(
+    "factor, l12, l22",
+    [
+        # the paper's convention (its eqs. 36-37 double the energy rate): a 3.73 N/mm spring acts
+        # as 3.73/2 in the energy, so l12 = 95 mm x 3.7013/3.73 = 94.27 mm, l22 = 95 x 2.4605/2.39 = 97.80 mm
+        ("0.5", 94.27, 97.80),
+        # the energy-correct reading of the same springs: l12 = 95 x 1.8507/3.73 = 47.13 mm, l22 = 48.90 mm
+        ("1", 47.13, 48.90),
+    ],
+)
+def test_table_6_attachment_points_from_the_engine(factor, l12, l22):
+    """docs/seeds.md: Table 6's l12 and l22 for the catalogue rates, through the engine
+    (issue 24: they were labelled re-derived from arithmetic alone)."""
+    from counterpoise.io.loader import load_problem_text
+    from counterpoise.pipeline import design
+
+    r = design(load_problem_text(_position_with_catalogue_rates(factor), "essomba2021_position_table6.toml"))
+    assert r.optimal, r.message
+    got = {slot.variable: v for slot, v in r.solution.values.items()}
+    assert got["l12"] * 1e3 == pytest.approx(l12, abs=0.005) and got["l22"] * 1e3 == pytest.approx(l22, abs=0.005)

@@ -344,7 +344,8 @@ def _cli_runs(tmp_path, *args: str, env: dict[str, str] | None = None):
         out = tmp_path / name
         run = subprocess.run([sys.executable, "-c", code, "solve", *args, "--out", str(out)], capture_output=True, text=True, env=env, cwd=PROBLEMS.parent)
         text = run.stdout.replace(str(out), "OUT")
-        text = re.sub(r" +\d+\.\d{3} │ +\d+\.\d{3} │$", " T │ T │", text, flags=re.M)  # the two time columns (solve, total)
+        # the time column (total; with --wide also solve), in a UTF-8 or an ASCII box
+        text = re.sub(r"(?<=[│|]) +\d+\.\d{3} (?=[│|])", " T ", text)
         runs.append((run.returncode, text, run.stderr.replace(str(out), "OUT"), out))
     return runs
 

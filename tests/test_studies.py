@@ -293,3 +293,14 @@ def test_an_interrupted_study_keeps_its_finished_batches(tmp_path):
     with pytest.raises(KeyboardInterrupt):
         run_study(problem, plan, tmp_path, _Interrupted(), batch_size=2, flush_seconds=3600)
     assert [r["point"] for r in read_rows(tmp_path / "pendulum-study" / "study.csv")] == ["0", "1"]
+
+
+def test_a_bare_zero_in_vary_is_zero_in_the_ranges_unit(tmp_path, capsys):
+    """docs/studies.md: START and STOP carry units, a bare 0 is allowed (issue 24: it was refused)."""
+    from counterpoise.cli import main
+
+    with pytest.raises(SystemExit) as exited:
+        main(["study", str(PROBLEMS / "yasir2019_counter_mass.toml"), "--vary", "m_c=0:500 g:3", "--out", str(tmp_path), "--jobs", "1"])
+    assert exited.value.code == 0, capsys.readouterr().err
+    rows = (tmp_path / "yasir2019_counter_mass-study" / "study.csv").read_text(encoding="utf-8").splitlines()
+    assert [r.split(",")[1] for r in rows[1:]] == ["0", "250", "500"]

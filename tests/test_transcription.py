@@ -10,12 +10,12 @@ from __future__ import annotations
 
 import csv
 import math
-import os
-import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+
+from conftest import run_cli
 
 from counterpoise.catalogue import mapping_from, read_catalogue
 from counterpoise.catalogue.reader import CatalogueUnitsError
@@ -255,8 +255,7 @@ def test_the_tilted_leg_file_warns_only_while_its_tilt_axis_is_vertical():
 def test_the_warning_reaches_stderr_and_status_txt(tmp_path):
     path = tmp_path / "flat.toml"
     path.write_text(YASIR.replace("direction = [0, -1, 0]", "direction = [0, 0, -1]"), encoding="utf-8")
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONWARNINGS"}
-    proc = subprocess.run([str(CLI), "solve", str(path), "--out", str(tmp_path / "out")], capture_output=True, text=True, env=env, timeout=300)
+    proc = run_cli("solve", str(path), "--out", str(tmp_path / "out"), cwd=tmp_path)
     assert f"{path}: warning: nothing to balance" in proc.stderr
     status = (tmp_path / "out" / "yasir2019_counter_mass" / "status.txt").read_text(encoding="utf-8")
     assert "warning: nothing to balance: the weight of the bodies does no work" in status

@@ -35,6 +35,7 @@ from .verify.judge import judge
 if TYPE_CHECKING:
     from .payload import OperatorSettings
     from .selection.parts import PartsReport
+    from .springs.workspace import DesignedSpring
 
 #: the options :func:`design` passes on to a method's ``solve``
 SOLVE_OPTIONS = ("parameters", "bounds", "initial")
@@ -51,6 +52,8 @@ class DesignResult:
     #: payload problems: the :class:`counterpoise.payload.PayloadDesign` (schedule, range)
     payload: Any = None
     parts: "PartsReport | None" = None  # chosen catalogue parts (problems with spring slots)
+    #: free-stiffness springs: the helical spring designed for each (:mod:`counterpoise.springs`)
+    springs: "tuple[DesignedSpring, ...]" = ()
 
     @property
     def optimal(self) -> bool:
@@ -89,13 +92,28 @@ def run(
     initial: Mapping[Slot, float] | None = None,
     quantities: bool = True,
 ) -> DesignResult:
-    """Solve ``method`` with these options, verify the design densely and judge it.
-    ``quantities=False``: no report quantities (a study, whose rows do not hold them)."""
-    solution = method.solve(parameters, bounds, initial)
-    verification = solution.verification or verify(solution)
+    """Solve ``method`` with these options, verify the design densely, judge it and design
+    a helical spring for each free-stiffness spring. ``quantities=False``: no report
+    quantities and no designed springs (a study, whose rows hold neither)."""
+    from . import progress
+
+    name = getattr(getattr(method, "problem", None), "name", "")
+    what = {"PartsMethod": "searching catalogue parts", "PayloadMethod": "designing for the payload range"}.get(type(method).__name__, "designing")
+    with progress.phase(f"{name}: {what}" if name else what):
+        solution = method.solve(parameters, bounds, initial)
+    if solution.verification is not None:
+        verification = solution.verification
+    else:
+        with progress.phase(f"{solution.problem.name}: verifying on {solution.problem.settings.verify_samples:,} configurations per subsystem and scenario"):
+            verification = verify(solution)
     status, message = judge(solution, verification)
     values = evaluate_quantities(solution) if quantities else ()
-    return DesignResult(solution.problem, status, message, solution, verification, values, solution.payload, solution.parts)
+    springs: tuple[Any, ...] = ()
+    if quantities and any(s.slot is None for s in solution.problem.springs):
+        from .springs.workspace import designed_springs
+
+        springs = designed_springs(solution)
+    return DesignResult(solution.problem, status, message, solution, verification, values, solution.payload, solution.parts, springs)
 
 
 def design(problem: Problem, designer: Designer | Any | None = None, starts: int = 1, **solve_options: Any) -> DesignResult:

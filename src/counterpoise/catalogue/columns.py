@@ -90,6 +90,29 @@ TYPICAL: dict[str, float] = {
     "wire_diameter": 1e-3,
     "mass": 5e-3,
 }
+#: Ratios of the required columns that are plausible whatever the file lacks (no diameters,
+#: no mass): each is a force per area, set by the wire's strength and modulus, so a whole
+#: file in other units moves it by the ratio of their force and squared length units (an
+#: inch/lbf file read as N-mm: 145 times). Field -> (numerator, denominator, power of the
+#: denominator), band (SI, N/m²) and typical median. The shipped catalogue's medians are
+#: 0.025 N/mm² (load / free length²) and 0.027 N/mm² (rate / free length), its extremes
+#: 0.0005 and 0.85 N/mm²; the bands are a decade and more beyond them, and below the
+#: physical limits (a helical spring of index ≥ 4 and ≥ 3 coils in 1000 MPa steel stays
+#: under ~11 N/mm² in load / free length², under ~17 N/mm² in rate / free length).
+DERIVED: dict[str, tuple[str, str, int]] = {
+    "rate_per_length": ("rate", "free_length", 1),
+    "load_per_area": ("max_load", "free_length", 2),
+}
+DERIVED_PLAUSIBLE: dict[str, tuple[float, float]] = {
+    "rate_per_length": (50.0, 3e6),  # N/m²: 5e-5 to 3 N/mm per mm (N/mm²)
+    "load_per_area": (100.0, 3e6),  # N/m²: 1e-4 to 3 N/mm²
+}
+DERIVED_TYPICAL: dict[str, float] = {"rate_per_length": 2.7e4, "load_per_area": 2.5e4}
+DERIVED_TEXT: dict[str, tuple[str, str]] = {  # (what, band)
+    "rate_per_length": ("rate / free length", "5e-05 to 3 N/mm²"),
+    "load_per_area": ("max load / free length²", "1e-04 to 3 N/mm²"),
+}
+
 #: How a band is written in a message.
 PLAUSIBLE_TEXT: dict[str, str] = {
     "rate": "1 N/m to 1000 N/mm",

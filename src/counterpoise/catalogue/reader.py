@@ -16,7 +16,19 @@ from ..progress import counter
 
 from ..errors import ProblemFileError
 from ..model.parts import Catalogue
-from .columns import FIELDS, PLAUSIBLE, PLAUSIBLE_TEXT, TYPICAL, UNIT_SYSTEMS, ColumnMapping, mapping_from
+from .columns import (
+    DERIVED,
+    DERIVED_PLAUSIBLE,
+    DERIVED_TEXT,
+    DERIVED_TYPICAL,
+    FIELDS,
+    PLAUSIBLE,
+    PLAUSIBLE_TEXT,
+    TYPICAL,
+    UNIT_SYSTEMS,
+    ColumnMapping,
+    mapping_from,
+)
 
 #: the name that stands for the catalogue shipped with the package
 SHIPPED = "shipped"
@@ -113,24 +125,39 @@ def check_plausible(label: str, values: dict[str, list], mapping: ColumnMapping,
         known = [v for v in values.get(field, []) if not math.isnan(v)]
         if known:
             medians[field] = statistics.median(known)
+    derived = {}  # the ratios of DERIVED, row by row (SI as read): they need no optional column
+    for field, (top, bottom, power) in DERIVED.items():
+        ratios = [a / b**power for a, b in zip(values[top], values[bottom]) if b > 0 and math.isfinite(a / b**power)]
+        if ratios:
+            derived[field] = statistics.median(ratios)
+
+    def to(units: str, f: str) -> float:  # factor from SI as read to SI read in ``units``
+        return UNIT_SYSTEMS[units].get(FIELDS[f], (1.0, ""))[0] / mapping.factor(f)
 
     def read_as(units: str) -> dict[str, float]:
-        return {f: m * UNIT_SYSTEMS[units].get(FIELDS[f], (1.0, ""))[0] / mapping.factor(f) for f, m in medians.items()}
+        out = {f: m * to(units, f) for f, m in medians.items()}
+        out.update({f: m * to(units, DERIVED[f][0]) / to(units, DERIVED[f][1]) ** DERIVED[f][2] for f, m in derived.items()})
+        return out
+
+    def band(f: str) -> tuple[float, float]:
+        return PLAUSIBLE[f] if f in PLAUSIBLE else DERIVED_PLAUSIBLE[f]
 
     def outside(units: str) -> list[str]:
-        return [f for f, m in read_as(units).items() if not PLAUSIBLE[f][0] <= m <= PLAUSIBLE[f][1]]
+        return [f for f, m in read_as(units).items() if not band(f)[0] <= m <= band(f)[1]]
 
     def distance(units: str) -> float:
-        return sum(abs(math.log(m / TYPICAL[f])) for f, m in read_as(units).items() if m > 0)
+        return sum(abs(math.log(m / {**TYPICAL, **DERIVED_TYPICAL}[f])) for f, m in read_as(units).items() if m > 0)
+
+    def show(f: str) -> str:
+        if f in derived:
+            what, text = DERIVED_TEXT[f]
+            return f"{what} (columns {header[index[DERIVED[f][0]]]}, {header[index[DERIVED[f][1]]]}): median {derived[f] / 1e6:.3g} N/mm² (expected {text})"
+        return f"column {header[index[f]]}: median {medians[f] / mapping.factor(f):.4g} {mapping.unit_name(f)} (expected {PLAUSIBLE_TEXT[f]})"
 
     wrong = outside(mapping.units)
     if not wrong:
         return
-    shown = "; ".join(
-        f"column {header[index[f]]}: median {medians[f] / mapping.factor(f):.4g} {mapping.unit_name(f)} "
-        f"(expected {PLAUSIBLE_TEXT[f]})"
-        for f in wrong[:2]
-    )
+    shown = "; ".join(show(f) for f in wrong[:2])
     fits = sorted((u for u in UNIT_SYSTEMS if u != mapping.units and not outside(u)), key=distance)
     hint = f'; the values are most plausible in {fits[0]} units: set units = "{fits[0]}"' if fits else "; check the unit system (units = ...) and the columns"
     raise CatalogueUnitsError(label, "units", f"not plausible for extension springs read in {mapping.units} units: {shown}{hint}")

@@ -49,7 +49,11 @@ def _overrides(items: list[str] | None) -> dict[str, str]:
         if not sep or not key.strip():
             err_console.print(f"--set {clip(item)}: expected KEY=VALUE", markup=False)
             raise typer.Exit(2)
-        out[key.strip()] = _coerce(value.strip())
+        try:
+            out[key.strip()] = _coerce(value.strip())
+        except ValueError as exc:
+            err_console.print(f"--set {clip(key.strip())}: {clip(str(exc))}", markup=False)
+            raise typer.Exit(2) from None
     return out
 
 
@@ -63,6 +67,16 @@ def _load_all(files: list[Path], overrides: dict[str, str]) -> list:
     if problems is None:
         raise typer.Exit(2)
     return problems
+
+
+def _check_out(out: Path) -> None:
+    """``--out`` must be usable as a folder (one line and exit 2 before any work, else)."""
+    from .run import out_error
+
+    wrong = out_error(out)
+    if wrong is not None:
+        _err_line(wrong)
+        raise typer.Exit(2)
 
 
 def _err_line(line: str) -> None:
@@ -122,16 +136,25 @@ def solve(
     set_: SetOpt = None,
     plot: Annotated[bool, typer.Option("--plot", help="Also write energy.png (energies and residual torque) and mechanism.png (the mechanism with its design) next to the reports.")] = False,
     starts: Annotated[int, typer.Option("--starts", help="Seeded multi-start over the free geometry: number of starts.")] = 1,
+    report: Annotated[
+        str, typer.Option("--report", help="html: also write report.html, one self-contained page of the design (docs/build.md); csv: the CSV files only.")
+    ] = "html",
+    wide: Annotated[bool, typer.Option("--wide", help="Show every column of the summary (inertia, objective, configurations, solve time).")] = False,
 ) -> None:
     """Solve problem files and write their reports."""
+    from .light import REPORTS
     from .run import solve_all
 
     if starts < 1:
         err_console.print(f"--starts: must be at least 1, got {starts}", markup=False)
         raise typer.Exit(2)
+    if report not in REPORTS:
+        err_console.print(f"--report: expected one of {', '.join(REPORTS)}, got '{report}'", markup=False)
+        raise typer.Exit(2)
     problems = _load_all(files, _overrides(set_))
-    rows, worst = solve_all(problems, out, plot, starts, _err_line)
-    _print_summary(rows)
+    _check_out(out)
+    rows, worst = solve_all(problems, out, plot, starts, _err_line, html=report == "html")
+    _print_summary(rows, wide)
     raise typer.Exit(worst)
 
 
@@ -224,6 +247,7 @@ def study(
 
     overrides = _overrides(set_)
     problem = _load_all([file], overrides)[0]
+    _check_out(out)
     options = StudyOptions(tuple(vary), samples, method, seed, out, jobs, scheduler, scheduler_timeout, resume, time_limit, batch_size, plot,
                            overrides=tuple(overrides.items()))
     try:
@@ -247,12 +271,14 @@ EXIT_SIGINT, EXIT_SIGTERM = 130, 143
 
 def _study_interrupted(problem, out: Path, exc: KeyboardInterrupt) -> None:  # type: ignore[no-untyped-def]
     from ..studies.command import StudyTerminated
-    from ..studies.study import study_folder
+    from ..studies.study import study_folder, study_in_progress
 
-    folder = study_folder(problem, out)
+    folder = study_in_progress(problem, out)
+    kept = study_folder(problem, out)
+    earlier = f" (the earlier study in {kept} is kept until this one completes)" if folder != kept else ""
     what = "terminated" if isinstance(exc, StudyTerminated) else "interrupted"
     err_console.print(
-        f"{problem.path}: {what}; the finished points are in {folder / 'study.csv'}; "
+        f"{problem.path}: {what}; the finished points are in {folder / 'study.csv'}{earlier}; "
         "run the same command with --resume to continue",
         markup=False,
     )
@@ -279,6 +305,7 @@ def plot(
         from ..plots import energy_plot
 
         problem = _load_all([file], _overrides(set_))[0]
+        _check_out(out)
         try:
             paths = energy_plot(design(problem), out / problem.name)
         except (CounterpoiseError, OSError) as exc:
@@ -294,19 +321,31 @@ AtOpt = Annotated[
 ]
 
 
+DesignOpt = Annotated[
+    Optional[Path],
+    typer.Option(
+        "--design",
+        help="A solved design: the folder solve wrote (results/<problem>). Its variables and chosen parts are shown, "
+        "with the parts' spring forces; without it, the file's initial values.",
+        show_default=False,
+    ),
+]
+
+
 @app.command()
 def frames(
     file: Annotated[Path, typer.Argument(help="Problem file (TOML).", show_default=False)],
     at: AtOpt = None,
     csv: Annotated[bool, typer.Option("--csv", help="Print CSV instead of a table.")] = False,
     set_: SetOpt = None,
+    design: DesignOpt = None,
 ) -> None:
     """Print the world position of every frame, centre of mass, counter-mass and spring end."""
     from .mechanism import AtError, frames_table
 
     problem = _load_all([file], _overrides(set_))[0]
     try:
-        frames_table(problem, at, csv, out_console)
+        frames_table(problem, at, csv, out_console, design, _err_line)
     except AtError as exc:
         err_console.print(f"{file}: {exc}", markup=False)
         raise typer.Exit(2) from None
@@ -318,13 +357,15 @@ def draw(
     at: AtOpt = None,
     out: Annotated[Path, typer.Option("--out", help="Folder for <problem>/mechanism.png.")] = Path("results"),
     set_: SetOpt = None,
+    design: DesignOpt = None,
 ) -> None:
     """Draw the mechanism (a kinematic sketch) at home and at the corners of its ranges."""
     from .mechanism import AtError, draw_files
 
     problem = _load_all([file], _overrides(set_))[0]
+    _check_out(out)
     try:
-        paths = draw_files(problem, at, out)
+        paths = draw_files(problem, at, out, design)
     except AtError as exc:
         err_console.print(f"{file}: {exc}", markup=False)
         raise typer.Exit(2) from None
@@ -335,11 +376,11 @@ def draw(
         out_console.print(f"wrote {path}", markup=False)
 
 
-def _print_summary(rows: list[dict]) -> None:
+def _print_summary(rows: list[dict], wide: bool = False) -> None:
     from .light import rich_summary
 
     if rows:  # no design, no table (every problem's failure was already said on stderr)
-        rich_summary(rows, out_console)  # one table for both paths (see .light)
+        rich_summary(rows, out_console, wide=wide)  # one table for both paths (see .light)
 
 
 
@@ -351,7 +392,7 @@ def main(argv: list[str] | None = None) -> None:
     if debug:
         args.remove("--debug")
     try:
-        with warnings.catch_warnings(), progress.sink(lambda line: err_console.print(line, markup=False)):
+        with warnings.catch_warnings(), progress.sink(lambda line: err_console.print(line, markup=False), timed=progress.wants_timed_notes(sys.stderr)):
             if not debug:  # a library's warning (with its source path) is no message for a user
                 warnings.simplefilter("ignore")
             app(args=args, prog_name="counterpoise")  # exits by itself: 0/1/2 as documented, 2 for usage errors

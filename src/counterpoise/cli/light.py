@@ -5,7 +5,7 @@ and ``counterpoise solve``. The standard library only at import.
   ``tests/test_speed.py`` checks that :data:`COMMANDS` lists exactly the commands of the
   typer app (:mod:`.app`), with the same one-line help: a command added there must be
   added here too.
-- ``counterpoise solve FILE... [--out DIR] [--set KEY=VALUE]... [--plot] [--starts N]``
+- ``counterpoise solve FILE... [--out DIR] [--set KEY=VALUE]... [--plot] [--starts N] [--report html|csv]``
   is parsed and run here (:func:`solve`), with the same output, messages and exit status
   as the typer app's ``solve``: importing typer and rich costs 0.1–0.15 s, a quarter of
   a whole solve. Anything this path does not fully understand is handed to the typer app
@@ -75,7 +75,10 @@ def top_level_help() -> str:
 # -- solve ---------------------------------------------------------------------------------
 
 #: The app's ``solve`` options served here: name -> whether it takes a value.
-SOLVE_OPTIONS: dict[str, bool] = {"--out": True, "--set": True, "--starts": True, "--plot": False}
+SOLVE_OPTIONS: dict[str, bool] = {"--out": True, "--set": True, "--starts": True, "--plot": False, "--report": True, "--wide": False}
+
+#: ``solve --report``: ``html`` (the default) writes report.html beside the CSV files, ``csv`` only those
+REPORTS = ("html", "csv")
 
 #: Exit status of an internal error (as :data:`counterpoise.cli.app.INTERNAL_ERROR`).
 INTERNAL_ERROR = 3
@@ -87,29 +90,51 @@ PLAIN_WIDTH = 160
 _EMOJI_LIKE = re.compile(r":\S*?:")
 _INT = re.compile(r"-?[0-9]+")
 
-#: The summary table: header and justification of each column (as the app's).
+#: The summary table: header and justification of each column (as the app's). ``--wide``
+#: shows them all; by default only those marked True, so the table fits 80 columns.
 SUMMARY_TITLE = "counterpoise: designs"
-SUMMARY_COLUMNS: tuple[tuple[str, str], ...] = (
-    ("problem", "left"),
-    ("status", "left"),
-    ("added mass (kg)", "right"),
-    ("added inertia (kg m²)", "right"),
-    ("objective", "right"),
-    ("residual ratio", "right"),
-    ("configs", "right"),
-    ("solve (s)", "right"),  # summary.csv's solve_time_s: time inside the solver calls
-    ("total (s)", "right"),  # design, verification and reports of this problem
+SUMMARY_COLUMNS_ALL: tuple[tuple[str, str, bool], ...] = (
+    ("problem", "left", True),
+    ("status", "left", True),
+    ("added mass (kg)", "right", True),
+    ("added inertia (kg m²)", "right", False),
+    ("objective", "right", False),
+    ("residual ratio", "right", True),
+    ("configs", "right", False),
+    ("solve (s)", "right", False),  # summary.csv's solve_time_s: time inside the solver calls
+    ("total (s)", "right", True),  # design, verification and reports of this problem
+    ("parts", "left", True),  # the chosen catalogue parts (empty column left out)
 )
+SUMMARY_COLUMNS: tuple[tuple[str, str], ...] = tuple((name, how) for name, how, _ in SUMMARY_COLUMNS_ALL)
+
+
+def summary_columns(rows: list[dict[str, Any]], wide: bool = False) -> list[int]:
+    """Indices of the summary columns to show: all with ``wide``, else the default ones;
+    the parts column only when some problem has parts."""
+    keep = [j for j, (_, _, default) in enumerate(SUMMARY_COLUMNS_ALL) if wide or default]
+    if not any(r.get("parts") for r in rows):
+        keep = [j for j in keep if SUMMARY_COLUMNS_ALL[j][0] != "parts"]
+    return keep
 
 
 class SolveArgs:
     """The arguments of one ``solve`` call (a plain class: ``dataclasses`` costs ~10 ms
     to import, which ``--help`` would pay)."""
 
-    __slots__ = ("files", "out", "sets", "plot", "starts", "debug")
+    __slots__ = ("files", "out", "sets", "plot", "starts", "debug", "report", "wide")
 
-    def __init__(self, files: tuple[str, ...], out: str = "results", sets: tuple[str, ...] = (), plot: bool = False, starts: int = 1, debug: bool = False) -> None:
-        self.files, self.out, self.sets, self.plot, self.starts, self.debug = files, out, sets, plot, starts, debug
+    def __init__(
+        self,
+        files: tuple[str, ...],
+        out: str = "results",
+        sets: tuple[str, ...] = (),
+        plot: bool = False,
+        starts: int = 1,
+        debug: bool = False,
+        report: str = "html",
+        wide: bool = False,
+    ) -> None:
+        self.files, self.out, self.sets, self.plot, self.starts, self.debug, self.report, self.wide = files, out, sets, plot, starts, debug, report, wide
 
     def __eq__(self, other: object) -> bool:
         return isinstance(other, SolveArgs) and all(getattr(self, k) == getattr(other, k) for k in self.__slots__)
@@ -134,7 +159,7 @@ def parse_solve(args: list[str]) -> SolveArgs | None:
         rest.remove("--debug")  # as the app: the first occurrence, wherever it is
     files: list[str] = []
     values: dict[str, list[str]] = {name: [] for name, takes in SOLVE_OPTIONS.items() if takes}
-    plot = False
+    flags: set[str] = set()
     i = 0
     while i < len(rest):
         token = rest[i]
@@ -151,9 +176,9 @@ def parse_solve(args: list[str]) -> SolveArgs | None:
         if name not in SOLVE_OPTIONS:
             return None  # --help, an option of the app not served here, a typo
         if not SOLVE_OPTIONS[name]:
-            if eq or plot:
+            if eq or name in flags:
                 return None
-            plot = True
+            flags.add(name)
             continue
         if not eq:
             if i >= len(rest) or rest[i].startswith("-"):
@@ -161,15 +186,18 @@ def parse_solve(args: list[str]) -> SolveArgs | None:
             value = rest[i]
             i += 1
         values[name].append(value)
-    if not files or len(values["--out"]) > 1 or len(values["--starts"]) > 1:
+    if not files or len(values["--out"]) > 1 or len(values["--starts"]) > 1 or len(values["--report"]) > 1:
         return None
+    report = values["--report"][0] if values["--report"] else "html"
+    if report not in REPORTS:
+        return None  # the app says what is wrong
     starts = values["--starts"][0] if values["--starts"] else "1"
     if not _INT.fullmatch(starts) or int(starts) < 1:
         return None
     out = values["--out"][0] if values["--out"] else "results"
     if not out:
         return None
-    return SolveArgs(tuple(files), out, tuple(values["--set"]), plot, int(starts), debug)
+    return SolveArgs(tuple(files), out, tuple(values["--set"]), "--plot" in flags, int(starts), debug, report, "--wide" in flags)
 
 
 def solve(args: list[str], pause_gc: bool = False) -> int | None:
@@ -194,7 +222,7 @@ def solve(args: list[str], pause_gc: bool = False) -> int | None:
 
         from .. import progress
 
-        with warnings.catch_warnings(), progress.sink(_err):  # as the app: progress lines on stderr,
+        with warnings.catch_warnings(), progress.sink(_err, timed=progress.wants_timed_notes(sys.stderr)):  # as the app: progress lines on stderr,
             if not parsed.debug:  # and no library warning (with its source path) unless --debug
                 warnings.simplefilter("ignore")
             return _run(parsed, paused)
@@ -220,14 +248,29 @@ def overrides(items: tuple[str, ...]) -> dict[str, object] | None:
         key, sep, value = item.partition("=")
         if not sep or not key.strip():
             return None
-        out[key.strip()] = coerce(value.strip())
+        try:
+            out[key.strip()] = coerce(value.strip())
+        except ValueError:
+            return None  # the app says what is wrong
     return out
 
 
 def coerce(value: str) -> object:
-    """Numbers and booleans on the command line become TOML numbers and booleans."""
+    """Numbers and booleans on the command line become TOML numbers and booleans; an array
+    or inline table (``[0, 0, -1]``, ``{ range = [...] }``) is read as TOML, so an array is
+    set whole (``--set 'gravity.direction=[0, 0, -1]'``); :class:`ValueError` when it is
+    not valid TOML. One entry of an array is set by its index: ``KEY.0=VALUE``."""
     if value in ("true", "false"):
         return value == "true"
+    if value[:1] in ("[", "{"):
+        try:
+            import tomllib  # the standard library from Python 3.11
+        except ImportError:  # pragma: no cover
+            import tomli as tomllib
+        try:
+            return tomllib.loads(f"value = {value}")["value"]
+        except tomllib.TOMLDecodeError as exc:
+            raise ValueError(f"cannot read '{value}' as a TOML {'array' if value[0] == '[' else 'inline table'}: {exc}") from None
     for kind in (int, float):
         try:
             return kind(value)
@@ -239,7 +282,7 @@ def coerce(value: str) -> object:
 def _run(a: SolveArgs, paused_gc: bool = False) -> int:
     from pathlib import Path
 
-    from .run import load_all, solve_all
+    from .run import load_all, out_error, solve_all
 
     sets = overrides(a.sets)
     if sets is None:
@@ -247,13 +290,17 @@ def _run(a: SolveArgs, paused_gc: bool = False) -> int:
     problems = load_all([Path(f) for f in a.files], sets, _err)
     if problems is None:
         return 2
+    wrong = out_error(Path(a.out))
+    if wrong is not None:
+        _err(wrong)
+        return 2
     if paused_gc:
         import gc
 
         gc.freeze()
         gc.enable()
-    rows, worst = solve_all(problems, Path(a.out), a.plot, a.starts, _err)
-    print_summary(rows)
+    rows, worst = solve_all(problems, Path(a.out), a.plot, a.starts, _err, html=a.report == "html")
+    print_summary(rows, a.wide)
     return worst
 
 
@@ -291,9 +338,9 @@ def _err(line: str) -> None:
     Console(stderr=True, highlight=False, soft_wrap=True).print(line, markup=False)
 
 
-def summary_cells(row: dict[str, Any]) -> list[str]:
-    """One summary row's cells, as the app formats them."""
-    return [
+def summary_cells(row: dict[str, Any], columns: list[int] | None = None) -> list[str]:
+    """One summary row's cells (of ``columns``, default all), as the app formats them."""
+    cells = [
         str(row["problem"]),
         str(row["status"]),
         f"{row['added_mass_kg']:.6g}",
@@ -303,7 +350,9 @@ def summary_cells(row: dict[str, Any]) -> list[str]:
         str(row["checked_configurations"]),
         f"{row['solve_time_s']:.3f}",
         f"{row['wall_s']:.3f}",
+        str(row.get("parts") or ""),
     ]
+    return cells if columns is None else [cells[j] for j in columns]
 
 
 def summary_lines(rows: list[dict[str, Any]]) -> list[str]:
@@ -346,7 +395,7 @@ def plain_table(title: str, columns: tuple[tuple[str, str], ...], rows: list[lis
     return "\n".join(out) + "\n"
 
 
-def print_summary(rows: list[dict[str, Any]]) -> None:
+def print_summary(rows: list[dict[str, Any]], wide: bool = False) -> None:
     """The summary table and lines on stdout: plain text when rich would print exactly
     that, else through rich (a terminal: colours and its width). No design, no table (every
     problem's failure was already said on stderr)."""
@@ -356,15 +405,16 @@ def print_summary(rows: list[dict[str, Any]]) -> None:
     lines = summary_lines(rows)
     utf = (getattr(sys.stdout, "encoding", None) or "").lower().startswith("utf")  # else rich draws an ASCII box
     if utf and not rich_is_terminal(sys.stdout) and all(_plain(t, ascii_only=True) and len(t) <= PLAIN_WIDTH for t in lines):
-        table = plain_table(SUMMARY_TITLE, SUMMARY_COLUMNS, [summary_cells(r) for r in rows], PLAIN_WIDTH)
+        keep = summary_columns(rows, wide)
+        table = plain_table(SUMMARY_TITLE, tuple(SUMMARY_COLUMNS[j] for j in keep), [summary_cells(r, keep) for r in rows], PLAIN_WIDTH)
     if table is not None:
         sys.stdout.write(table + "".join(t + "\n" for t in lines))
         sys.stdout.flush()
         return
-    rich_summary(rows)
+    rich_summary(rows, wide=wide)
 
 
-def rich_summary(rows: list[dict[str, Any]], console: Any = None) -> None:
+def rich_summary(rows: list[dict[str, Any]], console: Any = None, wide: bool = False) -> None:
     """The summary through rich, as the app prints it."""
     from rich.console import Console
     from rich.table import Table
@@ -374,10 +424,12 @@ def rich_summary(rows: list[dict[str, Any]], console: Any = None) -> None:
         if not console.is_terminal:
             console = Console(width=PLAIN_WIDTH)
     table = Table(title=SUMMARY_TITLE, show_lines=False)
-    for col, justify in SUMMARY_COLUMNS:
-        table.add_column(col, justify=justify)  # type: ignore[arg-type]
+    keep = summary_columns(rows, wide)
+    for j in keep:
+        col, justify = SUMMARY_COLUMNS[j]
+        table.add_column(col, justify=justify, overflow="fold")  # type: ignore[arg-type]
     for r in rows:
-        cells = summary_cells(r)
+        cells = summary_cells(r, keep)
         style = "green" if r["status"] == "optimal" else "red"
         cells[1] = f"[{style}]{cells[1]}[/{style}]"
         table.add_row(*cells)

@@ -12,6 +12,23 @@ from typing import Any
 Err = Callable[[str], None]
 
 
+def out_error(out: Path) -> str | None:
+    """What is wrong with ``--out`` as a folder to write into (it is created if missing), as
+    one line, or None: a regular file, a symbolic link to nothing, or a file on its path."""
+    import os
+
+    for where in (out, *out.parents):
+        if where.is_symlink() and not where.exists():
+            what = "" if where == out else f" (on the path of '{out}')"
+            return f"--out: '{where}'{what} is a symbolic link to '{os.readlink(where)}', which does not exist: create that folder, or give another --out"
+        if where.exists():
+            if not where.is_dir():
+                what = "" if where == out else f" (on the path of '{out}')"
+                return f"--out: '{where}'{what} is a file, not a folder: give a folder (it is created if missing)"
+            return None
+    return None
+
+
 def load_all(files: list[Path], overrides: Mapping[str, object], err: Err) -> list[Any] | None:
     """Every file loaded and checked (closed loops assemble), or None after printing every
     error (the caller exits 2); a problem with nothing to balance gets a warning line."""
@@ -45,9 +62,10 @@ def load_all(files: list[Path], overrides: Mapping[str, object], err: Err) -> li
     return problems
 
 
-def solve_all(problems: list[Any], out: Path, plot: bool, starts: int, err: Err) -> tuple[list[dict[str, Any]], int]:
+def solve_all(problems: list[Any], out: Path, plot: bool, starts: int, err: Err, html: bool = True) -> tuple[list[dict[str, Any]], int]:
     """Design, verify and write every problem (``plot``: energy.png and mechanism.png in its
-    folder before the folder appears); the summary rows and the worst exit status."""
+    folder before the folder appears; ``html``: report.html, the page of the folder, last);
+    the summary rows and the worst exit status."""
     from ..errors import CounterpoiseError
     from ..pipeline import design
     from ..report.files import write_reports
@@ -72,7 +90,7 @@ def solve_all(problems: list[Any], out: Path, plot: bool, starts: int, err: Err)
                     energy_plot(result, folder)
                     design_mechanism_plot(result, folder)
 
-            folder = write_reports(result, out, extra)
+            folder = write_reports(result, out, extra, html=html)
         except OSError as exc:
             err(f"{problem.path}: cannot write reports to {out}: {exc.strerror or exc}")
             worst = max(worst, 1)

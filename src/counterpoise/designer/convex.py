@@ -70,6 +70,29 @@ def convex_backend(designer: "Designer", choice: str) -> Any:
     return ConvexBackend(designer.nlp, every)
 
 
+def nonlinear_constraints(designer: "Designer") -> tuple[str, ...]:
+    """The constraints whose rows are nonlinear in the design, when without them the problem
+    would be an LP (so a nonlinear constraint moved it to the NLP); else ()."""
+    import casadi as ca
+
+    from ..solvers.convex import affine_variables
+
+    rows = designer.rows
+    n = len(designer.formulation.design)
+    if rows is None or n == 0 or len(linear_slots(designer)) != n:
+        return ()
+    f = designer.formulation
+    plain = {**designer.nlp, "g": ca.vertcat(designer.conditions.equalities, f.nonnegative)}
+    if not affine_variables(plain, list(range(n))):
+        return ()
+    names = []
+    for g in rows.groups:
+        part = rows.g[g.start : g.stop]
+        if ca.depends_on(ca.jacobian(part, f.z), f.z) and g.constraint.name not in names:
+            names.append(g.constraint.name)
+    return tuple(names)
+
+
 def solve_convex(designer: "Designer", z0: np.ndarray, p: np.ndarray, b: Bounds, bounds: Any) -> tuple[np.ndarray, SolverOutput, str]:
     """The LP's optimum (variables on a bound put exactly on it), or the closest design:
     (scaled point, solver output, message) for the designer to build its Solution from."""

@@ -26,6 +26,8 @@ from ..solvers.base import Bounds, SolverOutput, Status
 from ..solvers.ipopt import IPOPT_DEFAULTS, IpoptBackend
 from ..threads import limit_blas_threads
 from . import convex
+from ..formulation.constraints import MAX_ROUNDS, ConstraintRows, Extra, build_rows, evaluate, merge, violations
+from .constrained import BALANCEABLE_BUT_INFEASIBLE, attach_constraints, name_conflict, rows_multipliers
 from .solution import Solution, build_solution
 
 #: The compressed balance equalities (each coordinate's rows scaled to order one) hold when
@@ -64,9 +66,10 @@ SNAP_BAND = 1e-5
 class Designer:
     """Builds the solver for a problem once; :meth:`solve` may be called many times."""
 
-    def __init__(self, problem: Problem, ipopt_options: Mapping[str, Any] | None = None, backend: str = "auto") -> None:
+    def __init__(self, problem: Problem, ipopt_options: Mapping[str, Any] | None = None, backend: str = "auto", extra: Extra | None = None) -> None:
         """``backend``: ``auto`` (the convex path when the problem is an LP/QP, else IPOPT),
-        ``ipopt`` or ``clarabel`` (an error when the problem is not convex)."""
+        ``ipopt`` or ``clarabel`` (an error when the problem is not convex). ``extra``:
+        configurations added to the sampled rows of workspace extremes (verification rounds)."""
         import casadi as ca
 
         limit_blas_threads()
@@ -77,12 +80,19 @@ class Designer:
         self.conditions = BalanceConditions(f, self.parameters, problem.settings.seed)
         self.n_equalities = self.conditions.count
         self.options = {**IPOPT_DEFAULTS, "max_iter": problem.settings.max_iterations, **self._ipopt_options}
-        nlp = {"x": f.z, "p": f.p, "f": f.objective, "g": ca.vertcat(self.conditions.equalities, f.nonnegative)}
+        #: design constraints and force limits as rows after the sign constraints (None: none)
+        self.rows: ConstraintRows | None = build_rows(f, extra) if problem.constraints else None
+        self._extra = dict(extra or {})
+        nlp = {"x": f.z, "p": f.p, "f": f.objective, "g": ca.vertcat(self.conditions.equalities, f.nonnegative, *self._row_g())}
         self.backend = IpoptBackend(nlp, self.options, "design")
         self.backend_choice = backend
         self.nlp = nlp
         #: the LP/QP backend when every variable enters linearly (see :mod:`.convex`)
         self.convex = convex.convex_backend(self, backend)
+        #: a nonlinear constraint that moved an LP problem to the NLP (the names; empty: none)
+        self.nonlinear_constraints = convex.nonlinear_constraints(self) if self.convex is None and self.rows is not None and backend == "auto" else ()
+        self._refined: Designer | None = None  # with the configurations of verification rounds
+        self._round = 0
         #: the LP over the linear variables at a fixed geometry (built on first use)
         self.certificate = convex.Certificate(self)
         self._feasibility: IpoptBackend | None = None
@@ -94,16 +104,21 @@ class Designer:
         return (Designer, (self.problem, self._ipopt_options, self.backend_choice))
 
     # -- one call ------------------------------------------------------------------
-    def bounds(self, n_equalities: int, overrides: BoundsOverride | None = None) -> Bounds:
-        """Variable bounds (with per-call ``overrides``, SI) and [equalities; signs ≥ 0]."""
+    def bounds(self, n_equalities: int, overrides: BoundsOverride | None = None, constraints: bool = True) -> Bounds:
+        """Variable bounds (with per-call ``overrides``, SI) and [equalities; signs ≥ 0;
+        constraint rows (unless ``constraints`` is False)]."""
         lbz, ubz = self.formulation.design.bounds(overrides)
         n_in = int(self.formulation.nonnegative.numel())
+        rows = self.rows if constraints and self.rows is not None else None
         return Bounds(
             lbz,
             ubz,
-            np.zeros(n_equalities + n_in),
-            np.concatenate([np.zeros(n_equalities), np.full(n_in, np.inf)]),
+            np.concatenate([np.zeros(n_equalities + n_in), rows.lbg if rows is not None else []]),
+            np.concatenate([np.zeros(n_equalities), np.full(n_in, np.inf), rows.ubg if rows is not None else []]),
         )
+
+    def _row_g(self) -> list[Any]:
+        return [self.rows.g] if self.rows is not None else []
 
     def solve(
         self,
@@ -130,11 +145,23 @@ class Designer:
         other = for_geometry(self, parameters, lambda problem: Designer(problem, self._ipopt_options, self.backend_choice))
         if other is not self:  # closed loops: a new geometry needs its own manifold equalities
             return other.solve(initial, parameters, bounds, certify)  # type: ignore[no-any-return]
+        if self._refined is not None:  # a verification round added configurations
+            return self._refined.solve(initial, parameters, bounds, certify)
         d = self.formulation.design
         p = self.formulation.parameters.values(parameters) if parameters else self.parameters
         b = self.bounds(self.n_equalities, bounds)
         z0 = np.clip(d.to_z(d.vector(initial or {})), b.lbz, b.ubz)
         solution = self._solve(z0, p, b, bounds)
+        add = violations(self.problem, solution.constraints)
+        if add and self._round < MAX_ROUNDS:
+            # a workspace extreme beyond its bound between the sampled configurations: add
+            # the dense check's worst configurations to the rows and solve again from here
+            extra = merge(self._extra, add)
+            refined = Designer(self.problem, self._ipopt_options, self.backend_choice, extra)
+            refined._round = self._round + 1
+            self._refined = refined
+            start = dict(solution.values)
+            return refined.solve(start, parameters, bounds, certify)
         if certify:
             solution.certificate_gap = self._certificate_gap(solution, p, b)
         return solution
@@ -144,6 +171,8 @@ class Designer:
         other = for_geometry(self, parameters, lambda problem: Designer(problem, self._ipopt_options, self.backend_choice))
         if other is not self:
             return other.certify(solution, parameters, bounds)  # type: ignore[no-any-return]
+        if self._refined is not None:
+            return self._refined.certify(solution, parameters, bounds)
         p = self.formulation.parameters.values(parameters) if parameters else self.parameters
         solution.certificate_gap = self._certificate_gap(solution, p, self.bounds(self.n_equalities, bounds))
         return solution
@@ -175,7 +204,8 @@ class Designer:
                 if out.status is Status.OPTIMAL:
                     z, message = self.polish(z, p, b), "balanced design found (restarted from a balanced point)"
                 elif out.status is Status.INFEASIBLE:
-                    out = SolverOutput(closest.z, Status.FAILED, out.solver_status, out.iterations, out.solve_time, out.solver)
+                    code = BALANCEABLE_BUT_INFEASIBLE if self.rows is not None else out.solver_status
+                    out = SolverOutput(closest.z, Status.FAILED, code, out.iterations, out.solve_time, out.solver)
                     z, message = closest.z, "IPOPT declared a balanceable problem infeasible; the closest design is reported"
             else:
                 z = self.polish_settings(closest.z, p, b)
@@ -195,7 +225,8 @@ class Designer:
         if self._residual_jacobian is None:
             f = self.formulation
             eq = self.conditions.equalities
-            self._residual_jacobian = ca.Function("gJ", [f.z, f.p], [eq, ca.jacobian(eq, f.z), f.nonnegative])
+            signs = ca.vertcat(f.nonnegative, self.rows.margins()) if self.rows is not None else f.nonnegative
+            self._residual_jacobian = ca.Function("gJ", [f.z, f.p], [eq, ca.jacobian(eq, f.z), signs])
         return self._residual_jacobian
 
     def polish(self, z: np.ndarray, p: np.ndarray, bounds: Bounds, iterations: int = 8) -> np.ndarray:
@@ -358,7 +389,7 @@ class Designer:
         if self._feasibility is None:
             nlp = {"x": f.z, "p": f.p, "f": 0.5 * ca.sumsqr(self.conditions.equalities), "g": f.nonnegative}
             self._feasibility = IpoptBackend(nlp, {**self.options, "tol": CLOSEST_TOL, "acceptable_tol": CLOSEST_ACCEPTABLE_TOL}, "closest")
-        b = self.bounds(0, bounds)
+        b = self.bounds(0, bounds, constraints=False)
         out = self._feasibility.solve(np.clip(z0, b.lbz, b.ubz), p, b)
         z = self.refine(out.z, p, b)
         return SolverOutput(z, out.status, out.solver_status, out.iterations, out.solve_time, out.solver)
@@ -430,7 +461,7 @@ class Designer:
         u, s, _ = np.linalg.svd(jac, full_matrices=False)
         r = int(np.sum(s > RANK_TOLERANCE * s[0])) if s.size and s[0] > 0 else 0
         reduced = ca.mtimes(ca.DM(u[:, :r].T), self.conditions.equalities)
-        nlp = {"x": f.z, "p": f.p, "f": f.objective, "g": ca.vertcat(reduced, f.nonnegative)}
+        nlp = {"x": f.z, "p": f.p, "f": f.objective, "g": ca.vertcat(reduced, f.nonnegative, *self._row_g())}
         backend = IpoptBackend(nlp, self.options, "design_reduced")
         rb = self.bounds(r, bounds)
         out = backend.solve(closest.z, p, rb)
@@ -443,7 +474,22 @@ class Designer:
         return self._solution(z, p, b, out, message)
 
     def _solution(self, z: np.ndarray, parameters: np.ndarray, b: Bounds, out: SolverOutput, message: str) -> Solution:
-        return build_solution(self.formulation, z, parameters, b.lbz, b.ubz, out, message, self.n_equalities, self.conditions.summary())
+        solution = build_solution(self.formulation, z, parameters, b.lbz, b.ubz, out, message, self.n_equalities, self.conditions.summary())
+        if self.rows is None:
+            return solution
+        if self.nonlinear_constraints:
+            solution.message += (
+                f"; the nonlinear constraint{'s' if len(self.nonlinear_constraints) > 1 else ''} {', '.join(self.nonlinear_constraints)} "
+                "made this LP problem an NLP (IPOPT)"
+            )
+        if solution.status is Status.INFEASIBLE or out.solver_status == BALANCEABLE_BUT_INFEASIBLE:
+            conflict = name_conflict(self, z, parameters, b)
+            if conflict:
+                solution.status, solution.message = Status.INFEASIBLE, conflict
+                solution.verdict = (Status.INFEASIBLE, conflict)  # balanced, yet infeasible: the constraints' verdict
+                solution.constraints = evaluate(self.problem, solution, self.rows, None)
+                return solution
+        return attach_constraints(solution, self.rows, rows_multipliers(out, self.rows))
 
 
 def _with_time(out: SolverOutput, seconds: float) -> SolverOutput:

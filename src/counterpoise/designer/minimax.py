@@ -39,6 +39,8 @@ from ..model.problem import Problem
 from ..solvers.base import Bounds, SolverOutput, Status
 from ..solvers.ipopt import IPOPT_DEFAULTS, IpoptBackend
 from ..threads import limit_blas_threads
+from ..formulation.constraints import MAX_ROUNDS, ConstraintRows, Extra, build_rows, describe, merge, violations
+from .constrained import attach_constraints, rows_multipliers
 from .solution import Solution, build_solution
 
 #: sampled configurations per (subsystem, scenario): SAMPLES_PER_COORDINATE × n_q (+ corners)
@@ -81,7 +83,9 @@ def _independent(block: Any, tangent: tuple[np.ndarray, np.ndarray, np.ndarray] 
 class MinimaxDesigner:
     """Smallest worst-case residual ratio on sampled configurations (see the module docstring)."""
 
-    def __init__(self, problem: Problem, ipopt_options: Mapping[str, Any] | None = None) -> None:
+    def __init__(self, problem: Problem, ipopt_options: Mapping[str, Any] | None = None, extra: Extra | None = None) -> None:
+        """``extra``: configurations added to the sampled rows of workspace extremes (see
+        :mod:`counterpoise.formulation.constraints`; verification rounds)."""
         import casadi as ca
 
         limit_blas_threads()
@@ -147,7 +151,12 @@ class MinimaxDesigner:
                 for i in range(values.shape[0]):
                     rows.append(values[i, :].T / max(float(np.max(np.abs(f.design.upper))), 1e-3))
         self.n_rows = int(sum(r.numel() for r in rows))
-        g = ca.vertcat(*rows, f.nonnegative)
+        #: design constraints and force limits, last in g
+        self.rows: ConstraintRows | None = build_rows(f, extra) if problem.constraints else None
+        self._extra = dict(extra or {})
+        self._refined: MinimaxDesigner | None = None
+        self._round = 0
+        g = ca.vertcat(*rows, f.nonnegative, *([self.rows.g] if self.rows is not None else []))
         self.n_signs = int(f.nonnegative.numel())
         self.z = ca.vertcat(f.z, t)
         self.options = {**IPOPT_DEFAULTS, "max_iter": max(problem.settings.max_iterations, 1000), "tol": 1e-9, **dict(ipopt_options or {})}
@@ -162,16 +171,19 @@ class MinimaxDesigner:
         other = for_geometry(self, parameters, lambda problem: MinimaxDesigner(problem, self._ipopt_options))
         if other is not self:  # closed loops: a new geometry is sampled on its own manifold
             return other.solve(initial, parameters, bounds)  # type: ignore[no-any-return]
+        if self._refined is not None:  # a verification round added configurations
+            return self._refined.solve(initial, parameters, bounds)
         f = self.formulation
         d = f.design
         p = f.parameters.values(parameters) if parameters else self.parameters
         lbz, ubz = d.bounds(bounds)
         z0 = np.clip(d.to_z(d.vector(initial or {})), lbz, ubz)
+        rows = self.rows
         b = Bounds(
             np.concatenate([lbz, [0.0]]),
             np.concatenate([ubz, [np.inf]]),
-            np.zeros(self.n_rows + self.n_signs),
-            np.full(self.n_rows + self.n_signs, np.inf),
+            np.concatenate([np.zeros(self.n_rows + self.n_signs), rows.lbg if rows is not None else []]),
+            np.concatenate([np.full(self.n_rows + self.n_signs, np.inf), rows.ubg if rows is not None else []]),
         )
         out = self.backend.solve(np.concatenate([z0, [INITIAL_RATIO]]), p, b)
         t = float(out.z[-1])
@@ -183,4 +195,25 @@ class MinimaxDesigner:
         )
         design_out = SolverOutput(out.z[:-1], out.status, out.solver_status, out.iterations, out.solve_time, out.solver)
         summary = "epigraph rows on sampled configurations"
-        return build_solution(f, out.z[:-1], p, lbz, ubz, design_out, message, self.n_rows, summary, sampled_ratio=t)
+        solution = build_solution(f, out.z[:-1], p, lbz, ubz, design_out, message, self.n_rows, summary, sampled_ratio=t)
+        if rows is None:
+            return solution
+        solution = attach_constraints(solution, rows, rows_multipliers(out, rows))
+        if not ok:
+            unmet = [v for v in solution.constraints if v.active == "violated"]
+            if unmet:
+                # the worst residual ratio is free (t), so only the constraints can make this infeasible
+                text = "; ".join(describe(self.problem, v) for v in unmet[:3])
+                if out.status is Status.INFEASIBLE:
+                    solution.verdict = (Status.INFEASIBLE, f"infeasible: the constraints cannot all hold: at the solver's last point {text}")
+                else:
+                    solution.message += f"; at the solver's last point the constraints are not met: {text}"
+        add = violations(self.problem, solution.constraints)
+        if add and self._round < MAX_ROUNDS:
+            extra = merge(self._extra, add)
+            refined = MinimaxDesigner(self.problem, self._ipopt_options, extra)
+            refined._round = self._round + 1
+            self._refined = refined
+            start = dict(solution.values)
+            return refined.solve(start, parameters, bounds)
+        return solution

@@ -53,6 +53,9 @@ class Solution:
     payload: Any = None
     #: designs with spring slots: the :class:`counterpoise.selection.PartsReport`
     parts: Any = None
+    #: every design constraint at this design, per scenario
+    #: (:class:`counterpoise.formulation.constraints.ConstraintValue`)
+    constraints: tuple[Any, ...] = ()
 
     def variable_values(self, scenario: str) -> dict[str, float]:
         """Value of every variable as seen by ``scenario``."""

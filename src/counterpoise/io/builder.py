@@ -209,15 +209,29 @@ class ProblemBuilder:
         return self._put("counter_masses", name, self._described(entry, description))
 
     def spring(
-        self, name: str, stiffness: Value, from_: tuple[str, Vec3], to: tuple[str, Vec3], description: str = ""
+        self, name: str, stiffness: Value, from_: tuple[str, Vec3], to: tuple[str, Vec3], description: str = "", max_force: Value | None = None
     ) -> "ProblemBuilder":
-        """A zero-free-length spring between a point of frame ``from_[0]`` and one of ``to[0]``."""
-        entry = {
+        """A zero-free-length spring between a point of frame ``from_[0]`` and one of ``to[0]``;
+        ``max_force``: its largest force, a limit of the design ("60 N")."""
+        entry: dict[str, Any] = {
             "stiffness": stiffness,
             "from": {"frame": from_[0], "point": list(from_[1])},
             "to": {"frame": to[0], "point": list(to[1])},
         }
+        if max_force is not None:
+            entry["max_force"] = max_force
         return self._put("springs", name, self._described(entry, description))
+
+    def constraint(
+        self, name: str, expression: str, lower: Value | None = None, upper: Value | None = None, unit: str | None = None, description: str = ""
+    ) -> "ProblemBuilder":
+        """``lower ≤ expression ≤ upper`` on the design (docs/constraints.md): variables,
+        parameters, report quantities and named quantities such as ``force_max(<spring>)``."""
+        entry: dict[str, Any] = {"expression": expression}
+        for key, value in (("lower", lower), ("upper", upper), ("unit", unit)):
+            if value is not None:
+                entry[key] = value
+        return self._put("constraints", name, self._described(entry, description))
 
     def substitution(
         self, body: str, points: Mapping[str, tuple[Vec3, str, Vec3]], description: str = ""
@@ -226,6 +240,15 @@ class ProblemBuilder:
         body's frame, ``point`` the same point in the receiving ``frame``."""
         entry = {name: {"at": list(at), "frame": frame, "point": list(point)} for name, (at, frame, point) in points.items()}
         return self._put("substitutions", body, self._described({"points": entry}, description))
+
+    def tilt(self, axis: Vec3, lower: Value, upper: Value, description: str = "") -> "ProblemBuilder":
+        """A continuous range of base tilts about ``axis`` (of the base) that the balance must
+        hold for (``[gravity] tilt``; docs/tilt.md). Several tilts compose in the order given."""
+        entry: dict[str, Any] = {"axis": list(axis), "range": [lower, upper]}
+        if description:
+            entry["description"] = description
+        self._data["gravity"].setdefault("tilt", []).append(entry)
+        return self
 
     def scenario(
         self,

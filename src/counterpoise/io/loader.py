@@ -19,7 +19,7 @@ from typing import Annotated, Any, Union, get_args, get_origin
 
 from pydantic import BaseModel, Tag
 
-from ..errors import ProblemFileError, raise_errors
+from ..errors import ProblemFileError, clip, raise_errors
 from ..model import expr as ex
 from ..model.problem import Problem
 from .repeat import expand_repeats
@@ -111,13 +111,29 @@ def _apply_override(raw: dict[str, Any], key: str, value: Any, label: str, known
             hint = f" (did you mean '{close}'?)" if close else (f" (it has: {', '.join(names[:12])})" if names else "")
             raise ProblemFileError(label, key, f"the file has no {parts[0]} entry '{parts[1]}' to override{hint}")
     node: Any = raw
-    for part in parts[:-1]:
+    for i, part in enumerate(parts[:-1]):
+        if isinstance(node, list):
+            node = node[_index(node, part, label, ".".join(parts[: i + 1]))]
+            continue
         if not isinstance(node, dict):
             raise ProblemFileError(label, key, "override path does not lead to a table")
         node = node.setdefault(part, {})
+    if isinstance(node, list):  # one entry of an array: KEY.0=VALUE
+        node[_index(node, parts[-1], label, key)] = value
+        return
     if not isinstance(node, dict) or not parts[-1]:
         raise ProblemFileError(label, key, "override path does not lead to a table")
     node[parts[-1]] = value
+
+
+def _index(node: list[Any], part: str, label: str, key: str) -> int:
+    """The entry ``part`` (0, 1, ...) of an array in an override path."""
+    if not part.isdigit() or int(part) >= len(node):
+        raise ProblemFileError(
+            label, key, f"the array has {len(node)} entries: set one by its index 0 to {len(node) - 1}, or the whole array as TOML, "
+            "e.g. --set 'gravity.direction=[0, 0, -1]'"
+        )
+    return int(part)
 
 
 def _schema_errors(raw: dict[str, Any], errors: list[Any], label: str) -> list[ProblemFileError]:
@@ -265,6 +281,11 @@ def _pydantic_message(err: Mapping[str, Any]) -> str:
         else:
             rule = "letters, digits and '_', starting with a letter"
         return f"invalid name {err.get('input')!r}: use {rule}"
+    if kind in ("tuple_type", "list_type"):  # arrays are set whole: --set 'KEY=[...]' is read as TOML
+        return f"expected an array such as [0, 0, -1], got {clip(repr(err.get('input')))} (with --set, write the array: --set 'KEY=[...]')"
+    if kind == "string_too_long":
+        limit = (err.get("ctx") or {}).get("max_length")
+        return f"too long ({len(str(err.get('input', '')))} characters; at most {limit}, since it names the report folder)"
     if kind == "literal_error":
         return f"expected one of {(err.get('ctx') or {}).get('expected', '')}, got {err.get('input')!r}"
     msg = str(err.get("msg", "invalid value"))

@@ -15,6 +15,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import InputError
+from ..model.expr import suggest
+from ..model.units import MAX_LENGTH_M
 
 Triple = tuple[float, float, float]
 Matrix = tuple[Triple, Triple, Triple]
@@ -24,6 +26,12 @@ IDENTITY_MATRIX: Matrix = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
 KINDS = ("revolute", "continuous", "prismatic", "fixed")
 #: below this, cos(pitch) is taken as 0 (gimbal lock) when a rotation is split into roll, pitch, yaw
 GIMBAL = 1e-12
+#: largest robot model file read (bytes): a URDF is parsed with lxml's ``huge_tree`` option
+#: (a comment or text node over libxml2's 10 MB limit is fine), so the file size is the bound
+MAX_MODEL_BYTES = 256 * 1024 * 1024
+#: an inertia tensor's eigenvalue may be this far below 0 (relative to its largest) and count as 0
+INERTIA_SLACK = 1e-9
+XACRO_NAMESPACE = "http://www.ros.org/wiki/xacro"
 
 
 @dataclass(frozen=True)
@@ -68,14 +76,52 @@ def read_robot(path: Path, fmt: str) -> RobotModel:
     """Read a URDF or MJCF file; problems with the file are :class:`InputError`."""
     if not path.is_file():
         raise InputError(f"no such file: {path}")
+    size = path.stat().st_size
+    if size > MAX_MODEL_BYTES:
+        raise InputError(f"{path.name} is {size / 2**20:.0f} MB; robot models up to {MAX_MODEL_BYTES // 2**20} MB are read")
     model = _read_urdf(path) if fmt == "urdf" else _read_mjcf(path)
     for link in model.links:
-        for joint in link.joints:
-            if not all(math.isfinite(c) for c in joint.axis) or not any(joint.axis):
-                raise InputError(f"{path.name}: joint '{joint.name}' has no usable axis {joint.axis}")
-            if not all(math.isfinite(c) for c in (*link.xyz, *link.com, link.mass, *joint.anchor)):
-                raise InputError(f"{path.name}: link '{link.name}' has a value that is not a finite number")
+        _check_link(path, link)
     return model
+
+
+def _check_link(path: Path, link: RobotLink) -> None:
+    """Every number of a link usable: finite positions, a mass that is not negative, axes."""
+    where = f"{path.name}: link '{link.name}'"
+    if not math.isfinite(link.mass) or link.mass < 0:
+        raise InputError(f"{where} has a mass of {link.mass:g} kg: a mass must be a finite number, not negative")
+    for what, values in (("position (joint origin)", link.xyz), ("centre of mass", link.com), ("orientation", sum(link.rotation, ()))):
+        if not all(math.isfinite(c) for c in values):
+            raise InputError(f"{where} has a {what} that is not a finite number: {_show(values)}")
+    for what, values in (("position (joint origin)", link.xyz), ("centre of mass", link.com), *(("joint position", j.anchor) for j in link.joints)):
+        if any(abs(c) > MAX_LENGTH_M for c in values):
+            raise InputError(f"{where} has a {what} out of range: {_show(values)} m; lengths up to {MAX_LENGTH_M:g} m are accepted")
+    for joint in link.joints:
+        if not all(math.isfinite(c) for c in joint.axis) or not any(joint.axis):
+            raise InputError(f"{path.name}: joint '{joint.name}' has no usable axis {joint.axis}")
+        if not all(math.isfinite(c) for c in joint.anchor):
+            raise InputError(f"{path.name}: joint '{joint.name}' of link '{link.name}' has a position that is not a finite number: {_show(joint.anchor)}")
+        if joint.limits is not None and not all(math.isfinite(c) for c in joint.limits):
+            raise InputError(f"{path.name}: joint '{joint.name}' has limits that are not finite numbers: {_show(joint.limits)}")
+
+
+def _show(values: object) -> str:
+    return "(" + ", ".join(f"{float(v):g}" for v in values) + ")"  # type: ignore[attr-defined]
+
+
+def _check_inertia(path: Path, link: str, inertia: object) -> None:
+    """An inertia tensor (3×3) of finite numbers with no negative principal moment."""
+    import numpy as np
+
+    try:
+        matrix = np.asarray(inertia, dtype=float).reshape(3, 3)
+    except (TypeError, ValueError):
+        raise InputError(f"{path.name}: link '{link}' has an inertia that is not a 3×3 tensor") from None
+    if not np.isfinite(matrix).all():
+        raise InputError(f"{path.name}: link '{link}' has an inertia that is not a finite number")
+    moments = np.linalg.eigvalsh(0.5 * (matrix + matrix.T))
+    if moments.min() < -INERTIA_SLACK * max(1.0, float(np.abs(moments).max())):
+        raise InputError(f"{path.name}: link '{link}' has a negative inertia (principal moments {_show(moments)} kg m²)")
 
 
 def rpy_from_matrix(r: Matrix) -> Triple:
@@ -96,7 +142,21 @@ def _matrix(m: object) -> Matrix:
     return (_triple(m[0][:3]), _triple(m[1][:3]), _triple(m[2][:3]))  # type: ignore[index]
 
 
+def _is_xacro(root: object) -> bool:
+    """Whether a parsed XML tree is a xacro file (ROS macros) rather than plain URDF."""
+    if XACRO_NAMESPACE in (getattr(root, "nsmap", None) or {}).values():
+        return True
+    return any(isinstance(e.tag, str) and e.tag.startswith("{" + XACRO_NAMESPACE + "}") for e in root.iter())  # type: ignore[attr-defined]
+
+
+def _xacro_hint(path: Path) -> str:
+    plain = path.name.removesuffix(".xacro")
+    plain = plain if plain.endswith(".urdf") else f"{plain}.urdf"
+    return f"{path.name} is a xacro file (ROS macros, not plain URDF): expand it first, `xacro {path.name} > {plain}`, and give {plain}"
+
+
 def _read_urdf(path: Path) -> RobotModel:
+    import io
     import logging
 
     import yourdfpy
@@ -106,11 +166,28 @@ def _read_urdf(path: Path) -> RobotModel:
     level = logger.level
     logger.setLevel(logging.CRITICAL)  # its warnings would be extra lines: errors are ours to report
     try:
-        etree.parse(str(path), etree.XMLParser())  # strict: yourdfpy would recover from broken XML
+        source: object = str(path)
+        try:  # strict: yourdfpy would recover from broken XML
+            root = etree.parse(str(path), etree.XMLParser()).getroot()
+        except etree.XMLSyntaxError as exc:
+            if not any(word in str(exc).lower() for word in ("too big", "huge", "too long")):
+                raise
+            # a comment or text over libxml2's 10 MB limit: read with lxml's huge_tree option
+            # (the file size is bounded by MAX_MODEL_BYTES), expanding no entity (huge_tree
+            # lifts libxml2's guard against entity amplification) and fetching nothing; the
+            # comments stripped, the rest is small enough for yourdfpy's own parser
+            parser = etree.XMLParser(huge_tree=True, resolve_entities=False, no_network=True, load_dtd=False)
+            root = etree.parse(str(path), parser).getroot()
+            etree.strip_tags(root, etree.Comment)
+            source = io.BytesIO(etree.tostring(root))
+        if _is_xacro(root):
+            raise InputError(_xacro_hint(path))
         urdf = yourdfpy.URDF.load(
-            str(path), build_scene_graph=False, load_meshes=False, build_collision_scene_graph=False, load_collision_meshes=False
+            source, build_scene_graph=False, load_meshes=False, build_collision_scene_graph=False, load_collision_meshes=False
         )
     except (etree.Error, OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
+        if "${" in str(exc) or path.name.endswith(".xacro"):
+            raise InputError(_xacro_hint(path)) from None
         raise InputError(f"cannot read the URDF {path.name}: {' '.join(str(exc).split())[:200]}") from None
     finally:
         logger.setLevel(level)
@@ -119,9 +196,14 @@ def _read_urdf(path: Path) -> RobotModel:
     by_child = {}
     for joint in robot.joints:
         if joint.type not in KINDS:
-            raise InputError(f"{path.name}: joint '{joint.name}' is of type '{joint.type}'; only {', '.join(KINDS)} joints are supported")
-        if joint.parent not in links or joint.child not in links:
-            raise InputError(f"{path.name}: joint '{joint.name}' joins unknown links '{joint.parent}' and '{joint.child}'")
+            hint = ""
+            if joint.type in ("floating", "planar"):  # a floating base: fix it to its parent
+                hint = f": in a copy of the model, give it type=\"fixed\" so that link '{joint.child}' is fixed to '{joint.parent}' (see docs/robots.md)"
+            raise InputError(f"{path.name}: joint '{joint.name}' is of type '{joint.type}'; only {', '.join(KINDS)} joints are supported{hint}")
+        missing = [name for name in dict.fromkeys((joint.parent, joint.child)) if name not in links]
+        if missing:
+            what = " and ".join(f"'{name}'" for name in missing)
+            raise InputError(f"{path.name}: joint '{joint.name}' names link{'s' if len(missing) > 1 else ''} {what}, which the model does not declare{suggest(missing[0], list(links))}")
         if joint.child in by_child:
             raise InputError(f"{path.name}: link '{joint.child}' is the child of two joints")
         by_child[joint.child] = joint
@@ -141,6 +223,10 @@ def _read_urdf(path: Path) -> RobotModel:
             mass = float(link.inertial.mass)
             if link.inertial.origin is not None:
                 com = _triple(link.inertial.origin[:3, 3])
+            if not math.isfinite(mass) or mass < 0:  # before its inertia: the first thing wrong is named
+                raise InputError(f"{path.name}: link '{name}' has a mass of {mass:g} kg: a mass must be a finite number, not negative")
+            if link.inertial.inertia is not None:
+                _check_inertia(path, name, link.inertial.inertia)
         joint = by_child.get(name)
         if joint is None:
             out.append(RobotLink(name, None, (0.0, 0.0, 0.0), IDENTITY_MATRIX, (), mass, com))
@@ -174,13 +260,84 @@ def _quaternion_matrix(q: object) -> Matrix:
     )
 
 
-def _read_mjcf(path: Path) -> RobotModel:
+def _compile_mjcf(path: Path) -> tuple[object, list[str]]:
+    """MuJoCo's model of ``path`` and the warnings its compiler gave (kept, not printed: the
+    one-line contract). An MJCF whose mesh files are missing is compiled without those
+    meshes when every body with such a mesh has an explicit ``<inertial>`` (the meshes then
+    weigh nothing in the model, and counterpoise needs nothing else of them)."""
+    import mujoco
+
+    warnings: list[str] = []
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(warnings.append)
+    try:
+        try:
+            return mujoco.MjModel.from_xml_path(str(path)), warnings
+        except ValueError as exc:
+            text = " ".join(str(exc).split())
+            spec = _without_missing_meshes(path) if "Error opening file" in text or "mesh" in text.lower() else None
+            if spec is None:
+                raise InputError(f"cannot read the MJCF {path.name}: {text[:200]}{_mjcf_hint(text)}") from None
+        try:
+            return spec.compile(), warnings  # type: ignore[attr-defined]
+        except ValueError as exc:
+            raise InputError(f"cannot read the MJCF {path.name}: {' '.join(str(exc).split())[:200]}") from None
+    finally:
+        mujoco.set_mju_user_warning(previous)
+
+
+def _mjcf_hint(text: str) -> str:
+    if "Error opening file" in text:
+        return " (a missing mesh file is left out when its body has an explicit <inertial>; give the others theirs, or the files)"
+    return ""
+
+
+def _without_missing_meshes(path: Path) -> object | None:
+    """The model's spec with every mesh whose file is missing removed, with the geoms that
+    use it; None when there is no such mesh or a body that loses one has no explicit
+    ``<inertial>`` (its mass would change)."""
     import mujoco
 
     try:
-        model = mujoco.MjModel.from_xml_path(str(path))
-    except ValueError as exc:
-        raise InputError(f"cannot read the MJCF {path.name}: {' '.join(str(exc).split())[:200]}") from None
+        spec = mujoco.MjSpec.from_file(str(path))
+    except ValueError:
+        return None
+    base = Path(spec.modelfiledir or path.parent)
+    meshdir = Path(spec.meshdir) if spec.meshdir else Path()
+    missing = set()
+    for mesh in spec.meshes:
+        if mesh.file:
+            where = Path(mesh.file) if Path(mesh.file).is_absolute() else base / meshdir / mesh.file
+            if not where.is_file() and not (base / mesh.file).is_file():
+                missing.add(mesh.name or Path(mesh.file).stem)
+    if not missing:
+        return None
+    doomed = [g for g in spec.geoms if g.meshname in missing]
+    for geom in doomed:
+        body = spec.body(geom.parent.name) if geom.parent is not None else None
+        if body is None or not body.explicitinertial:
+            return None
+    for geom in doomed:
+        spec.delete(geom)
+    for mesh in [m for m in spec.meshes if (m.name or Path(m.file).stem) in missing]:
+        spec.delete(mesh)
+    return spec
+
+
+def _joint_hint(name: str, body: str, free: bool) -> str:
+    if free:
+        return (f"joint '{name}' of body '{body}' is a free joint (a floating body); only hinge and slide joints are supported: "
+                f"in a copy of the model, delete <freejoint/> (or <joint type=\"free\"/>) from body '{body}' so that it is fixed to its parent")
+    return (f"joint '{name}' of body '{body}' is a ball joint; only hinge and slide joints are supported: in a copy of the model, "
+            "replace it by three hinge joints with orthogonal axes at the same pos")
+
+
+def _read_mjcf(path: Path) -> RobotModel:
+    import mujoco
+
+    model, warnings = _compile_mjcf(path)
+    if any("NaN" in w for w in warnings):
+        raise InputError(f"{path.name}: the model contains a 'NaN' (MuJoCo: {' '.join(warnings[0].split())[:120]})")
     hinge, slide = int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)
     names = {}
     for b in range(1, model.nbody):
@@ -199,7 +356,7 @@ def _read_mjcf(path: Path) -> RobotModel:
             name = model.joint(j).name or f"joint{j}"
             kind = int(model.jnt_type[j])
             if kind not in (hinge, slide):
-                raise InputError(f"{path.name}: joint '{name}' is a free or ball joint; only hinge and slide joints are supported")
+                raise InputError(f"{path.name}: {_joint_hint(name, names[b], kind == int(mujoco.mjtJoint.mjJNT_FREE))}")
             limits = (float(model.jnt_range[j][0]), float(model.jnt_range[j][1])) if model.jnt_limited[j] else None
             ref = float(model.qpos0[model.jnt_qposadr[j]])
             mimic = None

@@ -63,7 +63,9 @@ class _Table(BaseModel):
 
 
 class ProblemMeta(_Table):
-    name: Annotated[str, Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")]
+    #: it names the report folders (``<name>``, ``<name>-study`` and their temporary
+    #: siblings): at most 128 characters, well within a file name's 255 bytes
+    name: Annotated[str, Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]*$", max_length=128)]
     title: str = ""
     source: str = ""
     description: str = ""
@@ -72,6 +74,20 @@ class ProblemMeta(_Table):
 class GravitySpec(_Table):
     acceleration: Value
     direction: tuple[FiniteFloat, FiniteFloat, FiniteFloat]
+
+
+class TiltSpec(_Table):
+    """A continuous range of base tilts about one axis of the base (``[gravity] tilt``)."""
+
+    axis: tuple[FiniteFloat, FiniteFloat, FiniteFloat]
+    range: tuple[Value, Value]
+    description: str = ""
+
+
+class TiltingGravitySpec(GravitySpec):
+    """The file's ``[gravity]``: a direction, and optionally tilts of the base it must hold for."""
+
+    tilt: list[TiltSpec] = Field(default_factory=list)
 
 
 class ParameterSpec(_Table):
@@ -173,6 +189,13 @@ class SpringSpec(_Table):
     initial_tension: Value | None = None
     max_length: Value | None = None
     cable: Value | None = None
+    max_force: Value | None = None  # the spring's largest force (a limit of the design)
+    # free-stiffness springs: the designed helical spring (docs/springs.md)
+    material: str | None = None  # a key of counterpoise/data/spring_materials.csv
+    max_outer_diameter: Value | None = None
+    max_body_length: Value | None = None
+    rate_tolerance: Value | None = None  # of the spring maker's spec: 0.1 or "10 %"
+    min_safety_factor: Annotated[FiniteFloat, Field(ge=1, le=100)] | None = None
     from_: PointSpec = Field(alias="from")
     to: PointSpec
     description: str = ""
@@ -241,6 +264,20 @@ class ReportSpec(_Table):
     description: str = ""
 
 
+# -- constraints (engineer "constraints"; kept in one block) ---------------------------
+class ConstraintSpec(_Table):
+    """``lower ≤ expression ≤ upper`` on the design (see problems/README.md, docs/constraints.md)."""
+
+    expression: str
+    lower: Value | None = None
+    upper: Value | None = None
+    unit: str | None = None  # display unit of design.csv (default: the bounds' unit)
+    description: str = ""
+
+
+# -- end constraints -------------------------------------------------------------------
+
+
 class ScenarioSpec(_Table):
     description: str = ""
     gravity: GravitySpec | None = None
@@ -304,7 +341,7 @@ class RobotSpec(_Table):
 
 class ProblemFile(_Table):
     problem: ProblemMeta
-    gravity: GravitySpec
+    gravity: TiltingGravitySpec
     parameters: dict[Name, ParameterEntry] = Field(default_factory=dict)
     #: at least one, or a [robot] (checked when resolving)
     subsystems: dict[Name, SubsystemSpec] = Field(default_factory=dict)
@@ -318,6 +355,7 @@ class ProblemFile(_Table):
     variables: dict[Name, VariableSpec] = Field(default_factory=dict)
     objective: ObjectiveEntry = Field(default_factory=ObjectiveSpec)
     report: dict[Name, ReportSpec] = Field(default_factory=dict)
+    constraints: dict[Name, ConstraintSpec] = Field(default_factory=dict)
     scenarios: dict[Name, ScenarioSpec] = Field(default_factory=dict)
     payloads: dict[Name, PayloadSpec] = Field(default_factory=dict)
     settings: SettingsSpec = Field(default_factory=SettingsSpec)

@@ -9,6 +9,7 @@ frames, bodies); :mod:`.elements` what a design may add; :mod:`.problem` the who
 
 from __future__ import annotations
 
+from .constraints import Constraint
 from .elements import CounterMass, ZeroFreeLengthSpring
 from .mechanism import GROUND, Body, Coordinate, Frame, Point, Rotation, Subsystem, Translation
 from .problem import Gravity, Objective, Parameter, Problem, ReportQuantity, Scenario, Settings, Variable
@@ -16,6 +17,7 @@ from .problem import Gravity, Objective, Parameter, Problem, ReportQuantity, Sce
 __all__ = [
     "GROUND",
     "Body",
+    "Constraint",
     "Coordinate",
     "CounterMass",
     "Frame",

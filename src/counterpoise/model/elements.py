@@ -43,6 +43,18 @@ class DirectMount:
 
 
 @dataclass(frozen=True)
+class SpringDesignOptions:
+    """How a free-stiffness spring is designed as a helical extension spring after the
+    solve (:mod:`counterpoise.springs`; docs/springs.md). Lengths in m; None: no limit."""
+
+    material: str = "music_wire"
+    max_outer_diameter: float | None = None
+    max_body_length: float | None = None
+    rate_tolerance: float = 0.10  # ± share of the rate written into the spring's spec
+    min_safety_factor: float = 1.0  # on every allowable stress at the largest working force
+
+
+@dataclass(frozen=True)
 class ZeroFreeLengthSpring:
     """A spring of zero free length between two points: energy ½ k |a − b|².
 
@@ -58,3 +70,5 @@ class ZeroFreeLengthSpring:
     description: str = ""
     slot: str | None = None
     direct: DirectMount | None = None  # None: zero free length (behind a string over a pulley)
+    #: free-stiffness springs (no slot): how their helical spring is designed after the solve
+    design: SpringDesignOptions = SpringDesignOptions()

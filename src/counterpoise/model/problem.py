@@ -12,11 +12,13 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
 
+from .constraints import Constraint
 from .elements import CounterMass, ZeroFreeLengthSpring
 from .expr import Expr
 from .loops import Loop
 from .mechanism import Body, Coordinate, Frame, Subsystem
 from .substitution import Substitution
+from .tilt import Tilt
 from .payload import MIN_ADDED, Payload
 from .parts import SelectionSettings, SpringSlot
 from .units import DisplayUnit
@@ -105,6 +107,10 @@ class Scenario:
     #: adjustable variables take one value per *setting*; scenarios that name the same
     #: setting share it (the working modes at one payload). None: the scenario's own.
     setting: str | None = None
+    #: problems with a tilting base: the tilt angles (rad) of this scenario's gravity, one per
+    #: :class:`Tilt` of the problem, and the gravity of the untilted base (its working mode's)
+    tilt: tuple[float, ...] = ()
+    upright: Gravity | None = None
 
 
 @dataclass(frozen=True)
@@ -165,6 +171,11 @@ class Problem:
     slots: tuple[SpringSlot, ...] = ()  # catalogue slots (their names are base parameters: the rates)
     selection: SelectionSettings = field(default_factory=SelectionSettings)
     loops: tuple[Loop, ...] = ()  # closures of closed chains (counterpoise.model.loops)
+    #: design constraints: the file's [constraints] and the springs' force limits (model.constraints)
+    constraints: tuple[Constraint, ...] = ()
+    #: a tilting base: the balance must hold for every tilt in these ranges ([gravity] tilt);
+    #: each scenario then stands for one node of the tilt grid (:func:`~.tilt.tilt_nodes`)
+    tilts: tuple[Tilt, ...] = ()
 
     @cached_property
     def frame(self) -> Mapping[str, Frame]:

@@ -207,7 +207,19 @@ def parse_quantity(value: str | int | float) -> Quantity:
     si = number * unit.to_si
     if not math.isfinite(si):
         raise UnitError(f"value must be finite, got {value!r} (too large once converted to SI units)")
+    check_length_range(si, unit.dimension, value)
     return Quantity(si, unit)
+
+
+#: largest length (m) a value may have: 1000 km. Positions, lengths and bounds beyond it are
+#: typing mistakes (``1e308 mm``), and their squares (energies, residuals) overflow.
+MAX_LENGTH_M = 1e6
+
+
+def check_length_range(si: float, dimension: str, written: object) -> None:
+    """A length of at most :data:`MAX_LENGTH_M` in size, else a :class:`UnitError`."""
+    if abs(si) > MAX_LENGTH_M and dimension == canonical_dimension(LENGTH):
+        raise UnitError(f"value out of range: '{written}' is {si:.3g} m; lengths up to {MAX_LENGTH_M:g} m (1000 km) are accepted")
 
 
 def check_dimension(actual: str, expected: str, what: str) -> None:

@@ -27,28 +27,36 @@ def check_options(problem: Problem, parameters: Mapping[str, float] | None, boun
             raise ProblemFileError(problem.path, "bounds", f"no design variable '{name}'")
 
 
+def _within_travel(problem: Problem, name: str, bounds: tuple[float, float]) -> tuple[float, float]:
+    """A call's bounds of variable ``name`` (they replace the file's, as for any problem: a
+    study may raise an upper bound), narrowed by the adjustment's travel around its nominal."""
+    v = problem.variable[name]
+    lo, hi = bounds
+    if v.nominal is not None and v.travel is not None:
+        lo, hi = max(lo, v.nominal - v.travel), min(hi, v.nominal + v.travel)
+    return lo, hi
+
+
 def merged_bounds(sampled: Sampled, bounds: Mapping[Any, tuple[float, float]] | None) -> dict[Slot | str, tuple[float, float]]:
     """The call's bounds (by variable, on every sample) with the adjustments' pins and travel
     windows (:func:`.scenarios.design_bounds`) inside them."""
     given = {(k.variable if isinstance(k, Slot) else k): v for k, v in (bounds or {}).items()}
     out: dict[Slot | str, tuple[float, float]] = dict(given)
     for slot, (lo, hi) in design_bounds(sampled).items():
-        if slot.variable in given:
-            a, b = given[slot.variable]
-            lo, hi = (lo, hi) if lo == hi else (max(lo, a), min(hi, b))
+        if slot.variable in given and lo != hi:
+            lo, hi = _within_travel(sampled.problem, slot.variable, given[slot.variable])
         out[slot] = (lo, hi)
     return out
 
 
 def adjustment_bounds(problem: Problem, bounds: Mapping[Any, tuple[float, float]] | None) -> dict[str, tuple[float, float]]:
-    """The call's bounds on adjustable variables, for the schedule's adjustment solves."""
+    """The call's bounds on adjustable variables, for the schedule's adjustment solves: the
+    same bounds the samples were designed with (:func:`merged_bounds`)."""
     out = {}
-    for key, (a, b) in (bounds or {}).items():
+    for key, given in (bounds or {}).items():
         name = key.variable if isinstance(key, Slot) else key
-        v = problem.variable[name]
-        if v.adjustable:
-            lo, hi = v.adjusted_bounds()
-            out[name] = (max(lo, a), min(hi, b))
+        if problem.variable[name].adjustable:
+            out[name] = _within_travel(problem, name, given)
     return out
 
 

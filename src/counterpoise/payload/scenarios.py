@@ -68,7 +68,7 @@ def sampled_problem(problem: Problem, masses: Iterable[float]) -> Sampled:
         for mode in own or problem.scenarios:
             name = f"{mode.name}_{setting}" if own else setting
             values = {**mode.parameters, payload.name: mass}
-            scenarios.append(Scenario(name, mode.gravity, values, mode.description, setting))
+            scenarios.append(replace(mode, name=name, parameters=values, setting=setting))  # keeps a tilt's angles
     return Sampled(replace(problem, scenarios=tuple(scenarios)), ordered, setting_mass)
 
 

@@ -48,6 +48,51 @@ def _energies(problem, subsystem: str, coords: dict, variables: dict, base: dict
     return bodies, grav.astype(float), spring.astype(float)
 
 
+#: a residual below ROUNDING × the reference torque is rounding noise ("balanced to rounding")
+ROUNDING = 1e-12
+
+
+def _floor_axis(ax, curves: list[np.ndarray], floor: float) -> None:  # type: ignore[no-untyped-def]
+    """Keep the y axis at least ±``floor`` wide around its data, so that rounding noise of a
+    flat curve (1e-15) is not magnified into zig-zags that fill the panel."""
+    data = np.concatenate([np.ravel(c) for c in curves])
+    data = data[np.isfinite(data)]
+    if data.size == 0 or not floor > 0:
+        return
+    lo, hi = float(data.min()), float(data.max())
+    if hi - lo >= 2 * floor:
+        return
+    centre = 0.5 * (lo + hi)
+    if abs(centre) < floor:  # a curve at zero stays centred on zero
+        centre = 0.0
+    ax.set_ylim(centre - 1.1 * floor, centre + 1.1 * floor)
+
+
+def _balance_note(ax, residual: np.ndarray, reference: float, tolerance: float) -> None:  # type: ignore[no-untyped-def]
+    """Say in the panel what a flat residual means."""
+    worst = float(np.nanmax(np.abs(residual))) if residual.size else 0.0
+    if not reference > 0 or not np.isfinite(worst):
+        return
+    if worst <= ROUNDING * reference:
+        text = "balanced to rounding"
+    elif worst <= tolerance * reference:
+        text = f"balanced within the tolerance ({tolerance:.0e} of the largest unbalanced torque)"
+    else:
+        return
+    ax.text(0.02, 0.04, text, transform=ax.transAxes, fontsize=8, va="bottom", color="tab:green", bbox={"facecolor": "white", "alpha": 0.85, "edgecolor": "none", "pad": 1.5})
+
+
+def plotted_scenarios(problem) -> tuple:  # type: ignore[no-untyped-def]
+    """The scenarios drawn: every one, except that on a tilting base each working mode is
+    drawn once, at the middle of its tilt ranges (the other nodes differ only in the tilt)."""
+    if not problem.tilts:
+        return problem.scenarios
+    from ..model.tilt import tilt_nodes
+
+    middle = tuple(tilt_nodes(t)[len(tilt_nodes(t)) // 2] for t in problem.tilts)
+    return tuple(s for s in problem.scenarios if s.tilt == middle) or problem.scenarios[:1]
+
+
 def energy_plot(result: "DesignResult", folder: str | Path) -> list[Path]:
     """Write ``energy.png`` (``energy-<scenario>.png`` with several scenarios) into ``folder``."""
     plt = pyplot()
@@ -55,7 +100,10 @@ def energy_plot(result: "DesignResult", folder: str | Path) -> list[Path]:
     paths = []
     # closed loops: only the independent coordinates are swept; the dependent ones follow on the manifold
     rows = [(sub, name) for sub in problem.subsystems for name in sub.coordinates if not problem.coordinate[name].dependent]
-    for scenario in problem.scenarios:
+    scenarios = plotted_scenarios(problem)
+    verification = result.verification
+    tolerance = problem.settings.verify_tolerance
+    for scenario in scenarios:
         gravity, base = solution.scenario_parameters[scenario.name]
         variables = solution.variable_values(scenario.name)
         home = {c.name: c.home for c in problem.coordinates}
@@ -83,6 +131,9 @@ def energy_plot(result: "DesignResult", folder: str | Path) -> list[Path]:
             ax.plot(x, grav + spring, label="total", color="black", linewidth=2)
             ax.set_xlabel(xlabel)
             ax.set_ylabel("potential energy [J]")
+            reference = verification.reference("revolute" if coord.unit.dimension == "" else "prismatic") if verification.checks else 0.0
+            # energy: at least ±tolerance × the reference torque over one unit of the coordinate
+            _floor_axis(ax, [bodies, grav, grav + spring] + ([spring] if problem.springs else []), tolerance * reference)
             ax.set_title(f"{sub.name}: energy against {name}", fontsize=10)
             ax.grid(alpha=0.3)
             qmat = np.column_stack([coords[c] for c in sub.coordinates])
@@ -100,11 +151,16 @@ def energy_plot(result: "DesignResult", folder: str | Path) -> list[Path]:
             ax.plot(x, res[:, j], label="residual ∂V/∂q of the design", color="black", linewidth=2)
             ax.set_xlabel(xlabel)
             ax.set_ylabel(f"∂V/∂{name} [{unit}]")
+            _floor_axis(ax, [torque[:, j], res[:, j]], tolerance * reference)
+            _balance_note(ax, np.asarray(res[:, j]), reference, tolerance)
             ax.set_title(f"{sub.name}: generalized force on {name}", fontsize=10)
             ax.grid(alpha=0.3)
         title = f"{problem.name}: {result.status.value}, added mass {solution.added_mass:.4g} kg"
-        if len(problem.scenarios) > 1:
-            title += f", scenario {scenario.name}"
+        if len(scenarios) > 1:
+            title += f", scenario {scenario.setting or scenario.name if problem.tilts else scenario.name}"
+        if problem.tilts:
+            title += " (base upright: middle of the tilt ranges)" if all(
+                abs(a) < 1e-12 for a in scenario.tilt) else f" ({scenario.description})"
         note = "other coordinates of each subsystem at home" + ("; closed loops: dependent coordinates on the manifold" if problem.loops else "")
         fig.suptitle(title + f"\n({note})", fontsize=11)
         legend: dict[str, object] = {}
@@ -112,7 +168,8 @@ def energy_plot(result: "DesignResult", folder: str | Path) -> list[Path]:
             for handle, label in zip(*ax.get_legend_handles_labels()):
                 legend.setdefault(label, handle)
         fig.legend(list(legend.values()), list(legend.keys()), loc="outside lower center", ncols=3, fontsize=9)
-        path = Path(folder) / ("energy.png" if len(problem.scenarios) == 1 else f"energy-{scenario.name}.png")
+        label = (scenario.setting or scenario.name) if problem.tilts else scenario.name
+        path = Path(folder) / ("energy.png" if len(scenarios) == 1 else f"energy-{label}.png")
         save(fig, path)
         paths.append(path)
     return paths

@@ -36,21 +36,21 @@ from .rows import (
 FLOAT_FORMAT = "%.10g"
 
 
-def _cell(value: object) -> object:
+def _cell(value: object, float_format: str = FLOAT_FORMAT) -> object:
     if value is None:
         return ""
     if isinstance(value, float):
-        return "" if math.isnan(value) else FLOAT_FORMAT % value
+        return "" if math.isnan(value) else float_format % value
     return value
 
 
-def csv_text(rows: Iterable[Row], columns: Sequence[str]) -> str:
+def csv_text(rows: Iterable[Row], columns: Sequence[str], float_format: str = FLOAT_FORMAT) -> str:
     """CSV text with a header line; cells in ``columns`` order."""
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
     writer.writerow(columns)
     for row in rows:
-        writer.writerow([_cell(row.get(c)) for c in columns])
+        writer.writerow([_cell(row.get(c), float_format) for c in columns])
     return buffer.getvalue()
 
 
@@ -123,12 +123,13 @@ def atomic_folder(folder: Path, fill: Callable[[Path], None]) -> Path:
 def report_texts(result: DesignResult) -> dict[str, str]:
     """File name -> text of every report of ``result`` (substitution.csv only when the
     problem substitutes a body; payload problems add ``schedule.csv``; problems with
-    catalogue parts ``springs.csv`` and ``tolerance.csv``)."""
+    catalogue parts ``springs.csv`` and ``tolerance.csv``; problems with free-stiffness
+    springs ``springs.csv``; problems with springs or counter-masses ``build.csv``, :mod:`.build`)."""
     texts = {
         "design.csv": csv_text(design_rows(result) + parts.part_design_rows(result), DESIGN_COLUMNS),
         "summary.csv": csv_text([summary_row(result)], SUMMARY_COLUMNS),
         "verification.csv": csv_text(verification_rows(result), VERIFICATION_COLUMNS),
-        "status.txt": status_text(result) + parts.parts_status(result),
+        "status.txt": status_text(result) + parts.parts_status(result) + parts.designed_status(result),
     }
     from ..formulation.assumptions import degeneracies
 
@@ -141,18 +142,24 @@ def report_texts(result: DesignResult) -> dict[str, str]:
         texts["status.txt"] += payload_status_lines(result)
         if result.payload.schedule is not None:
             texts["schedule.csv"] = csv_text(schedule_rows(result), schedule_columns(result))
-    if result.parts is not None:
+    if result.parts is not None or result.springs:
         texts["springs.csv"] = csv_text(parts.springs_rows(result), parts.SPRINGS_COLUMNS)
+    if result.parts is not None:
         texts["tolerance.csv"] = csv_text(parts.tolerance_rows(result), parts.TOLERANCE_COLUMNS)
+    if result.problem.springs or result.problem.counter_masses:
+        from .build import BUILD_COLUMNS, BUILD_FLOAT_FORMAT, build_rows
+
+        texts["build.csv"] = csv_text(build_rows(result), BUILD_COLUMNS, BUILD_FLOAT_FORMAT)
     return texts
 
 
-def write_reports(result: DesignResult, out_dir: str | Path, extra: Callable[[Path], object] | None = None) -> Path:
+def write_reports(result: DesignResult, out_dir: str | Path, extra: Callable[[Path], object] | None = None, html: bool = False) -> Path:
     """Write every report of ``result`` into ``out_dir/<problem name>/``; returns that folder.
 
     The folder appears whole or not at all (:func:`atomic_folder`): it replaces what was
     there (reports of an earlier run included) only once every file is written.
-    ``extra(folder)`` writes more files into it first (the CLI's ``--plot``).
+    ``extra(folder)`` writes more files into it first (the CLI's ``--plot``). ``html``: then
+    ``report.html``, the page of every file and plot in the folder (:mod:`.html`).
     """
     texts = report_texts(result)  # built before anything is written
 
@@ -162,5 +169,12 @@ def write_reports(result: DesignResult, out_dir: str | Path, extra: Callable[[Pa
                 handle.write(text)
         if extra is not None:
             extra(temp)
+        if html:
+            from .html import IMAGES, report_html
+
+            images = {name: (temp / name).read_bytes() for name, *_ in IMAGES if (temp / name).is_file()}
+            page = report_html(result.problem.name, result.problem.title, result.status.value, texts, images)
+            with (temp / "report.html").open("w", encoding="utf-8", newline="") as handle:
+                handle.write(page)
 
     return atomic_folder(Path(out_dir) / result.problem.name, fill)

@@ -1,19 +1,32 @@
-"""Reports of catalogue parts: ``springs.csv``, ``tolerance.csv``, design rows and status lines.
+"""Reports of springs: ``springs.csv``, ``tolerance.csv``, design rows and status lines.
 
-``springs.csv`` has one row per spring and scenario (``kind = spring``; a payload range:
-one scenario per payload of its schedule, named after its working mode and payload): its
-part, the distance between its attachment points, its own length (d + L0 − F0/k behind
-the string) and its force (k·d) over every checked configuration of that scenario, the
-part's limits and the three margins (≥ 0: the limit holds). It ends with the bill of materials (``kind = bom``): per
-part the quantity and, where the catalogue gives one, the unit and total price.
-Lengths in mm, forces in N.
+``springs.csv`` has one row per spring and scenario (a payload range: one scenario per
+payload of its schedule, named after its working mode and payload) and, when there are
+several scenarios, a summary row per spring with ``scenario = all``: the extremes over all
+of them. Each row gives the distance between the spring's attachment points, its own
+length (d + L0 − F0/k behind a pulley) and its force (k·d) over every checked
+configuration, its limits and the three margins (≥ 0: the limit holds).
+
+- ``kind = spring``: a catalogue part (its part number, the catalogue's data);
+- ``kind = designed``: a free-stiffness spring, with the helical extension spring designed
+  for it (:mod:`counterpoise.springs`): the spec a spring maker quotes from (rate and its
+  tolerance, wire, coils, diameters, lengths, initial tension and its windable band,
+  stresses and allowables, safety factor, mass, material); ``note`` says why no spring
+  could be designed, or what the design cannot do;
+- ``kind = bom``: the bill of materials of catalogue parts: per part the quantity and,
+  where the catalogue gives one, the unit and total price.
+
+Lengths in mm, forces in N, stresses in MPa, masses in g.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
+from typing import Any
 
 from ..pipeline import DesignResult
+from ..springs.workspace import ALL
 from .rows import Row
 
 SPRINGS_COLUMNS = [
@@ -38,17 +51,66 @@ SPRINGS_COLUMNS = [
     "margin_load_N",
     "unit_price",
     "price",
+    "rate_N_per_mm",
+    "rate_tolerance",
+    "material",
+    "wire_diameter_mm",
+    "mean_diameter_mm",
+    "outer_diameter_mm",
+    "spring_index",
+    "body_coils",
+    "active_coils",
+    "body_length_mm",
+    "initial_tension_band_min_N",
+    "initial_tension_band_max_N",
+    "body_stress_MPa",
+    "hook_bending_stress_MPa",
+    "hook_torsion_stress_MPa",
+    "allowable_body_MPa",
+    "allowable_hook_bending_MPa",
+    "allowable_hook_torsion_MPa",
+    "safety_factor",
+    "mass_g",
+    "note",
 ]
+#: the scenario of a spring's summary row (extremes over every scenario)
+ALL_SCENARIOS = ALL
 TOLERANCE_COLUMNS = ["case", "deviation", "residual_ratio", "adjusted_residual_ratio", "adjustment"]
 
 
 def springs_rows(result: DesignResult) -> list[Row]:
+    """Catalogue parts per scenario (and ``all``), designed springs likewise, then the bill."""
+    rows = _part_rows(result) + designed_rows(result)
+    parts = result.parts
+    if parts is None:
+        return rows
+    for line in parts.bill:
+        rows.append(
+            {
+                "kind": "bom",
+                "part_number": line.part_number,
+                "count": line.quantity,
+                "unit_price": None if math.isnan(line.unit_price) else line.unit_price,
+                "price": None if math.isnan(line.unit_price) else line.price,
+            }
+        )
+    return rows
+
+
+def _part_rows(result: DesignResult) -> list[Row]:
     parts = result.parts
     if parts is None:
         return []
     mm = 1e3
     rows: list[Row] = []
-    for u in parts.by_scenario or parts.springs:
+    uses = list(parts.by_scenario or parts.springs)
+    if parts.by_scenario and len(parts.by_scenario) > len(parts.springs):  # several scenarios: a summary row each
+        uses += [replace(u, scenario=ALL_SCENARIOS) for u in parts.springs]
+    slots = {s.name: s for s in result.problem.slots}
+    for u in uses:
+        slot = slots.get(u.slot)
+        i = parts.chosen.get(u.slot)
+        cat = slot.catalogue if slot is not None else None
         rows.append(
             {
                 "kind": "spring",
@@ -70,19 +132,106 @@ def springs_rows(result: DesignResult) -> list[Row]:
                 "margin_slack_mm": u.margin_slack * mm,
                 "margin_length_mm": u.margin_length * mm,
                 "margin_load_N": u.margin_load,
-            }
-        )
-    for line in parts.bill:
-        rows.append(
-            {
-                "kind": "bom",
-                "part_number": line.part_number,
-                "count": line.quantity,
-                "unit_price": None if math.isnan(line.unit_price) else line.unit_price,
-                "price": None if math.isnan(line.unit_price) else line.price,
+                **(_catalogue_data(cat, i, slot.rate_tolerance) if cat is not None and i is not None else {}),
             }
         )
     return rows
+
+
+def _catalogue_data(cat: Any, i: int, rate_tolerance: float) -> Row:
+    """What the catalogue says of its part ``i`` in the spec columns (blank when unknown)."""
+    mm = 1e3
+
+    def known(v: float, scale: float = 1.0) -> float | None:
+        return None if math.isnan(v) else v * scale
+
+    return {
+        "rate_N_per_mm": cat.rate[i] / mm,
+        "rate_tolerance": rate_tolerance,
+        "material": cat.material[i],
+        "wire_diameter_mm": known(cat.wire_diameter[i], mm),
+        "outer_diameter_mm": known(cat.outer_diameter[i], mm),
+        "mass_g": known(cat.mass[i], 1e3),
+    }
+
+
+def designed_rows(result: DesignResult) -> list[Row]:
+    """``kind = designed``: each free-stiffness spring's designed helical spring, per
+    scenario and (several scenarios) over ``all`` of them."""
+    mm, mpa = 1e3, 1e-6
+    rows: list[Row] = []
+    several = any(u.scenario == ALL_SCENARIOS for u in result.springs)
+    for u in result.springs:
+        s = u.design
+        row: Row = {
+            "kind": "designed",
+            "spring": u.spring,
+            "count": 1,
+            "scenario": u.scenario,
+            "min_distance_mm": u.distance_min * mm,
+            "max_distance_mm": u.distance_max * mm,
+            "min_force_N": u.force_min,
+            "max_force_N": u.force_max,
+            "rate_tolerance": s.rate_tolerance,
+            "material": s.material.name,
+            "note": "; ".join(s.reasons + s.warnings) if not several or u.scenario == ALL_SCENARIOS else "",  # once per spring
+        }
+        if s.ok:
+            row.update(
+                {
+                    "min_length_mm": u.length_min * mm,
+                    "max_length_mm": u.length_max * mm,
+                    "free_length_mm": s.free_length * mm,
+                    "part_max_length_mm": s.max_length * mm,
+                    "initial_tension_N": s.initial_tension,
+                    "part_max_load_N": s.max_force,
+                    "margin_slack_mm": u.margin_slack * mm,
+                    "margin_length_mm": u.margin_length * mm,
+                    "margin_load_N": u.margin_load,
+                    "rate_N_per_mm": s.rate / mm,
+                    "wire_diameter_mm": s.wire_diameter * mm,
+                    "mean_diameter_mm": s.mean_diameter * mm,
+                    "outer_diameter_mm": s.outer_diameter * mm,
+                    "spring_index": s.index,
+                    "body_coils": s.body_coils,
+                    "active_coils": s.active_coils,
+                    "body_length_mm": s.body_length * mm,
+                    "initial_tension_band_min_N": s.initial_tension_band[0],
+                    "initial_tension_band_max_N": s.initial_tension_band[1],
+                    "body_stress_MPa": s.body_stress * mpa,
+                    "hook_bending_stress_MPa": s.hook_bending_stress * mpa,
+                    "hook_torsion_stress_MPa": s.hook_torsion_stress * mpa,
+                    "allowable_body_MPa": s.allowable_body * mpa,
+                    "allowable_hook_bending_MPa": s.allowable_hook_bending * mpa,
+                    "allowable_hook_torsion_MPa": s.allowable_hook_torsion * mpa,
+                    "safety_factor": s.safety_factor,
+                    "mass_g": s.mass * 1e3,
+                }
+            )
+        rows.append(row)
+    return rows
+
+
+def designed_status(result: DesignResult) -> str:
+    """One status line per designed spring (the ``all`` design when there are several
+    scenarios): what was designed, or why nothing could be, and what it cannot do."""
+    several = any(u.scenario == ALL_SCENARIOS for u in result.springs)
+    lines = []
+    for u in result.springs:
+        if several and u.scenario != ALL_SCENARIOS:
+            continue
+        s = u.design
+        if not s.ok:
+            lines.append(f"designed spring {u.spring}: none within the rules: {'; '.join(s.reasons)}")
+            continue
+        lines.append(
+            f"designed spring {u.spring}: {s.material.name}, wire {1e3 * s.wire_diameter:.4g} mm, outer diameter "
+            f"{1e3 * s.outer_diameter:.4g} mm, {s.body_coils:g} body coils, free length {1e3 * s.free_length:.4g} mm, "
+            f"rate {s.rate / 1e3:.4g} N/mm ±{100 * s.rate_tolerance:g} %, {u.force_min:.4g}-{u.force_max:.4g} N, "
+            f"safety factor {s.safety_factor:.3g}, {1e3 * s.mass:.3g} g"
+        )
+        lines += [f"warning: designed spring {u.spring}: {w}" for w in s.warnings]
+    return "".join(f"{line}\n" for line in lines)
 
 
 def tolerance_rows(result: DesignResult) -> list[Row]:

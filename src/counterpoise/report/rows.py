@@ -6,10 +6,12 @@ Pure data, no pandas: the CLI writes them with the standard library (:mod:`.file
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 from ..pipeline import DesignResult
-from ..verify.checks import PRISMATIC, REVOLUTE
+from ..model.problem import Problem
+from ..verify.checks import PRISMATIC, REVOLUTE, CoordinateCheck
 
 Row = dict[str, Any]
 
@@ -33,6 +35,7 @@ SUMMARY_COLUMNS = [
     "starts_reaching_best",
     "worst_scenario",
     "lower_bound_ratio",
+    "parts",
 ]
 VERIFICATION_COLUMNS = [
     "subsystem",
@@ -79,12 +82,16 @@ def design_rows(result: DesignResult) -> list[Row]:
     for slot, value in result.solution.values.items():
         v = problem.variable[slot.variable]
         u = v.unit
+        side = v.bound_side(value)
+        # a value within the bound tolerance of its bound is reported as the bound itself
+        # (not 2.34e-08 mm off it): "at a bound" means one thing everywhere (model.problem)
+        shown = v.lower if side == "lower" else v.upper if side == "upper" else value
         rows.append(
             {
                 "name": v.name,
                 "kind": "variable",
                 "scenario": slot.scenario or "",
-                "value": u.from_si(value),
+                "value": u.from_si(shown),
                 "unit": u.label,
                 "lower": u.from_si(v.lower),
                 "upper": u.from_si(v.upper),
@@ -93,6 +100,7 @@ def design_rows(result: DesignResult) -> list[Row]:
                 "description": v.description,
             }
         )
+    rows += constraint_rows(result)
     units = {q.name: q for q in problem.report}
     for qv in result.quantities:
         q = units[qv.name]
@@ -107,6 +115,52 @@ def design_rows(result: DesignResult) -> list[Row]:
                 "upper": None,
                 "active_bound": "",
                 "description": q.description,
+            }
+        )
+    return rows
+
+
+def constraint_rows(result: DesignResult) -> list[Row]:
+    """One ``constraint`` row per design constraint (and scenario, when there are several):
+    its value at the design, its bounds, ``active_bound`` (lower, upper, violated or empty)
+    and, for an active one, the sensitivity of the optimal objective to its bound."""
+    problem = result.problem
+    rows: list[Row] = []
+    values = list(result.solution.constraints)
+    by_name: dict[str, list[Any]] = {}
+    for v in values:
+        by_name.setdefault(v.name, []).append(v)
+    # like report quantities: one row when every scenario agrees (value and mark), else one per scenario
+    shown = []
+    for group in by_name.values():
+        first = group[0]
+        same = all(v.active == first.active and (v.value == first.value or abs(v.value - first.value) <= 1e-12 * abs(first.value)) for v in group)
+        # one bound for every scenario: the objective's sensitivity to it is the sum of theirs
+        total = sum(v.sensitivity for v in group)
+        shown += [(first, "", total)] if same else [(v, v.scenario, v.sensitivity) for v in group]
+    for v, scenario, sensitivity in shown:
+        c = v.constraint
+        u = c.unit
+        text = c.description
+        if v.active in ("lower", "upper") and sensitivity == sensitivity:
+            # ∂objective/∂bound: objective units (kg) per SI unit of the constraint -> per display unit
+            per = sensitivity * u.to_si
+            text = f"{text}; " if text else ""
+            text += f"d(objective)/d({v.active} bound) = {per:.6g} per {u.label}"
+        if v.configuration:
+            at = ", ".join(f"{n}={problem.coordinate[n].unit.from_si(x):.6g} {problem.coordinate[n].unit.label}".rstrip() for n, x in v.configuration.items())
+            text = f"{text}; extreme at {at}" if text else f"extreme at {at}"
+        rows.append(
+            {
+                "name": c.name,
+                "kind": "constraint",
+                "scenario": scenario,
+                "value": u.from_si(v.value),
+                "unit": u.label,
+                "lower": u.from_si(c.lower) if c.lower is not None else None,
+                "upper": u.from_si(c.upper) if c.upper is not None else None,
+                "active_bound": v.active,
+                "description": text,
             }
         )
     return rows
@@ -135,7 +189,27 @@ def summary_row(result: DesignResult) -> Row:
         "starts_reaching_best": f"{s.starts[0]}/{s.starts[1]}",
         "worst_scenario": worst.scenario if (worst := v.worst()) is not None else "",
         "lower_bound_ratio": result.parts.search.lower_bound_ratio if result.parts is not None else None,
+        "parts": chosen_parts(result),
     }
+
+
+def chosen_parts(result: DesignResult) -> str:
+    """The catalogue parts chosen, 'slot: part number' per slot ('' without slots)."""
+    if result.parts is None or not result.problem.slots:
+        return ""
+    by_name = {slot.name: slot for slot in result.problem.slots}
+    return "; ".join(
+        f"{name}: {by_name[name].catalogue.part_number[row]}" for name, row in result.parts.chosen.items() if name in by_name
+    )
+
+
+def _scenario_label(problem: Problem, check: CoordinateCheck) -> str:
+    """A check's scenario; on a tilting base, the working mode checked at random tilts
+    ('nominal (all tilts)'), since one check covers every node of its tilt grid."""
+    if not check.worst_tilt:
+        return check.scenario
+    own = next((s for s in problem.scenarios if s.name == check.scenario), None)
+    return f"{own.setting if own is not None and own.setting else check.scenario} (all tilts)"
 
 
 def verification_rows(result: DesignResult) -> list[Row]:
@@ -147,7 +221,7 @@ def verification_rows(result: DesignResult) -> list[Row]:
         rows.append(
             {
                 "subsystem": c.subsystem,
-                "scenario": c.scenario,
+                "scenario": _scenario_label(problem, c),
                 "coordinate": c.coordinate,
                 "max_residual": c.max_residual,
                 "max_gravity_torque": c.max_gravity_torque,
@@ -157,7 +231,8 @@ def verification_rows(result: DesignResult) -> list[Row]:
                 "worst_configuration": "; ".join(
                     f"{k.name}={k.unit.from_si(x):.6g} {k.unit.label}".rstrip()
                     for k, x in zip(problem.subsystem_coordinates(c.subsystem), c.worst_configuration)
-                ),
+                )
+                + "".join(f"; tilt{i + 1}={math.degrees(a):.6g} deg" for i, a in enumerate(c.worst_tilt)),
             }
         )
     return rows
@@ -171,4 +246,11 @@ def status_text(result: DesignResult) -> str:
         f"message: {result.message}\n"
         f"solver: {s.solver} ({s.solver_status}), {s.iterations} iterations\n"
         f"balance conditions: {s.conditions} ({s.condition_summary})\n"
+        + (
+            "closest design: the least-squares fit of the balance conditions (not the design of the "
+            "smallest worst residual: a minimax design may reach a smaller one; the residuals above are "
+            "this design's, from the dense check)\n"
+            if result.status.value == "infeasible" and s.sampled_ratio is None
+            else ""
+        )
     )

@@ -67,8 +67,11 @@ def payload_status_lines(result: DesignResult) -> str:
         for line in plan.lines:
             v = variables[line.variable]
             slope = line.slope * unit.to_si / v.unit.to_si
+            # an offset that is rounding noise of the fit (8.3e-14 mm) is shown as 0
+            size = abs(line.intercept) + abs(line.slope) * max(abs(outcome.checked[0]), abs(outcome.checked[1]))
+            intercept = 0.0 if abs(line.intercept) <= max(line.deviation, 1e-9 * size) else line.intercept
             lines.append(
-                f"linear in the payload: {v.name} = {v.unit.from_si(line.intercept):.8g} {v.unit.label} + "
+                f"linear in the payload: {v.name} = {v.unit.from_si(intercept):.8g} {v.unit.label} + "
                 f"{slope:.8g} {v.unit.label}/{unit.label} × {payload.name} (largest deviation {v.unit.from_si(line.deviation):.2g} {v.unit.label})"
             )
     if outcome.widest is not None:

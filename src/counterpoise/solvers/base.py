@@ -33,6 +33,9 @@ class SolverOutput:
     iterations: int
     solve_time: float  # wall seconds of this call
     solver: str  # backend name, e.g. "ipopt"
+    #: the constraint rows' multipliers λ (CasADi's sign: ∇f + Jᵀλ = 0, so ∂f*/∂(bound) = −λ);
+    #: None when the backend gave none
+    multipliers: np.ndarray | None = None
 
 
 @dataclass(frozen=True)

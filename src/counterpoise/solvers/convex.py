@@ -126,8 +126,9 @@ class ConeProgram:
         return bool(np.isfinite(self.P).all() and np.isfinite(self.q).all() and np.isfinite(self.A).all() and np.isfinite(self.b).all())
 
 
-def solve_cone_program(lp: ConeProgram, options: Mapping[str, Any]) -> tuple[np.ndarray | None, str, int]:
-    """Solve with Clarabel: (y or None, Clarabel's status name, iterations)."""
+def solve_cone_program(lp: ConeProgram, options: Mapping[str, Any], duals: list[np.ndarray] | None = None) -> tuple[np.ndarray | None, str, int]:
+    """Solve with Clarabel: (y or None, Clarabel's status name, iterations). ``duals``: a
+    list that receives Clarabel's dual vector z (KKT: P y + q + Aᵀz = 0)."""
     import clarabel
 
     settings = clarabel.DefaultSettings()
@@ -147,6 +148,8 @@ def solve_cone_program(lp: ConeProgram, options: Mapping[str, Any]) -> tuple[np.
     solution = solver.solve()
     x = np.asarray(solution.x, dtype=float)
     y = x if x.size == lp.q.size and np.isfinite(x).all() else None
+    if duals is not None:
+        duals.append(np.asarray(solution.z, dtype=float))
     return y, str(solution.status), int(solution.iterations)
 
 
@@ -201,13 +204,31 @@ class ConvexBackend:
         b = np.concatenate([lbg[eq] - const[eq], lo[fix], const[ge] - lbg[ge], ubg[le] - const[le], -lo[below], hi[above]])
         # f(y) = f0 + grad·(y - y0) + ½ (y - y0)ᵀ H (y - y0): linear term grad - H y0
         program = ConeProgram(self.hessian, grad - self.hessian @ y0, A, b, int(eq.sum() + fix.sum()), int(b.size - eq.sum() - fix.sum()))
+        self._rows = (eq, fix, ge, le)
         return program, zref
+
+    def multipliers(self, z: np.ndarray) -> np.ndarray | None:
+        """The g rows' multipliers in CasADi's sign (∇f + Jᵀλ = 0) from Clarabel's duals ``z``
+        of the last :meth:`program`: λ = z on equalities and g ≤ ubg rows, −z on lbg ≤ g rows."""
+        eq, fix, ge, le = self._rows
+        counts = [int(eq.sum()), int(fix.sum()), int(ge.sum()), int(le.sum())]
+        if z.size < sum(counts):
+            return None
+        lam = np.zeros(eq.size)
+        at = 0
+        lam[eq] = z[at : at + counts[0]]
+        at += counts[0] + counts[1]
+        lam[ge] -= z[at : at + counts[2]]
+        at += counts[2]
+        lam[le] += z[at : at + counts[3]]
+        return lam
 
     def solve(self, z0: np.ndarray, p: np.ndarray, bounds: Bounds) -> SolverOutput:
         t0 = time.perf_counter()
         program, z = self.program(z0, p, bounds)
+        duals: list[np.ndarray] = []
         if program.finite():
-            y, code, iterations = solve_cone_program(program, self.options)
+            y, code, iterations = solve_cone_program(program, self.options, duals)
         else:
             y, code, iterations = None, f"{INVALID_DATA}: NaN or inf in the problem's coefficients", 0
         if y is not None:
@@ -220,4 +241,5 @@ class ConvexBackend:
             iterations=iterations,
             solve_time=time.perf_counter() - t0,
             solver=self.name,
+            multipliers=self.multipliers(duals[0]) if duals else None,
         )

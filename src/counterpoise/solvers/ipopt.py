@@ -99,4 +99,5 @@ class IpoptBackend:
             iterations=int(stats.get("iter_count", 0)),
             solve_time=elapsed,
             solver=self.name,
+            multipliers=np.array(out["lam_g"], dtype=float).reshape(-1),
         )

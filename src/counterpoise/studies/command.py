@@ -88,6 +88,8 @@ def check_varied_values(problem: Problem, plan: StudyPlan, overrides: dict[str, 
     for v in plan.varies:
         ends = [t.strip() for t in v.text.partition("=")[2].split(":")[:2]]
         for text in dict.fromkeys(ends):
+            if text in ("0", "0.0") and v.unit.symbol:  # a bare 0 is 0 in the range's unit (docs/studies.md)
+                text = f"0 {v.unit.symbol}"
             try:
                 load_problem(problem.path, {**overrides, override_key(v.key): text})
             except ProblemFileError as exc:
@@ -158,19 +160,29 @@ def _run(problem: Problem, plan: Any, options: StudyOptions, runner: Runner, tas
         TimeElapsedColumn(),
         TimeRemainingColumn(),
     )
-    with Progress(*columns, console=console, disable=not options.progress) as bar:
-        t0 = time.perf_counter()
-        state = {"done": 0, "failed": 0}
-        total = len(plan.points)
-        job = bar.add_task(f"{problem.name}", total=total, failed=0, rate="")
+    # the bar is shown once the study has started: a study refused before (its folder in use,
+    # a --resume of another plan) is one line on stderr, with no bar drawn
+    bar = Progress(*columns, console=console, disable=not options.progress)
+    t0 = time.perf_counter()
+    state = {"done": 0, "failed": 0}
+    total = len(plan.points)
+    job = bar.add_task(f"{problem.name}", total=total, failed=0, rate="")
 
-        def progress(results: list[PointResult]) -> None:
-            state["done"] += len(results)
-            state["failed"] += sum(r.status != "optimal" for r in results)
-            rate = state["done"] / max(time.perf_counter() - t0, 1e-9)
-            bar.update(job, advance=len(results), failed=state["failed"], rate=f"{rate:.1f} points/s")
+    def started(skipped: int) -> None:
+        bar.update(job, completed=skipped)
+        bar.start()
 
+    def progress(results: list[PointResult]) -> None:
+        state["done"] += len(results)
+        state["failed"] += sum(r.status != "optimal" for r in results)
+        rate = state["done"] / max(time.perf_counter() - t0, 1e-9)
+        bar.update(job, advance=len(results), failed=state["failed"], rate=f"{rate:.1f} points/s")
+
+    try:
         outcome = run_study(problem, plan, options.out, runner, task=task, resume=options.resume, batch_size=options.batch_size,
-                            progress=progress, started=lambda skipped: bar.update(job, completed=skipped))
+                            progress=progress, started=started)
         bar.update(job, completed=total)
+    finally:
+        if bar.live.is_started:
+            bar.stop()
     return outcome

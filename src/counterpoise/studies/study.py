@@ -4,23 +4,35 @@ The folder holds ``study.csv`` (one row per point, in point order) and ``study.j
 (the problem, the varied keys, the method, the seed and the columns). Rows are written in
 batches through a temporary file and a rename, so an interrupted study keeps every batch
 it finished; ``resume=True`` skips the points already in the file (the plan must be the
-same: same ``--vary``, method, samples and seed). A point that fails, raises or runs past
+same: same ``--vary``, method, samples and seed; a row whose varied values are not the
+plan's, or that is incomplete, is computed again). A point that fails, raises or runs past
 the time limit is recorded with its status and the study goes on.
+
+One study at a time writes a folder: :func:`study_lock` holds an exclusive ``flock`` on
+``.<name>-study.lock`` beside it, and a second study into it is an input error naming the
+holder (pid and host). A new study (without ``resume``) into a folder that holds one keeps
+that study until the new one completes: it runs in ``<name>-study.partial/``, which then
+replaces the folder; interrupted, it stays there and ``resume`` continues it.
 """
 
 from __future__ import annotations
 
 import csv
 import json
+import math
+import os
+import shutil
+import tempfile
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import ProblemFileError
 from ..model.problem import Problem
 from ..report.files import FLOAT_FORMAT, atomic_write_text
-from .runners import PointResult, Runner, SerialRunner, StudyTask, batched
+from .runners import ERROR, TIMEOUT, PointResult, Runner, SerialRunner, StudyTask, batched
 from .spec import StudyPlan
 
 FIXED_BEFORE = ["point"]
@@ -45,12 +57,126 @@ def study_folder(problem: Problem, out: str | Path) -> Path:
     return Path(out) / f"{problem.name}-study"
 
 
+def partial_folder(folder: Path) -> Path:
+    """Where a new study runs while the folder still holds the one it replaces."""
+    return folder.with_name(f"{folder.name}.partial")
+
+
+def study_in_progress(problem: Problem, out: str | Path) -> Path:
+    """The folder an interrupted study left its finished points in (``resume`` continues it)."""
+    folder = study_folder(problem, out)
+    partial = partial_folder(folder)
+    return partial if (partial / "study.csv").exists() else folder
+
+
+#: statuses a study row may hold (the design's, and a point's own)
+STATUSES = frozenset({"optimal", "infeasible", "failed", TIMEOUT, ERROR})
+
+
+@contextmanager
+def study_lock(folder: Path, label: str) -> Iterator[None]:
+    """Hold the exclusive lock of study ``folder`` (``flock`` on ``.<name>.lock`` beside it,
+    with this process's pid and host written in it); another holder is a
+    :class:`ProblemFileError` naming it. The lock file is removed on release; a process that
+    opened it just before then notices (its inode is no longer the path's) and tries again."""
+    import socket
+
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX: no lock (one study at a time is then the user's care)
+        yield
+        return
+    lock = folder.with_name(f".{folder.name}.lock")
+    lock.parent.mkdir(parents=True, exist_ok=True)
+    while True:
+        fd = os.open(lock, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o666)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            try:
+                holder = os.pread(fd, 200, 0).decode("utf-8", "replace").strip() or "starting"
+            finally:
+                os.close(fd)
+            raise ProblemFileError(
+                label, "--out", f"{folder} is being written by another study ({holder}): wait for it to end, or give another --out"
+            ) from None
+        try:
+            same = os.fstat(fd).st_ino == os.stat(lock).st_ino
+        except FileNotFoundError:
+            same = False
+        if same:
+            break
+        os.close(fd)
+    try:
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"pid {os.getpid()} on host {socket.gethostname()}\n".encode(), 0)
+        yield
+    finally:
+        lock.unlink(missing_ok=True)
+        os.close(fd)
+
+
+def _replace_folder(folder: Path, new: Path) -> None:
+    """Move the finished study ``new`` into ``folder`` (the old one aside, then removed)."""
+    old = None
+    if folder.exists():
+        old = Path(tempfile.mkdtemp(prefix=f".{folder.name}.", suffix=".old", dir=folder.parent))
+        os.replace(folder, old / folder.name)
+    try:
+        os.rename(new, folder)
+    except OSError:
+        if old is not None:  # put the old study back: nothing is lost
+            os.replace(old / folder.name, folder)
+        raise
+    finally:
+        if old is not None:
+            shutil.rmtree(old, ignore_errors=True)
+
+
+def _number(text: str | None) -> bool:
+    try:
+        return text is not None and math.isfinite(float(text))
+    except ValueError:
+        return False
+
+
+def row_is_done(row: dict[str, str | None], cols: list[str], expected: dict[str, str], variable_headers: list[str]) -> bool:
+    """Whether a ``study.csv`` row read back is a finished point of this plan: every column
+    there (no torn line), a known status and a solve time, the varied values ``expected`` (as
+    this plan writes them: a row of another study is not this point), and for an optimal
+    point every figure of the design."""
+    if None in row or any(row.get(c) is None for c in cols):
+        return False
+    if row["status"] not in STATUSES or not _number(row["solve_time_s"]):
+        return False
+    if any(row[header] != text for header, text in expected.items()):
+        return False
+    if row["status"] == "optimal":
+        figures = ["objective_kg", "added_mass_kg", "added_inertia_kg_m2", "residual_ratio", *variable_headers]
+        return all(_number(row[c]) for c in figures)
+    return True
+
+
+def _varied_texts(plan: StudyPlan, index: int) -> dict[str, str]:
+    return {v.header: _fmt(v.unit.from_si(plan.points[index][v.key])) for v in plan.varies}
+
+
 def variable_columns(problem: Problem) -> list[tuple[str, str, float]]:
-    """(result key, CSV header, SI size of the display unit) of every design-vector slot."""
+    """(result key, CSV header, SI size of the display unit) of every design-vector slot.
+
+    An adjustable variable has a value per scenario; with a payload range, per payload: its
+    columns are its settings at the lower end, the nominal and the upper end of the range
+    (``b@tool_0kg``...: the payloads every design is solved on), as in the design's slots."""
+    settings = [s.name for s in problem.scenarios]
+    if problem.payloads:
+        from ..payload.scenarios import payload_of, setting_name
+
+        payload = payload_of(problem)
+        settings = [setting_name(payload, m) for m in sorted({payload.lower, payload.nominal, payload.upper})]
     out = []
     for v in problem.variables:
-        for scenario in problem.scenarios if v.adjustable else [None]:
-            key = v.name if scenario is None else f"{v.name}@{scenario.name}"
+        for setting in settings if v.adjustable else [None]:
+            key = v.name if setting is None else f"{v.name}@{setting}"
             out.append((key, f"{key} [{v.unit.label}]", v.unit.to_si))
     return out
 
@@ -125,19 +251,64 @@ def run_study(
     """
     t0 = time.perf_counter()
     folder = study_folder(problem, out)
+    label = problem.path or problem.name
+    with study_lock(folder, label):
+        work, done = _prepare(problem, plan, folder, resume, label)
+        outcome = _run_points(problem, plan, work, done, runner, task, batch_size, flush_seconds, progress, started)
+        if work != folder:  # the new study is complete: it replaces the one that was there
+            _replace_folder(folder, work)
+    outcome.folder = folder
+    outcome.wall_time = time.perf_counter() - t0
+    return outcome
+
+
+def _prepare(problem: Problem, plan: StudyPlan, folder: Path, resume: bool, label: str) -> tuple[Path, dict[int, dict[str, str]]]:
+    """The folder to run in and the rows already done there (``resume``).
+
+    Resuming continues the unfinished new study (``.partial``) if there is one, else the
+    folder's; rows that are not a finished point of this plan are dropped (computed again).
+    A new study runs in the folder when it holds no study, else in ``.partial`` (emptied)."""
+    partial = partial_folder(folder)
+    cols = columns(problem, plan)
+    if resume:
+        work = partial if (partial / "study.csv").exists() else folder
+        done: dict[int, dict[str, str]] = {}
+        csv_path, meta_path = work / "study.csv", work / "study.json"
+        if csv_path.exists():
+            try:
+                meta = json.loads(meta_path.read_text(encoding="utf-8"))
+                rows = read_rows(csv_path)
+            except (OSError, ValueError) as exc:
+                raise ProblemFileError(label, "--resume", f"cannot read the study in {work}: {exc}") from None
+            if not isinstance(meta, dict) or meta.get("plan") != json.loads(json.dumps(plan.identity())) or meta.get("columns") != cols:
+                raise ProblemFileError(label, "--resume", f"{work} holds a study with other --vary/--samples/--seed or another problem; drop --resume to start again")
+            headers = [h for _, h, _ in variable_columns(problem)]
+            for r in rows:
+                point = r.get("point") or ""
+                if point.isdigit() and int(point) < len(plan.points) and row_is_done(r, cols, _varied_texts(plan, int(point)), headers):
+                    done[int(point)] = {c: r[c] for c in cols}  # type: ignore[misc]
+        return work, done
+    if (folder / "study.csv").exists() or (folder / "study.json").exists():
+        shutil.rmtree(partial, ignore_errors=True)
+        return partial, {}
+    shutil.rmtree(partial, ignore_errors=True)  # an unfinished replacement of a study since removed
+    return folder, {}
+
+
+def _run_points(
+    problem: Problem,
+    plan: StudyPlan,
+    folder: Path,
+    done: dict[int, dict[str, str]],
+    runner: Runner | None,
+    task: StudyTask | None,
+    batch_size: int,
+    flush_seconds: float,
+    progress: Callable[[list[PointResult]], None] | None,
+    started: Callable[[int], None] | None,
+) -> StudyOutcome:
     csv_path, meta_path = folder / "study.csv", folder / "study.json"
     cols = columns(problem, plan)
-    label = problem.path or problem.name
-    done: dict[int, dict[str, str]] = {}
-    if resume and csv_path.exists():
-        try:
-            meta = json.loads(meta_path.read_text(encoding="utf-8"))
-            rows = read_rows(csv_path)
-        except (OSError, ValueError) as exc:
-            raise ProblemFileError(label, "--resume", f"cannot read the study in {folder}: {exc}") from None
-        if meta.get("plan") != json.loads(json.dumps(plan.identity())) or meta.get("columns") != cols:
-            raise ProblemFileError(label, "--resume", f"{folder} holds a study with other --vary/--samples/--seed or another problem; drop --resume to start again")
-        done = {int(r["point"]): r for r in rows if r.get("point", "").isdigit() and int(r["point"]) < len(plan.points)}
     meta = {
         "problem": problem.name,
         "file": problem.path,
@@ -171,5 +342,4 @@ def run_study(
                 progress(results)
     finally:  # also when interrupted: keep every finished batch
         atomic_write_text(csv_path, _csv([rows[i] for i in sorted(rows)], cols))
-    outcome.wall_time = time.perf_counter() - t0
     return outcome

@@ -50,7 +50,7 @@ def evaluators(solution: "Solution", samples: int | None = None, seed: int | Non
     if found is None:
         rng = np.random.default_rng(seed)  # the draws follow (scenario, subsystem) order, as always
         found = []
-        for scenario in problem.scenarios:
+        for scenario in _checked_scenarios(problem):
             for sub in problem.subsystems:
                 if problem.subsystem_loops(sub.name):  # closed loops: on the configuration manifold
                     found.append((scenario.name, sub.name, ManifoldResiduals(problem, sub.name, n, rng, scenario.name)))  # type: ignore[arg-type]
@@ -61,15 +61,36 @@ def evaluators(solution: "Solution", samples: int | None = None, seed: int | Non
     return found
 
 
+def _checked_scenarios(problem: Problem) -> tuple[Any, ...]:
+    """The scenarios the dense check evaluates: all of them, except that the nodes of a tilt
+    grid that differ only in their tilt are checked once, at random tilts over the whole
+    tilt box (:func:`_at_random_tilts`), which covers every node."""
+    if not problem.tilts:
+        return problem.scenarios
+    seen, out = set(), []
+    for s in problem.scenarios:
+        key = (s.setting, s.upright, tuple(sorted(s.parameters.items()))) if s.upright is not None else s.name
+        if key not in seen:
+            seen.add(key)
+            out.append(s)
+    return tuple(out)
+
+
 def verify(solution: "Solution", samples: int | None = None, seed: int | None = None) -> Verification:
     """Check ``solution`` on random configurations plus corners, per (subsystem, scenario)."""
     problem = solution.problem
     checks = []
     found = []
-    for scenario, subsystem, evaluator in evaluators(solution, samples, seed):
+    tilted = {s.name: s for s in problem.scenarios if s.upright is not None and problem.tilts}
+    tilts: dict[tuple[str, str], np.ndarray] = {}
+    for index, (scenario, subsystem, evaluator) in enumerate(evaluators(solution, samples, seed)):
         variables = solution.variable_values(scenario)
         gravity, base = solution.scenario_parameters[scenario]
-        r, t = evaluator.evaluate(variables, base, gravity)
+        if scenario in tilted:
+            angles, r, t = _at_random_tilts(problem, tilted[scenario], evaluator, variables, base, gravity, index, seed)
+            tilts[(scenario, subsystem)] = angles
+        else:
+            r, t = evaluator.evaluate(variables, base, gravity)
         kinds = [REVOLUTE if problem.coordinate[name].unit.dimension == "" else PRISMATIC for name in evaluator.names]
         sampled = np.array([np.abs(t[:, j]).max() for j in range(t.shape[1])])
         found.append((scenario, subsystem, evaluator, variables, gravity, base, r, t, kinds, sampled))
@@ -85,7 +106,10 @@ def verify(solution: "Solution", samples: int | None = None, seed: int | None = 
         columns = [np.abs(r[:, j]) for j in range(r.shape[1])]
         residual = np.array([c.max() for c in columns])  # NaN if any is NaN
         candidates = np.array([load >= REFERENCE_CANDIDATE * top.get(kind, 0.0) and load > 0 for kind, load in zip(kinds, sampled)], dtype=bool)
-        loads = _box_loads(problem, subsystem, scenario, evaluator, t, sampled, candidates, variables, base, gravity)
+        if (scenario, subsystem) in tilts:  # the gravity differs per configuration: the sampled maxima
+            loads = sampled
+        else:
+            loads = _box_loads(problem, subsystem, scenario, evaluator, t, sampled, candidates, variables, base, gravity)
         balancers = np.array([np.abs(r[:, j] - t[:, j]).max() for j in range(r.shape[1])])
         scale = _energy_scale_if_needed(problem, subsystem, q, residual, loads, variables, base, gravity)
         for j, name in enumerate(evaluator.names):
@@ -103,9 +127,41 @@ def verify(solution: "Solution", samples: int | None = None, seed: int | None = 
                     energy_scale=scale,
                     configurations=int(q.shape[0]),
                     worst_configuration=tuple(float(v) for v in q[worst]),
+                    worst_tilt=tuple(float(a) for a in tilts[(scenario, subsystem)][worst]) if (scenario, subsystem) in tilts else (),
                 )
             )
     return Verification(tuple(checks), problem.settings.verify_tolerance)
+
+
+def _at_random_tilts(
+    problem: Problem, scenario: Any, evaluator: SubsystemResiduals, variables: Any, base: Any, gravity: Any, index: int, seed: int | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(tilt angles, residual, unbalanced gravity torque) of a tilting-base scenario, each
+    configuration at its own random tilt drawn uniformly from the tilt ranges.
+
+    Gravity enters the energy linearly, so r(q, g) = r(q, 0) + Σₖ gₖ [r(q, eₖ) − r(q, 0)]
+    exactly: four evaluations give every configuration its own gravity vector. The scenario
+    itself (a node of the tilt grid the design was balanced at) is one draw among many."""
+    n = evaluator.q.shape[0]
+    rng = np.random.default_rng([problem.settings.seed + 2 if seed is None else seed, index])
+    angles = np.column_stack([rng.uniform(t.lower, t.upper, n) for t in problem.tilts])
+    upright = scenario.upright
+    g0 = np.asarray(upright.direction, dtype=float)
+    directions = np.tile(g0, (n, 1))
+    for k, tilt in enumerate(problem.tilts):  # v ← R(axis, φ)ᵀ v, row by row (Rodrigues with −φ)
+        axis = np.asarray(tilt.axis, dtype=float)
+        c, s = np.cos(angles[:, k])[:, None], np.sin(angles[:, k])[:, None]
+        directions = directions * c - np.cross(axis, directions) * s + axis * (directions @ axis)[:, None] * (1 - c)
+    g = upright.acceleration * directions
+    r0, t0 = evaluator.evaluate(variables, base, (0.0, 0.0, 0.0))
+    r, t = r0.copy(), t0.copy()
+    for k in range(3):
+        unit = [0.0, 0.0, 0.0]
+        unit[k] = 1.0
+        rk, tk = evaluator.evaluate(variables, base, tuple(unit))
+        r += g[:, k : k + 1] * (rk - r0)
+        t += g[:, k : k + 1] * (tk - t0)
+    return angles, r, t
 
 
 #: coordinates whose sampled largest gravity torque is at least this share of the largest of

@@ -56,6 +56,8 @@ class CoordinateCheck:
     configurations: int
     worst_configuration: tuple[float, ...]  # coordinates of the subsystem, SI
     energy_scale: float = 0.0  # largest Σ |energy of each element| of the (subsystem, scenario), J
+    #: a tilting base: the tilt angles (rad) of the worst configuration (one per tilt)
+    worst_tilt: tuple[float, ...] = ()
 
     @property
     def unit(self) -> str:

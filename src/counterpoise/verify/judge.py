@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from ..model.tilt import tilt_text
 from ..solvers.base import Status
 from .checks import FORCE_NAME, CoordinateCheck, Verification
 
@@ -29,7 +30,7 @@ def judge(solution: "Solution", verification: Verification) -> tuple[Status, str
             return Status.FAILED, "verification failed: the residual could not be evaluated (NaN)"
         return Status.FAILED, (
             f"verification failed: subsystem '{worst.subsystem}', coordinate '{worst.coordinate}'"
-            f"{_scenario_text(solution, worst.scenario)} keeps a residual of {worst.max_residual:.3g} {worst.unit} "
+            f"{_scenario_text(solution, worst.scenario, worst)} keeps a residual of {worst.max_residual:.3g} {worst.unit} "
             f"(ratio {verification.residual_ratio:.2g} > {verification.tolerance:.0e})"
         )
     if solution.status is Status.INFEASIBLE:
@@ -47,8 +48,15 @@ def judge_minimax(solution: "Solution", verification: Verification) -> tuple[Sta
     return Status.OPTIMAL, f"{solution.message}; dense check: worst residual ratio {dense:.6g}"
 
 
-def _scenario_text(solution: "Solution", scenario: str) -> str:
-    return f" in scenario '{scenario}'" if len(solution.problem.scenarios) > 1 else ""
+def _scenario_text(solution: "Solution", scenario: str, check: CoordinateCheck | None = None) -> str:
+    problem = solution.problem
+    if problem.tilts and check is not None and check.worst_tilt:
+        # a tilting base: the tilt where the worst residual was found, and the working mode
+        own = next((s for s in problem.scenarios if s.name == scenario), None)
+        modes = {s.setting for s in problem.scenarios}
+        mode = f" in working mode '{own.setting}'" if own is not None and len(modes) > 1 else ""
+        return f"{mode} with the {tilt_text(problem.tilts, check.worst_tilt)}"
+    return f" in scenario '{scenario}'" if len(problem.scenarios) > 1 else ""
 
 
 def _share(verification: Verification, check: CoordinateCheck) -> str:
@@ -61,7 +69,7 @@ def _share(verification: Verification, check: CoordinateCheck) -> str:
 def _unmet_message(solution: "Solution", verification: Verification) -> str:
     problem = solution.problem
     parts = [
-        f"subsystem '{c.subsystem}', coordinate '{c.coordinate}'{_scenario_text(solution, c.scenario)}: "
+        f"subsystem '{c.subsystem}', coordinate '{c.coordinate}'{_scenario_text(solution, c.scenario, c)}: "
         f"residual up to {c.max_residual:.3g} {c.unit}{_share(verification, c)}"
         for c in verification.unmet()[:3]
     ]

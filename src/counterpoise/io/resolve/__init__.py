@@ -10,7 +10,7 @@ from __future__ import annotations
 from ...errors import ProblemFileError, raise_errors
 from ...model.problem import Problem, Settings
 from ..schema import ProblemFile
-from . import loops, mechanism, parts, payloads, quantities, report, robot, substitution
+from . import constraints, loops, mechanism, parts, payloads, quantities, report, robot, substitution
 from .context import REPORT_FUNCTIONS, RESERVED, Context
 
 __all__ = ["REPORT_FUNCTIONS", "RESERVED", "resolve"]
@@ -74,9 +74,11 @@ def _resolve(ctx: Context) -> Problem:
     slots = parts.slots(ctx, catalogues, slot_springs)
     selection = parts.selection(ctx)
     gravity = quantities.gravity(ctx, spec.gravity, "gravity")
-    scenarios = quantities.scenarios(ctx, gravity, parameters)
+    tilts = quantities.tilts(ctx, spec.gravity)
+    scenarios = quantities.tilted_scenarios(quantities.scenarios(ctx, gravity, parameters), tilts)
     objective = quantities.objective(ctx)
     reports = report.report(ctx, subsystems, by_name)
+    design_constraints = constraints.constraints(ctx, subsystems, by_name, springs, counter_masses)
     meta = spec.problem
     return Problem(
         name=meta.name,
@@ -101,4 +103,6 @@ def _resolve(ctx: Context) -> Problem:
         slots=slots,
         selection=selection,
         loops=closures,
+        constraints=design_constraints,
+        tilts=tilts,
     )

@@ -19,6 +19,7 @@ from ...errors import InputError, ProblemFileError, UnitError, raise_errors
 from ...model.functions import NUMPY_FUNCTIONS
 from ...model import expr as ex
 from ...model.mechanism import GROUND, Frame, Point
+from ...model.constraints import CONSTRAINT_FUNCTIONS
 from ...model.problem import Parameter
 from ...model.units import (
     DIMENSIONLESS,
@@ -29,6 +30,8 @@ from ...model.units import (
     Quantity,
     angle_hint,
     check_dimension,
+    canonical_dimension,
+    check_length_range,
     dimensionality_of,
     display_unit,
     is_angle_unit,
@@ -42,6 +45,9 @@ from ..schema import ProblemFile
 #: Functions report expressions may call besides the math functions. Their arguments name
 #: a subsystem (and a frame), e.g. ``total_mass(side_left)``, ``com_distance(leg, base)``.
 REPORT_FUNCTIONS = frozenset({"total_mass", "com_distance"})
+#: Functions whose arguments are names (of a subsystem, frame, spring, counter-mass): the
+#: report functions and the named quantities of constraints (counterpoise.model.constraints).
+NAME_FUNCTIONS = REPORT_FUNCTIONS | CONSTRAINT_FUNCTIONS
 RESERVED = frozenset(ex.MATH_FUNCTIONS | REPORT_FUNCTIONS | set(ex.CONSTANTS) | {GROUND})
 #: Random points of the box on which expressions that depend on variables or coordinates
 #: are checked for finite values (besides its corners).
@@ -137,7 +143,7 @@ class Context:
                     return ex.Num(q.si, q.unit.symbol)
             else:
                 tree = ex.parse(value, functions, read_quantity)
-            ex.check_names(tree, allowed, value, REPORT_FUNCTIONS & functions)
+            ex.check_names(tree, allowed, value, NAME_FUNCTIONS & functions)
             if self.coupled and ex.names(tree) & self.coupled.keys():
                 tree = ex.substitute(tree, self.coupled)
             return tree
@@ -153,7 +159,7 @@ class Context:
             return "" if tree.value != 0 else "zero"
         self.angle_kind(tree, raw, key)  # no bare number added to an angle
         reg = ureg()
-        env = {n: pint_quantity(self.symbol_value[n], self.symbol_unit[n]) for n in ex.names(tree, REPORT_FUNCTIONS) if n in self.symbol_unit}
+        env = {n: pint_quantity(self.symbol_value[n], self.symbol_unit[n]) for n in ex.names(tree, NAME_FUNCTIONS) if n in self.symbol_unit}
         funcs = numpy_functions()
         if extra:
             funcs.update(extra)
@@ -259,7 +265,10 @@ class Context:
             raise self.fail(key, f"{what} needs a unit: write e.g. '{raw} {example_unit(dimension)}'")
         with self.at(key):
             check_dimension(found, dimension, f"'{raw}'")
-        self.finite(tree, raw, key)
+        value = self.finite(tree, raw, key)
+        if not isinstance(tree, ex.Num):  # a literal was checked when it was read
+            with self.at(key):  # a length or position computed from parameters: the same bound
+                check_length_range(value, canonical_dimension(dimension), raw)
 
     def finite(self, tree: ex.Expr, raw: Any, key: str) -> float:
         """Evaluate at the given parameters and the initial design; the value must be finite."""
@@ -396,6 +405,7 @@ def read_quantity(number: float, unit: str) -> float | None:
     si = number * u.to_si
     if not math.isfinite(si):
         raise UnitError(f"value must be finite, got '{number:g} {unit}' (too large once converted to SI units)")
+    check_length_range(si, u.dimension, f"{number:g} {unit}")
     return si
 
 

@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import Any
 
 
 from ...model import expr as ex
-from ...model.elements import CounterMass, DirectMount, ZeroFreeLengthSpring
+from ...model.elements import CounterMass, DirectMount, SpringDesignOptions, ZeroFreeLengthSpring
 from ...model.mechanism import GROUND, Body, Coordinate, Frame, Rotation, Subsystem, Transform, Translation
 from ...model.units import (
     DIMENSIONLESS,
@@ -16,11 +17,14 @@ from ...model.units import (
     MASS,
     STIFFNESS,
     canonical_dimension,
+    check_dimension,
     dimension_name,
 )
 from ..schema import DHSpec, RotateSpec
 from . import loops
 from .context import RESERVED, Context, suggest, topological
+from .parts import tolerance
+from .quantities import same_angle_unit
 
 
 def subsystems(ctx: Context) -> tuple[tuple[Subsystem, ...], tuple[Coordinate, ...]]:
@@ -39,7 +43,11 @@ def subsystems(ctx: Context) -> tuple[tuple[Subsystem, ...], tuple[Coordinate, .
                 raise ctx.fail(f"{key}.range", f"a coordinate is an angle or a length, got {dimension_name(lo.dimension)}")
             if not lo.si < hi.si:
                 raise ctx.fail(f"{key}.range", f"empty range [{c.range[0]}, {c.range[1]}]: the lower end must be below the upper end")
-            home = ctx.literal(c.home, f"{key}.home").si if c.home is not None else 0.5 * (lo.si + hi.si)
+            home = 0.5 * (lo.si + hi.si)
+            if c.home is not None:
+                given = ctx.literal(c.home, f"{key}.home")
+                same_angle_unit(ctx, lo.unit, given, c.home, f"{key}.home")  # 'home = 90': radians? say so before the range
+                home = given.si
             if not lo.si <= home <= hi.si:
                 raise ctx.fail(f"{key}.home", "home lies outside the range")
             ctx.symbol_unit[cname] = lo.unit
@@ -255,8 +263,43 @@ def springs(ctx: Context, frames: Mapping[str, Frame]) -> tuple[ZeroFreeLengthSp
         subs = {ctx.subsystem_of(a.frame, frames), ctx.subsystem_of(b.frame, frames)} - {None}
         if len(subs) > 1:
             raise ctx.fail(key, f"connects subsystems {' and '.join(sorted(subs))}; subsystems must move independently")  # type: ignore[arg-type]
-        out.append(ZeroFreeLengthSpring(name, k, (a, b), next(iter(subs), None), s.description, s.slot, direct_mount(ctx, s, key)))
+        options = design_options(ctx, s, key)
+        out.append(ZeroFreeLengthSpring(name, k, (a, b), next(iter(subs), None), s.description, s.slot, direct_mount(ctx, s, key), options))
     return tuple(out)
+
+
+#: the keys of a free-stiffness spring's design (:class:`SpringDesignOptions`)
+DESIGN_KEYS = ("material", "max_outer_diameter", "max_body_length", "rate_tolerance", "min_safety_factor")
+
+
+def design_options(ctx: Context, s: Any, key: str) -> SpringDesignOptions:
+    """How the helical spring of a free-stiffness spring is designed (docs/springs.md)."""
+    given = {k: getattr(s, k) for k in DESIGN_KEYS if getattr(s, k) is not None}
+    if not given:
+        return SpringDesignOptions()
+    if s.slot is not None:
+        raise ctx.fail(f"{key}.{next(iter(given))}", "a spring with a slot is a catalogue part; only a free-stiffness spring is designed")
+    from ...springs.materials import materials  # numpy and a CSV only
+
+    values: dict[str, Any] = {}
+    if "material" in given:
+        known = materials()
+        if s.material not in known:
+            raise ctx.fail(f"{key}.material", f"unknown spring material '{s.material}'{suggest(s.material, list(known))} (known: {', '.join(known)})")
+        values["material"] = s.material
+    for field in ("max_outer_diameter", "max_body_length"):
+        if field in given:
+            q = ctx.literal(given[field], f"{key}.{field}")
+            with ctx.at(f"{key}.{field}"):
+                check_dimension(q.dimension, LENGTH, f"'{given[field]}'")
+            if not (math.isfinite(q.si) and q.si > 0):
+                raise ctx.fail(f"{key}.{field}", f"must be a positive length, got '{given[field]}'")
+            values[field] = q.si
+    if "rate_tolerance" in given:
+        values["rate_tolerance"] = tolerance(ctx, given["rate_tolerance"], f"{key}.rate_tolerance")
+    if "min_safety_factor" in given:
+        values["min_safety_factor"] = float(given["min_safety_factor"])
+    return SpringDesignOptions(**values)
 
 
 def direct_mount(ctx: Context, s: Any, key: str) -> DirectMount | None:

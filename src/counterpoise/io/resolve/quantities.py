@@ -13,6 +13,7 @@ from ...errors import InputError, ProblemFileError, UnitError
 from ...model import expr as ex
 from ...model.mechanism import Rotation
 from ...model.problem import Gravity, Objective, Parameter, Scenario, Variable
+from ...model.tilt import FULL_TURN, Tilt, angle_name, tilt_nodes, tilt_text, tilted
 from ...model.units import (
     ACCELERATION,
     COMPLIANCE_MASS,
@@ -195,6 +196,55 @@ def scenarios(ctx: Context, default_gravity: Gravity, parameters: tuple[Paramete
             check_scenario_values(ctx, values, key)
             out.append(Scenario(name, g, values, sc.description))
     ctx.check()
+    return tuple(out)
+
+
+def tilts(ctx: Context, g: Any) -> tuple[Tilt, ...]:
+    """The base tilts of ``[gravity] tilt``: each an axis of the base and a range of angles."""
+    out = []
+    for i, t in enumerate(getattr(g, "tilt", ()) or ()):
+        key = f"gravity.tilt[{i}]"
+        with ctx.item():
+            axis = [float(c) for c in t.axis]
+            norm = math.sqrt(sum(c * c for c in axis))
+            if not math.isfinite(norm) or norm == 0:
+                raise ctx.fail(f"{key}.axis", "must be a non-zero vector of finite numbers")
+            ends = [ctx.literal(r, f"{key}.range") for r in t.range]
+            if all(q.unit.symbol == "" and q.dimension == "" for q in ends) and any(q.si != 0 for q in ends):
+                lo, hi = (f"{q.si:g}" for q in ends)
+                raise ctx.fail(f"{key}.range", f"bare numbers used as an angle: write ['{lo} deg', '{hi} deg'] or give the unit rad")
+            if any(q.dimension != "" for q in ends):
+                raise ctx.fail(f"{key}.range", "a tilt is an angle: write it like '15 deg'")
+            lo, hi = (q.si for q in ends)
+            if not lo <= hi:
+                raise ctx.fail(f"{key}.range", f"empty range [{t.range[0]}, {t.range[1]}]: the lower end must not be above the upper end")
+            if hi - lo > FULL_TURN + 1e-12:
+                raise ctx.fail(f"{key}.range", "a tilt range spans at most a full turn (360 deg)")
+            out.append(Tilt((axis[0] / norm, axis[1] / norm, axis[2] / norm), lo, hi, t.description))
+    ctx.check()
+    return tuple(out)
+
+
+def tilted_scenarios(scenarios: tuple[Scenario, ...], tilts: tuple[Tilt, ...]) -> tuple[Scenario, ...]:
+    """Each scenario once per node of the tilt grid (:func:`tilt_nodes`); the copies of one
+    scenario share its setting (an adjustment is not reset as the base tilts)."""
+    if not tilts:
+        return scenarios
+    import itertools
+
+    grid = list(itertools.product(*(tilt_nodes(t) for t in tilts)))
+    default_only = len(scenarios) == 1 and scenarios[0].name == DEFAULT_SCENARIO and not scenarios[0].parameters
+    out = []
+    for s in scenarios:
+        for angles in grid:
+            suffix = "tilt_" + "_".join(angle_name(a) for a in angles)
+            name = suffix if default_only else f"{s.name}_{suffix}"
+            direction = tilted(s.gravity.direction, tilts, angles)
+            text = tilt_text(tilts, angles)
+            description = f"{s.description}, {text}" if s.description else text
+            out.append(
+                Scenario(name, Gravity(s.gravity.acceleration, direction), s.parameters, description, s.setting or s.name, tuple(angles), s.gravity)
+            )
     return tuple(out)
 
 

@@ -67,7 +67,14 @@ def read(ctx: Context) -> RobotModel | None:
         raise ctx.fail("robot.subsystem", f"'{spec.subsystem}' is also a [subsystems] table: name the robot's subsystem otherwise")
     for name in spec.joints:
         if not IDENTIFIER.match(name):
-            raise ctx.fail(f"robot.joints.{name}", f"'{name}' cannot be a coordinate name (letters, digits and '_', starting with a letter)")
+            fixed_name = re.sub(r"[^A-Za-z0-9_]", "_", name)
+            fixed_name = fixed_name if fixed_name[:1].isalpha() else f"j_{fixed_name}"
+            raise ctx.fail(
+                f"robot.joints.{name}",
+                f"'{name}' cannot be a coordinate name (letters, digits and '_', starting with a letter): rename the joint in a copy "
+                f"of the model, e.g. sed 's/\"{name}\"/\"{fixed_name}\"/g' {path.name} > renamed_{path.name}, and list joints.{fixed_name} "
+                "(a joint that is only locked or held may keep its name; see docs/robots.md)",
+            )
         if name in RESERVED or name in ctx.symbol_kind:
             where = f" by {ctx.symbol_kind[name]}.{name}" if name in ctx.symbol_kind else " (reserved)"
             raise ctx.fail(f"robot.joints.{name}", f"name '{name}' is already used{where}")
@@ -114,8 +121,11 @@ def _within(ctx: Context, joint: RobotJoint, values: list[float], unit: object, 
         return
     lo, hi = joint.limits
     if any(v < lo - LIMIT_SLACK or v > hi + LIMIT_SLACK for v in values):
-        show = [f"{unit.from_si(v):.6g} {unit.symbol}".strip() for v in (lo, hi)]  # type: ignore[attr-defined]
-        raise ctx.fail(key, f"{what} goes beyond the joint's limits [{show[0]}, {show[1]}] in the model")
+        # enough digits that a limit of ±3.14159 rad does not read as the ±180 deg it misses
+        show = [f"{unit.from_si(v):.10g} {unit.symbol}".strip() for v in (lo, hi)]  # type: ignore[attr-defined]
+        worst = max(max(lo - v, v - hi) for v in values)
+        beyond = f"{unit.from_si(worst) if unit.symbol != '' else worst:.3g} {unit.symbol}".strip()  # type: ignore[attr-defined]
+        raise ctx.fail(key, f"{what} goes beyond the joint's limits [{show[0]}, {show[1]}] in the model (by {beyond})")
 
 
 def coordinates(ctx: Context, model: RobotModel | None) -> tuple[tuple[Subsystem, ...], tuple[Coordinate, ...]]:

@@ -1,0 +1,229 @@
+"""After a solve: a designed helical extension spring for every free-stiffness spring.
+
+Each spring of the problem with a ``stiffness`` (no ``slot``) gets its requirement from the
+solved design over the dense sample of the workspace (the same random configurations plus
+box corners, or configuration-manifold samples for closed loops, that catalogue parts are
+checked on, drawn here from the mechanics layer; a payload range: every payload of its
+schedule):
+
+- behind a pulley (the default mount, docs/springs.md): the cable outside the pulley is
+  d = |from − to| long and the spring pulls F = k·d, so the working forces are k·d_min to
+  k·d_max; the design chooses its initial tension F0 ≤ k·d_min (the cable never goes
+  slack) and its length is L = d + L0 − F0/k;
+- directly attached (``mount = "direct"``): the spring is d − cable long, pulls
+  F = F0 + k (d − cable − L0) with the file's initial tension F0 and free length L0, and
+  must be wound with that F0 and fit that L0 (the hooks take up what the body leaves).
+
+:func:`designed_springs` returns one :class:`DesignedSpring` per spring and scenario, and
+one with ``scenario = "all"`` per spring when there are several scenarios (extremes over
+all of them: the one spring that is made).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from .design import Envelope, Requirement, SpringDesign, design
+
+#: the seed offset of the dense sample (the one catalogue parts are checked on)
+SEED_OFFSET = 11
+#: scenario label of a spring's extremes over every scenario
+ALL = "all"
+#: scenarios evaluated at once (memory: CHUNK × verify_samples values per spring)
+CHUNK = 64
+#: rates that differ by less than this share are one rate (rounding of a shared variable)
+RATE_SPREAD = 1e-9
+
+
+@dataclass(frozen=True)
+class DesignedSpring:
+    """A free-stiffness spring, its working range in one scenario (or ``all``) and the
+    helical spring designed for it (SI)."""
+
+    spring: str
+    scenario: str
+    mount: str  # "pulley" or "direct"
+    distance_min: float  # between the attachment points
+    distance_max: float
+    cable: float  # directly attached: the cable in series (0 behind a pulley)
+    design: SpringDesign
+
+    @property
+    def ok(self) -> bool:
+        return self.design.ok
+
+    @property
+    def force_min(self) -> float:
+        return self.design.requirement.force_min
+
+    @property
+    def force_max(self) -> float:
+        return self.design.requirement.force_max
+
+    @property
+    def length_min(self) -> float:
+        """The spring's own length (hooks included) at the shortest distance."""
+        return self.design.length_min
+
+    @property
+    def length_max(self) -> float:
+        return self.design.length_max
+
+    @property
+    def margin_slack(self) -> float:
+        """Extension at the shortest distance, (F_min − F0)/k (m; ≥ 0: the spring stays
+        extended and pulls as the balance needs; < 0: the cable goes slack)."""
+        return (self.force_min - self.design.initial_tension) / self.design.rate
+
+    @property
+    def margin_load(self) -> float:
+        return self.design.max_force - self.force_max
+
+    @property
+    def margin_length(self) -> float:
+        return self.design.max_length - self.length_max
+
+
+def free_springs(problem: Any) -> list[Any]:
+    """The springs of ``problem`` whose stiffness is given or designed (no catalogue slot)."""
+    return [s for s in problem.springs if s.slot is None]
+
+
+def sample(problem: Any, base: Mapping[str, float], samples: int, seed: int) -> dict[str, np.ndarray]:
+    """Per subsystem: ``samples`` random configurations plus the corners of its box, on
+    the configuration manifold (geometry ``base``) for closed loops. The same draws as the
+    sample catalogue parts are checked on (:func:`counterpoise.selection.geometry.sample_configurations`,
+    for one geometry), from the mechanics layer alone: the after-solve path imports no part search."""
+    from ..mechanics.closure import manifold_configurations
+    from ..mechanics.sampling import configurations
+
+    rng = np.random.default_rng(seed)
+    out = {}
+    for s in problem.subsystems:
+        if problem.subsystem_loops(s.name):
+            out[s.name] = manifold_configurations(problem, s.name, samples, rng, base).q
+        else:
+            out[s.name] = configurations(problem, s.name, samples, rng)
+    return out
+
+
+def distances(problem: Any, springs: list[Any], q: Mapping[str, np.ndarray], variables: Mapping[str, Any], base: Mapping[str, Any], gravity: Any) -> dict[str, np.ndarray]:
+    """|from − to| of each spring: (designs, configurations) arrays, designs (scenarios)
+    along axis 0 as in ``variables`` and ``base`` ((n, 1) arrays)."""
+    from ..mechanics import NUMPY_FUNCTIONS, Mechanics
+    from ..mechanics.kinematics import dot, sub
+
+    out: dict[str, np.ndarray] = {}
+    mechs: dict[Any, Any] = {}
+    for spring in springs:
+        key = spring.subsystem
+        if key not in mechs:
+            if key is not None:
+                coords = {c.name: q[key][None, :, i] for i, c in enumerate(problem.subsystem_coordinates(key))}
+            else:  # fixed to ground at both ends: one column
+                coords = {c.name: np.array([[c.home]]) for c in problem.coordinates}
+            mechs[key] = Mechanics(problem, base, variables, coords, gravity, NUMPY_FUNCTIONS)
+        mech = mechs[key]
+        v = sub(mech.position(spring.ends[0]), mech.position(spring.ends[1]))
+        out[spring.name] = np.sqrt(np.maximum(np.atleast_2d(np.asarray(dot(v, v), dtype=float)), 0.0))
+    return out
+
+
+def designed_springs(solution: Any) -> tuple[DesignedSpring, ...]:
+    """One :class:`DesignedSpring` per free-stiffness spring and scenario of ``solution``
+    (a payload design: per payload of its schedule), plus one per spring over ``all``
+    scenarios when there are several. Empty when the problem has no such spring."""
+    if not free_springs(solution.problem):
+        return ()
+    from ..mechanics import Mechanics
+    from ..mechanics.closure import geometry_key
+
+    outcome = getattr(solution, "payload", None)
+    checked = outcome.schedule_solution() if outcome is not None and getattr(outcome, "schedule", None) is not None else solution
+    problem = checked.problem
+    springs = free_springs(problem)
+    # per spring: scenario -> (rate, d_min, d_max, cable, F0, L0)
+    found: dict[str, dict[str, tuple[float, ...]]] = {s.name: {} for s in springs}
+    # scenarios with the same values (working modes differ in gravity alone) are evaluated
+    # once; scenarios that share a geometry of their closed loops share one sample
+    unique: dict[tuple[Any, ...], str] = {}
+    same: dict[str, str] = {}
+    every: dict[str, tuple[dict[str, float], dict[str, float]]] = {}
+    groups: dict[tuple[Any, ...], list[str]] = {}
+    loops = [s.name for s in problem.subsystems if problem.subsystem_loops(s.name)]
+    for sc in problem.scenarios:
+        values, base = checked.variable_values(sc.name), checked.scenario_parameters[sc.name][1]
+        key = (tuple(sorted(values.items())), tuple(sorted(base.items())))
+        same[sc.name] = unique.setdefault(key, sc.name)
+        every[sc.name] = (values, base)
+        if same[sc.name] == sc.name:
+            groups.setdefault(tuple(geometry_key(problem, name, base) for name in loops), []).append(sc.name)
+    settings = problem.settings
+    for names in groups.values():
+        q = sample(problem, every[names[0]][1], settings.verify_samples, settings.seed + SEED_OFFSET)
+        for start in range(0, len(names), CHUNK):  # scenarios along axis 0, configurations along axis 1
+            chunk = names[start : start + CHUNK]
+            values = [every[name][0] for name in chunk]
+            bases = [every[name][1] for name in chunk]
+            gravity = checked.scenario_parameters[chunk[0]][0]  # positions do not depend on it
+            variables = {k: np.array([[v[k]] for v in values]) for k in values[0]}
+            base = {k: np.array([[b[k]] for b in bases]) for k in bases[0]}
+            lengths = distances(problem, springs, q, variables, base, gravity)
+            mech = Mechanics(problem, base, variables, {c.name: c.home for c in problem.coordinates}, gravity)
+
+            def each(tree: Any) -> np.ndarray:
+                return np.broadcast_to(np.asarray(mech.value(tree), dtype=float).reshape(-1), (len(chunk),))
+
+            for s in springs:
+                d = np.broadcast_to(lengths[s.name], (len(chunk), lengths[s.name].shape[1]))
+                columns = [each(s.stiffness), d.min(axis=1), d.max(axis=1)]
+                if s.direct is None:
+                    columns += [np.zeros(len(chunk)), np.full(len(chunk), np.nan), np.full(len(chunk), np.nan)]
+                else:
+                    columns += [each(s.direct.cable), each(s.direct.initial_tension), each(s.direct.free_length)]
+                for j, name in enumerate(chunk):
+                    found[s.name][name] = tuple(float(c[j]) for c in columns)
+    out: list[DesignedSpring] = []
+    for s in springs:
+        rows = {sc.name: found[s.name][same[sc.name]] for sc in problem.scenarios}
+        needs = {name: _requirement(s, *values) for name, values in rows.items()}
+        if len(rows) > 1:  # the extremes over every scenario (the file's F0 and L0 are the first's)
+            first = next(iter(needs.values()))
+            rows[ALL] = (first.rate, min(v[1] for v in rows.values()), max(v[2] for v in rows.values()), *next(iter(rows.values()))[3:])
+            needs[ALL] = replace(first, force_min=min(r.force_min for r in needs.values()), force_max=max(r.force_max for r in needs.values()))
+        rates = [r.rate for r in needs.values()]
+        o = s.design
+        made = design(needs.get(ALL, first_of(needs)), o.material, Envelope(o.max_outer_diameter, o.max_body_length), o.rate_tolerance, o.min_safety_factor)
+        if max(rates) - min(rates) > RATE_SPREAD * max(rates):
+            why = f"its rate changes between scenarios ({min(rates):.6g}-{max(rates):.6g} N/m): no one spring has them all"
+            made = SpringDesign(made.material, made.requirement, reasons=(why,), rate_tolerance=made.rate_tolerance)
+        out.extend(_use(s, name, rows[name], needs[name], made) for name in rows)
+    return tuple(out)
+
+
+def first_of(needs: dict[str, Requirement]) -> Requirement:
+    return next(iter(needs.values()))
+
+
+def _requirement(spring: Any, k: float, d_min: float, d_max: float, cable: float, f0: float, l0: float) -> Requirement:
+    if spring.direct is None:
+        return Requirement(rate=k, force_min=k * d_min, force_max=k * d_max)
+    x_min, x_max = max(d_min - cable - l0, 0.0), max(d_max - cable - l0, 0.0)  # tension only
+    return Requirement(rate=k, force_min=f0 + k * x_min, force_max=f0 + k * x_max, initial_tension=f0, free_length=l0)
+
+
+def _use(spring: Any, scenario: str, values: tuple[float, ...], need: Requirement, made: SpringDesign) -> DesignedSpring:
+    """The spring ``made`` in one scenario: its working range there (forces ``need``, and
+    the lengths of the design at them)."""
+    d_min, d_max, cable = values[1:4]
+    f0, L0 = made.initial_tension, made.free_length
+    if spring.direct is None:  # the anchor sets the length: L = L0 + (F − F0)/k (NaN: no design)
+        lengths = (L0 + max(need.force_min - f0, 0.0) / made.rate, L0 + (need.force_max - f0) / made.rate)
+    else:  # attached directly: the geometry sets the length, d − cable, not below L0
+        lengths = (max(d_min - cable, L0), max(d_max - cable, L0))
+    made = replace(made, requirement=need, length_min=lengths[0], length_max=lengths[1])
+    return DesignedSpring(spring.name, scenario, "pulley" if spring.direct is None else "direct", d_min, d_max, cable, made)

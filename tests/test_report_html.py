@@ -1,0 +1,180 @@
+"""report.html: self-contained, complete, and rendered by a real browser (headless Chromium).
+
+The page of a catalogue design (yasir2019_hybrid_catalogue: springs.csv and tolerance.csv)
+with its plots is built once per module. Static checks need nothing but Python; the browser
+checks run Debian's ``chromium`` and are skipped, with the reason, where it is absent
+(``.ci/run`` installs it in CI).
+"""
+
+from __future__ import annotations
+
+import html
+import json
+import re
+import shutil
+import subprocess
+
+import pytest
+
+from conftest import ROOT, solved
+
+from counterpoise.report.files import write_reports
+
+CHROMIUM = shutil.which("chromium")
+NEEDS_CHROMIUM = pytest.mark.skipif(
+    CHROMIUM is None, reason="chromium is not installed (Debian package 'chromium'; .ci/run installs it in CI): no browser check"
+)
+#: the flags a headless Chromium needs here (run as root, offline, nothing of its own)
+FLAGS = (
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--hide-scrollbars",
+    "--host-resolver-rules=MAP * ~NOTFOUND",  # a request that leaves the machine fails, and shows
+    "--enable-logging=stderr",
+    "--v=0",
+    "--virtual-time-budget=5000",
+)
+#: the sections every page of a design with springs holds (their ids)
+SECTIONS = ("summary", "drawing", "build", "springs", "energy", "verification", "tolerance", "design")
+
+
+@pytest.fixture(scope="module")
+def page(tmp_path_factory):
+    """(folder, page text) of the catalogue design, written as ``solve --plot`` writes it."""
+    from counterpoise.plots import energy_plot
+    from counterpoise.plots.mechanism import design_mechanism_plot
+
+    result = solved("yasir2019_hybrid_catalogue")
+
+    def plots(folder):
+        energy_plot(result, folder)
+        design_mechanism_plot(result, folder)
+
+    folder = write_reports(result, tmp_path_factory.mktemp("html"), plots, html=True)
+    return folder, (folder / "report.html").read_text(encoding="utf-8")
+
+
+def test_page_is_self_contained(page):
+    _, text = page
+    assert text.startswith("<!DOCTYPE html>")
+    assert "<script" not in text.lower() and "<link" not in text.lower() and "@import" not in text
+    sources = re.findall(r'\b(?:src|href)="([^"]*)"', text)
+    assert sources, "the page has its images and its table of contents"
+    for s in sources:
+        assert s.startswith("data:image/png;base64,") or s.startswith("#"), s[:60]
+    assert "url(" not in text
+    assert not re.search(r"https?://", text)
+
+
+def test_page_holds_every_part(page):
+    folder, text = page
+    for section in SECTIONS:
+        assert f'<section id="{section}">' in text, section
+    assert text.count("<img ") == 2  # the drawing and the energy plot
+    # the build sheet's items and the chosen part are on the page
+    assert "left.pulley" in text and "counter_mass" in text
+    part = next(line for line in (folder / "build.csv").read_text().splitlines() if ",spring,left," in line).split(",")[14]
+    assert part and part in text
+    assert "@media print" in text and "size: A4" in text
+
+
+def test_page_without_plots_says_how_to_get_them(tmp_path):
+    result = solved("fourbar_counter_mass")
+    text = (write_reports(result, tmp_path, html=True) / "report.html").read_text(encoding="utf-8")
+    assert "<img " not in text and "solve --plot" in text
+    assert '<section id="build">' in text and '<section id="springs">' not in text
+
+
+def _chromium(*args, cwd):
+    run = subprocess.run([CHROMIUM, *FLAGS, f"--user-data-dir={cwd / 'profile'}", *args], capture_output=True, text=True, timeout=180, cwd=cwd)
+    assert run.returncode == 0, run.stderr[-2000:]
+    return run
+
+
+@NEEDS_CHROMIUM
+def test_page_renders_in_chromium_without_console_messages(page, tmp_path):
+    """The page itself (no script of its own) logs nothing to the console and renders a
+    screenshot that is not blank (more than one colour, and ink on a fair share of it)."""
+    import matplotlib.image
+
+    folder, _ = page
+    shot = tmp_path / "page.png"
+    run = _chromium("--window-size=1280,1600", f"--screenshot={shot}", (folder / "report.html").as_uri(), cwd=tmp_path)
+    console = [line for line in run.stderr.splitlines() if ":CONSOLE" in line]
+    assert console == [], console
+    pixels = matplotlib.image.imread(shot)
+    assert pixels.shape[0] >= 1000 and pixels.shape[1] >= 1000
+    colours = {tuple(p) for p in pixels[::7, ::7, :3].reshape(-1, 3).round(2).tolist()}
+    assert len(colours) > 20  # text, tables and the drawing: many colours, not a blank page
+    ink = (pixels[:, :, :3].mean(axis=2) < 0.9).mean()
+    assert ink > 0.02
+
+
+@NEEDS_CHROMIUM
+def test_page_loads_no_external_resource_and_every_image_decodes(page, tmp_path):
+    """A copy of the page with a probe (this test's script, not the page's) records, once
+    loaded, how many images decoded and every resource the browser fetched."""
+    folder, text = page
+    probe = (
+        "<script>window.addEventListener('load', () => document.body.setAttribute('data-probe', JSON.stringify({"
+        "images: document.images.length,"
+        "broken: [...document.images].filter(i => !i.complete || i.naturalWidth === 0).length,"
+        "tables: document.querySelectorAll('table').length,"
+        "requests: performance.getEntriesByType('resource').map(e => e.name)})));</script>"
+    )
+    copy = tmp_path / "probe.html"
+    copy.write_text(text.replace("</body>", probe + "</body>"), encoding="utf-8")
+    run = _chromium("--dump-dom", copy.as_uri(), cwd=tmp_path)
+    found = re.search(r'data-probe="([^"]*)"', run.stdout)
+    assert found, run.stdout[:500]
+    seen = json.loads(html.unescape(found.group(1)))
+    assert seen["images"] == 2 and seen["broken"] == 0
+    assert seen["tables"] >= 7  # summary, three build tables, springs, verification, tolerance, design
+    assert [r for r in seen["requests"] if not r.startswith(("data:", "file:"))] == []
+
+
+def test_solve_writes_the_page_by_default_and_report_csv_leaves_it_out(tmp_path, capsys):
+    """``solve`` writes report.html unless ``--report csv``, on the light path and in the
+    typer app alike; another value is refused: exit 2, one line, nothing written."""
+    from counterpoise.cli import main
+    from counterpoise.cli.app import main as app_main
+    from counterpoise.cli.light import parse_solve
+
+    problem = str(ROOT / "problems" / "yasir2019_counter_mass.toml")
+    assert parse_solve(["solve", problem, "--report", "csv"]).report == "csv"
+    assert parse_solve(["solve", problem]).report == "html"
+    assert parse_solve(["solve", problem, "--report", "pdf"]) is None  # the app says what is wrong
+    runs = ((main, tmp_path / "a", [], True), (main, tmp_path / "b", ["--report=csv"], False), (app_main, tmp_path / "c", ["--report", "csv"], False), (app_main, tmp_path / "e", [], True))
+    for entry, out, extra, page in runs:
+        with pytest.raises(SystemExit) as exit_:
+            entry(["solve", problem, "--out", str(out), *extra])
+        assert exit_.value.code == 0
+        folder = out / "yasir2019_counter_mass"
+        assert (folder / "build.csv").is_file() and (folder / "report.html").is_file() == page
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as exit_:
+        main(["solve", problem, "--out", str(tmp_path / "d"), "--report", "pdf"])
+    assert exit_.value.code == 2
+    assert capsys.readouterr().err.strip() == "--report: expected one of html, csv, got 'pdf'"
+    assert not (tmp_path / "d").exists()
+
+
+def test_page_of_a_payload_range_holds_its_schedule(tmp_path):
+    """A payload range with a catalogue part (woo2019_hybrid_catalogue): the page adds the
+    schedule and the tolerance report, and every report file in the folder is on it."""
+    result = solved("woo2019_hybrid_catalogue")
+    folder = write_reports(result, tmp_path, html=True)
+    text = (folder / "report.html").read_text(encoding="utf-8")
+    for section in ("summary", "build", "springs", "verification", "tolerance", "schedule", "design"):
+        assert f'<section id="{section}">' in text, section
+    shown = {"summary.csv": "summary", "build.csv": "build", "springs.csv": "springs", "verification.csv": "verification",
+             "tolerance.csv": "tolerance", "schedule.csv": "schedule", "design.csv": "design"}
+    assert sorted(p.name for p in folder.glob("*.csv")) == sorted(shown)
+    # the adjustments set per payload (the counter-mass levers dL_c1, dL_c2) have their table
+    assert "<h3>Adjustments</h3>" in text and "dL_c1" in text and "dL_c2" in text
