@@ -279,7 +279,7 @@ BAD_LOOPS = {
     "loop_spherical_with_axis.toml": ("loops.B.axis", "a spherical joint has no axis"),
     "loop_unknown_frame.toml": ("loops.B.b.frame", "unknown frame 'roker' (did you mean 'rocker'?)"),
     "loop_unknown_joint.toml": ("loops.B.joint", "expected one of 'revolute', 'spherical' or 'prismatic'"),
-    "loop_point_out_of_range.toml": ("loops.B.b.point", "out of range for a position"),
+    "loop_point_out_of_range.toml": ("loops.B.b.point.0", "value out of range: '1e+308 mm'"),
     "loop_prismatic_without_axis.toml": ("loops.B.axis", "a prismatic joint needs its axis"),
     "loop_axis_b_misaligned.toml": ("loops.B", "the joint's axes do not line up"),
     "loop_spherical_with_axis_b.toml": ("loops.B.axis_b", "a spherical joint has no axis"),

@@ -49,7 +49,8 @@ from typing import Any
 import numpy as np
 
 from ..errors import ProblemFileError
-from ..model.loops import MAX_POSITION, PRISMATIC_JOINT, REVOLUTE_JOINT, SPHERICAL_JOINT
+from ..model.loops import PRISMATIC_JOINT, REVOLUTE_JOINT, SPHERICAL_JOINT
+from ..model.units import MAX_LENGTH_M
 from ..model.mechanism import GROUND
 from ..model.problem import Problem
 from .energy import Mechanics
@@ -130,12 +131,12 @@ class Closure:
         self.given = np.array([c.home for c in coords])
         self.home = self.given.copy()
         self.size = max(MIN_SIZE, _size(self._mechanics(self.home[None, :]), self.loops))
-        if not self.size <= MAX_POSITION:  # a length of 1e308 mm in a frame: out of range, not an overflow
+        if not self.size <= MAX_LENGTH_M:  # a length of 1e308 mm in a frame: out of range, not an overflow
             raise ProblemFileError(
                 problem.path,
                 f"loops.{self.loops[0].name}",
                 f"the loop's points and frames reach {self.size:.3g} m from the origin at home: out of range "
-                f"(beyond {MAX_POSITION:g} m; check the lengths of its frames' translations and of the parameters they use)",
+                f"(beyond {MAX_LENGTH_M:g} m, 1000 km; check the lengths of its frames' translations and of the parameters they use)",
             )
         #: the orientation targets: a revolute joint's axis in frame b (3,), a prismatic
         #: joint's rotation of frame a in frame b (3, 3); empty while the points are closed first

@@ -27,10 +27,6 @@ from .mechanism import Point, Vector
 REVOLUTE_JOINT = "revolute"
 SPHERICAL_JOINT = "spherical"
 PRISMATIC_JOINT = "prismatic"
-#: The largest distance (m) of a loop point, or of a frame origin on its way from ground, from
-#: the origin: a mechanism lies within a kilometre; beyond that a value is a typo, and its
-#: square (the closure's scale) would overflow.
-MAX_POSITION = 1e3
 
 
 @dataclass(frozen=True)

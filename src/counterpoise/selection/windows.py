@@ -48,7 +48,7 @@ def rate_windows(designer: Designer, relaxed: Problem, names: list[str], base: A
     objective = sum(w[i] * f.z[index[i]] for i in range(len(names)))
     nlp = {"x": f.z, "p": ca.vertcat(f.p, w), "f": objective, "g": ca.vertcat(d.conditions.equalities, f.nonnegative)}
     backend = IpoptBackend(nlp, d.options, "rate_window")
-    bounds = d.bounds(d.n_equalities)
+    bounds = d.bounds(d.n_equalities, constraints=False)  # g above holds no constraint rows (force limits)
     z0 = f.design.to_z(f.design.vector(base.values))
     out, solves = {}, 0
     for i, n in enumerate(names):

@@ -14,10 +14,10 @@ from collections.abc import Mapping
 from typing import Any
 
 from ...model import expr as ex
-from ...model.loops import MAX_POSITION, PRISMATIC_JOINT, REVOLUTE_JOINT, Loop
+from ...model.loops import PRISMATIC_JOINT, REVOLUTE_JOINT, Loop
 from ...model.mechanism import GROUND, Coordinate, Frame, Point
 from ...model.problem import Problem
-from ...model.units import LENGTH, canonical_dimension, dimension_name
+from ...model.units import LENGTH, MAX_LENGTH_M, canonical_dimension, dimension_name
 from .context import Context
 
 
@@ -40,12 +40,14 @@ def dependent_coordinate(ctx: Context, sname: str, cname: str, c: Any, key: str)
 
 
 def _check_position(ctx: Context, point: Point, raw: Any, key: str) -> None:
-    """Each component of a loop point must be finite and within MAX_POSITION at the file's values."""
+    """Each component of a loop point must be finite and within MAX_LENGTH_M (1000 km) at the
+    file's values: a literal beyond it is refused where it is read; this catches an expression
+    (a product of parameters) that reaches beyond it."""
     for i, tree in enumerate(point.position):
         shown = raw[i] if isinstance(raw, (list, tuple)) and i < len(raw) else raw
         value = ctx.finite(tree, shown, key)
-        if abs(value) > MAX_POSITION:
-            raise ctx.fail(key, f"'{shown}' (component {i}) is out of range for a position: {value:.3g} m, beyond {MAX_POSITION:g} m from the frame's origin")
+        if abs(value) > MAX_LENGTH_M:
+            raise ctx.fail(f"{key}.{i}", f"value out of range: '{shown}' is {value:.3g} m; positions up to {MAX_LENGTH_M:g} m (1000 km) are accepted")
 
 
 def _frame_names(frame: str, frames: Mapping[str, Frame]) -> set[str]:
