@@ -94,6 +94,9 @@ RANK_TOLERANCE = 1e-9
 #: A configuration is singular when σ_min/σ_max of ∂h/∂q_d (its n_d largest singular
 #: values) is below this: the dependent coordinates are (nearly) undetermined there.
 SINGULAR_CONDITIONING = 1e-6
+#: Results of :meth:`Closure.solve` kept per closure (by their independent coordinates): the
+#: after-solve checks draw the same dense sample once per spring.
+SOLVED_CACHE = 8
 #: Continuation steps of the assembly check on each edge of the box of ranges.
 CHECK_STEPS = STEPS_PER_RANGE
 #: Loop sizes below this (m) are taken as this (a loop of zero size still gets a scale).
@@ -143,6 +146,7 @@ class Closure:
         self.targets: dict[str, np.ndarray] = {}
         self.snapped: set[str] = set()  # loops whose target was snapped onto an exact direction
         self._grid: tuple[np.ndarray, ManifoldPoints] | None = None
+        self._solved: dict[tuple[tuple[int, ...], bytes], ManifoldPoints] = {}  # solve()'s results by their q_i
         self.m = self._row_count()
         self.home = self._home()
         self.m = self._row_count()
@@ -409,6 +413,17 @@ class Closure:
         its path) that cannot be assembled or is singular.
         """
         qi = np.atleast_2d(np.asarray(qi, dtype=float))
+        key = (qi.shape, qi.tobytes())
+        found = self._solved.get(key)
+        if found is not None:  # the same draws again (one dense sample per spring, say): solved once
+            return ManifoldPoints(found.q.copy(), found.tangent.copy(), found.conditioning.copy())
+        points = self._solve(qi)
+        if len(self._solved) >= SOLVED_CACHE:
+            self._solved.pop(next(iter(self._solved)))
+        self._solved[key] = points
+        return ManifoldPoints(points.q.copy(), points.tangent.copy(), points.conditioning.copy())
+
+    def _solve(self, qi: np.ndarray) -> ManifoldPoints:
         n_i = len(self.independent)
         per_axis = self._per_axis()
         if per_axis**n_i > GRID_MAX_NODES:
