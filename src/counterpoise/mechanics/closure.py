@@ -69,6 +69,9 @@ HOME_ITERATIONS = 60
 #: joint's relative rotation) within this angle (rad, 0.057 deg) of an exact direction (a
 #: coordinate axis, or the revolute axis's own coordinates in frame a) is snapped onto it.
 AXIS_SNAP = 1e-3
+#: Chord iterations (the Jacobian of the prediction kept) of a dense sample's corrections
+#: before a configuration goes on with full Newton steps.
+CHORD_ITERATIONS = 8
 #: Newton corrections per continuation step (each converges quadratically from the predictor).
 NEWTON_ITERATIONS = 12
 #: Continuation steps over a path as long as the whole range of a coordinate (fewer for shorter paths).
@@ -248,6 +251,38 @@ class Closure:
         bad = ~np.isfinite(q).all(axis=1)
         q[bad] = self.home
         return q, done & ~bad, jac
+
+    def _chord(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Newton's chord method from good predictions q (N, n): ∂h/∂q_d taken once at the
+        prediction, then only h per iteration (one evaluation instead of n + 1), then the full
+        Jacobian at the result (its tangent and conditioning). Configurations it does not close
+        within CHORD_ITERATIONS go on with :meth:`_newton`. Returns (q, converged, Jacobian)."""
+        d = self.dependent
+        n_conf = q.shape[0]
+        with np.errstate(all="ignore"):
+            h, jac = self.equations(q)
+            jd = jac[:, :, d]
+            normal = np.einsum("kmd,kme->kde", jd, jd)
+            normal += RANK_TOLERANCE**2 * np.trace(normal, axis1=1, axis2=2)[:, None, None] * np.eye(len(d))
+            finite = np.isfinite(normal).all(axis=(1, 2)) & (np.abs(np.linalg.det(np.nan_to_num(normal))) > 0)
+            inverse = np.zeros_like(normal)
+            if finite.any():
+                inverse[finite] = np.linalg.inv(normal[finite])
+            for _ in range(CHORD_ITERATIONS):
+                active = finite & (np.abs(h).max(axis=1) > CLOSURE_TOLERANCE)
+                if not active.any():
+                    break
+                step = np.einsum("kde,ke->kd", inverse, np.einsum("kmd,km->kd", jd, h))
+                q[:, d] -= np.where(active[:, None], step, 0.0)
+                h = np.asarray(self._rows(q)).real
+            h, jac = self.equations(q)
+        ok = np.isfinite(q).all(axis=1) & np.isfinite(h).all(axis=1) & (np.abs(h).max(axis=1) <= CLOSURE_TOLERANCE)
+        if not ok.all():  # the chord did not settle there: full Newton from where it is (or from the prediction)
+            redo = ~ok
+            start = np.where(np.isfinite(q[redo]).all(axis=1)[:, None], q[redo], self.home)
+            q_r, ok_r, jac_r = self._newton(start.copy(), np.ones(int(redo.sum()), dtype=bool))
+            q[redo], ok[redo], jac[redo] = q_r, ok_r, jac_r
+        return q, ok & np.ones(n_conf, dtype=bool), jac
 
     def _home(self) -> np.ndarray:
         """The assembled home: every dependent coordinate corrected on every closure equation.
@@ -437,7 +472,7 @@ class Closure:
         q[:, self.independent] = qi
         guess = q[:, self.dependent] + np.einsum("kdi,ki->kd", grid.tangent[flat], step)
         q[:, self.dependent] = guess
-        q, ok, jac = self._newton(q, np.ones(qi.shape[0], dtype=bool))
+        q, ok, jac = self._chord(q)
         # a correction as large as the prediction's whole change means Newton may have left the branch
         moved = np.abs(q[:, self.dependent] - guess).max(axis=1) if len(self.dependent) else np.zeros(qi.shape[0])
         predicted = np.abs(np.einsum("kdi,ki->kd", grid.tangent[flat], step)).max(axis=1) if len(self.dependent) else moved
