@@ -166,6 +166,7 @@ MANIFEST: dict[str, Expect] = {
     "spring_design_unknown_material.toml": Expect("springs.s_a.material", "unknown spring material 'unobtainium'"),
     "spring_design_outer_diameter_not_a_length.toml": Expect("springs.s_a.max_outer_diameter", "expected a length"),
     "spring_design_safety_factor_below_one.toml": Expect("springs.s_a.min_safety_factor", "greater than or equal to 1"),
+    "slot_count_min_above_max.toml": Expect("slots.s.count", "min 3 is greater than max 2"),
     "slot_tolerance_above_100_percent.toml": Expect("slots.s.rate_tolerance", "a tolerance must be between 0 and 100 %, got '150 %'"),
     "catalogue_units_si_on_n_mm.toml": Expect(
         "catalogues.parts.units",
@@ -221,6 +222,9 @@ MANIFEST: dict[str, Expect] = {
     "constraint_lower_above_upper.toml": Expect("constraints.cap", "lower 3 kg is greater than upper 2 kg"),
     "constraint_inconsistent_units.toml": Expect("constraints.cap.expression", "inconsistent units in 'M_a + b_a'"),
     "constraint_total_with_argument.toml": Expect("constraints.cap.expression", "added_mass() takes no argument"),
+    # [robust]
+    "robust_unknown_body.toml": Expect("robust.tolerances.mass.tipp", "unknown body 'tipp' (did you mean 'tip'?)"),
+    "robust_limit_missing.toml": Expect("robust.limit", 'mode = "limit" needs a limit'),
     # every error of a file, one line each
     "frame_two_unknown_parents.toml": Expect(
         "frames.link_b.parent",

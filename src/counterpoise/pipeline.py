@@ -7,6 +7,7 @@ content (:mod:`counterpoise.designer.methods`)::
       PayloadMethod        a payload range: samples, then a schedule     (payload.method)
         MultiStart         starts > 1: seeded random geometries          (designer.methods)
           Plain | Minimax  IPOPT or the LP path | directly attached springs
+    RobustMethod           [robust]: robust counterpart (cvxpy), tuning   (robust.method)
 
 Each layer is present only when the problem needs it, and each takes the same options
 (``parameters``, ``bounds``, ``initial``), so every option acts on every kind of problem.
@@ -78,6 +79,10 @@ def build_method(problem: Problem, starts: int = 1, backend: str = "auto", desig
         method = PayloadMethod(problem, lambda sampled: core_method(sampled, starts, backend))
     else:
         method = core_method(problem, starts, backend, designer)
+    if problem.robust is not None:
+        from .robust import RobustMethod
+
+        method = RobustMethod(problem, method)
     if problem.slots:
         from .selection.method import PartsMethod
 

@@ -66,7 +66,7 @@ def solve_all(problems: list[Any], out: Path, plot: bool, starts: int, err: Err,
     """Design, verify and write every problem (``plot``: energy.png and mechanism.png in its
     folder before the folder appears; ``html``: report.html, the page of the folder, last);
     the summary rows and the worst exit status."""
-    from ..errors import CounterpoiseError
+    from ..errors import CounterpoiseError, ProblemFileError
     from ..pipeline import design
     from ..report.files import write_reports
     from ..report.rows import summary_row
@@ -76,6 +76,10 @@ def solve_all(problems: list[Any], out: Path, plot: bool, starts: int, err: Err,
         t0 = time.perf_counter()
         try:
             result = design(problem, starts=starts)
+        except ProblemFileError as exc:  # an input limit met while designing (a part search too large): exit 2
+            err(str(exc))
+            worst = max(worst, 2)
+            continue
         except CounterpoiseError as exc:
             err(f"{problem.path}: {exc}")
             worst = max(worst, 1)

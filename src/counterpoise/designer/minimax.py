@@ -23,7 +23,7 @@ Built once; :meth:`solve` takes parameters and bounds per call, like :class:`Des
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from typing import Any
 
 import numpy as np
@@ -83,14 +83,28 @@ def _independent(block: Any, tangent: tuple[np.ndarray, np.ndarray, np.ndarray] 
 class MinimaxDesigner:
     """Smallest worst-case residual ratio on sampled configurations (see the module docstring)."""
 
-    def __init__(self, problem: Problem, ipopt_options: Mapping[str, Any] | None = None, extra: Extra | None = None) -> None:
+    def __init__(
+        self,
+        problem: Problem,
+        ipopt_options: Mapping[str, Any] | None = None,
+        extra: Extra | None = None,
+        *,
+        coordinates: Collection[str] | None = None,
+        springs: Collection[str] | None = None,
+    ) -> None:
         """``extra``: configurations added to the sampled rows of workspace extremes (see
-        :mod:`counterpoise.formulation.constraints`; verification rounds)."""
+        :mod:`counterpoise.formulation.constraints`; verification rounds).
+        ``coordinates``, ``springs`` (None: all): only the residual rows of these
+        coordinates and the length rows of these springs enter the NLP (the part search of
+        a group of slots that do not interact with the rest, :mod:`counterpoise.selection.groups`);
+        the reference torque is the whole problem's either way, so ratios compare."""
         import casadi as ca
 
         limit_blas_threads()
         self.problem = problem
         self._ipopt_options = dict(ipopt_options or {})
+        self._only = (None if coordinates is None else frozenset(coordinates), None if springs is None else frozenset(springs))
+        self._restricted: dict[tuple[frozenset[str], frozenset[str]], MinimaxDesigner] = {}
         self.formulation = f = Formulation(problem)
         self.parameters = f.parameters.values()
         rng = np.random.default_rng(problem.settings.seed + 5)
@@ -123,6 +137,8 @@ class MinimaxDesigner:
             q = samples[key]
             residual = _along(block.residual.map(q.shape[0])(ca.DM(q.T), f.z, f.p), tangents.get(key))  # (n_i, N)
             for j, name in enumerate(_independent(block, tangents.get(key))):
+                if self._only[0] is not None and name not in self._only[0]:
+                    continue
                 revolute = problem.coordinate[name].unit.dimension == ""
                 scale = torque[revolute] or 1.0
                 r = residual[j, :].T / scale
@@ -135,7 +151,7 @@ class MinimaxDesigner:
             variables = f.design.symbols(f.x, scenario.name)
             for spring in problem.springs:
                 m = spring.direct
-                if m is None or spring.subsystem is None:
+                if m is None or spring.subsystem is None or (self._only[1] is not None and spring.name not in self._only[1]):
                     continue
                 coords_sym = ca.SX.sym("q", len(problem.subsystem_coordinates(spring.subsystem)))
                 names = [k.name for k in problem.subsystem_coordinates(spring.subsystem)]
@@ -149,7 +165,7 @@ class MinimaxDesigner:
                 q = samples[(spring.subsystem, scenario.name)]
                 values = fun.map(q.shape[0])(ca.DM(q.T), f.z, f.p)
                 for i in range(values.shape[0]):
-                    rows.append(values[i, :].T / max(float(np.max(np.abs(f.design.upper))), 1e-3))
+                    rows.append(values[i, :].T / max(float(np.max(np.abs(f.design.upper), initial=0.0)), 1e-3))
         self.n_rows = int(sum(r.numel() for r in rows))
         #: design constraints and force limits, last in g
         self.rows: ConstraintRows | None = build_rows(f, extra) if problem.constraints else None
@@ -162,13 +178,20 @@ class MinimaxDesigner:
         self.options = {**IPOPT_DEFAULTS, "max_iter": max(problem.settings.max_iterations, 1000), "tol": 1e-9, **dict(ipopt_options or {})}
         self.backend = IpoptBackend({"x": self.z, "p": f.p, "f": t, "g": g}, self.options, "minimax")
 
+    def restricted(self, coordinates: Collection[str], springs: Collection[str]) -> MinimaxDesigner:
+        """The designer of only these coordinates' residuals and springs' lengths (built once)."""
+        key = (frozenset(coordinates), frozenset(springs))
+        if key not in self._restricted:
+            self._restricted[key] = MinimaxDesigner(self.problem, self._ipopt_options, coordinates=key[0], springs=key[1])
+        return self._restricted[key]
+
     def solve(
         self,
         initial: Mapping[Slot, float] | None = None,
         parameters: Mapping[str, float] | None = None,
         bounds: Mapping[Slot | str, tuple[float, float]] | None = None,
     ) -> Solution:
-        other = for_geometry(self, parameters, lambda problem: MinimaxDesigner(problem, self._ipopt_options))
+        other = for_geometry(self, parameters, lambda problem: MinimaxDesigner(problem, self._ipopt_options, coordinates=self._only[0], springs=self._only[1]))
         if other is not self:  # closed loops: a new geometry is sampled on its own manifold
             return other.solve(initial, parameters, bounds)  # type: ignore[no-any-return]
         if self._refined is not None:  # a verification round added configurations
@@ -211,7 +234,7 @@ class MinimaxDesigner:
         add = violations(self.problem, solution.constraints)
         if add and self._round < MAX_ROUNDS:
             extra = merge(self._extra, add)
-            refined = MinimaxDesigner(self.problem, self._ipopt_options, extra)
+            refined = MinimaxDesigner(self.problem, self._ipopt_options, extra, coordinates=self._only[0], springs=self._only[1])
             refined._round = self._round + 1
             self._refined = refined
             start = dict(solution.values)

@@ -56,6 +56,8 @@ class Solution:
     #: every design constraint at this design, per scenario
     #: (:class:`counterpoise.formulation.constraints.ConstraintValue`)
     constraints: tuple[Any, ...] = ()
+    #: designs with [robust]: the :class:`counterpoise.robust.RobustReport`
+    robust: Any = None
 
     def variable_values(self, scenario: str) -> dict[str, float]:
         """Value of every variable as seen by ``scenario``."""

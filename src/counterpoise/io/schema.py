@@ -303,10 +303,18 @@ class CatalogueSpec(_Table):
     description: str = ""
 
 
+class CountSpec(_Table):
+    """How many identical springs of the chosen part may work in parallel in a slot."""
+
+    min: Annotated[int, Field(ge=1, le=10)] = 1
+    max: Annotated[int, Field(ge=1, le=10)] = 1
+
+
 class SlotSpec(_Table):
     """A place for one catalogue part; springs name it with ``slot = "<name>"``."""
 
     catalogue: str
+    count: CountSpec | None = None  # n identical springs in parallel, n chosen with the part
     rate_tolerance: Value | None = None  # overrides the catalogue's
     initial_tension_tolerance: Value | None = None
     description: str = ""
@@ -318,6 +326,24 @@ class SelectionSpec(_Table):
     max_enumeration: Annotated[int, Field(ge=1, le=1_000_000)] = 400
     limit_samples: Annotated[int, Field(ge=16, le=1_000_000)] = 512
     nearest: Annotated[int, Field(ge=1, le=100)] = 5
+
+
+#: a tolerance: "10 %" (of the nominal value) or a quantity ("0.5 mm", "20 N/m")
+ToleranceValue = Union[Value, dict[str, Value]]
+
+
+class RobustSpec(_Table):
+    """``[robust]``: tolerances of the built balancer and what the design does about them
+    (docs/robust.md)."""
+
+    mode: Literal["minimise", "limit", "none"] = "none"
+    weight: Value | None = None  # minimise: kg per unit of worst-case residual ratio
+    limit: Annotated[FiniteFloat, Field(gt=0, lt=1)] | None = None  # limit: the worst-case ratio allowed
+    shape: Literal["box", "ellipsoid"] = "box"
+    #: kind = value (every item of the kind) or kind = { item = value }
+    tolerances: dict[str, ToleranceValue] = Field(default_factory=dict)
+    tune: tuple[Name, ...] = ()
+    description: str = ""
 
 
 class RobotJointSpec(_Table):
@@ -362,3 +388,4 @@ class ProblemFile(_Table):
     catalogues: dict[Name, CatalogueSpec] = Field(default_factory=dict)
     slots: dict[Name, SlotSpec] = Field(default_factory=dict)
     selection: SelectionSpec = Field(default_factory=SelectionSpec)
+    robust: RobustSpec | None = None

@@ -57,6 +57,31 @@ class Catalogue:
     rate_tolerance: tuple[float, ...]  # fraction, ± (NaN if unknown)
     initial_tension_tolerance: tuple[float, ...]  # fraction, ± (NaN if unknown)
     currency: str = ""
+    #: slots with ``count``: how many identical springs of the base part work in parallel
+    #: (empty: one each) and the base part's number (empty: ``part_number``)
+    count: tuple[int, ...] = ()
+    base_part: tuple[str, ...] = ()
+
+    def parts_in_parallel(self, row: int) -> int:
+        return self.count[row] if self.count else 1
+
+    def base_part_number(self, row: int) -> str:
+        return self.base_part[row] if self.base_part else self.part_number[row]
+
+    def parallel(self, lowest: int, highest: int) -> "Catalogue":
+        """Every part as ``n`` identical springs in parallel behind one cable, for n from
+        ``lowest`` to ``highest``: rate, initial tension, largest load, mass and price n times
+        the part's; lengths, diameters and tolerances (fractions) the part's. A part of n > 1
+        is numbered ``<part> x<n>``. The part search then enumerates the counts with the parts."""
+        counts = range(lowest, highest + 1)
+        idx = [(i, n) for n in counts for i in range(len(self))]
+        scaled = {"rate", "initial_tension", "max_load", "mass", "price"}
+        pick: dict[str, Any] = {n: tuple(getattr(self, n)[i] * (k if n in scaled else 1) for i, k in idx) for n in NUMERIC_FIELDS}
+        pick["material"] = tuple(self.material[i] for i, _ in idx)
+        pick["part_number"] = tuple(self.part_number[i] if k == 1 else f"{self.part_number[i]} x{k}" for i, k in idx)
+        return Catalogue(
+            self.name, self.path, currency=self.currency, count=tuple(k for _, k in idx), base_part=tuple(self.base_part_number(i) for i, _ in idx), **pick
+        )
 
     def __len__(self) -> int:
         return len(self.part_number)
@@ -73,7 +98,8 @@ class Catalogue:
         """The catalogue restricted to ``rows`` (indices), in that order."""
         idx = [int(i) for i in rows]
         pick = {n: tuple(getattr(self, n)[i] for i in idx) for n in ("part_number", "material", *NUMERIC_FIELDS)}
-        return Catalogue(self.name, self.path, currency=self.currency, **pick)  # type: ignore[arg-type]
+        extra = {n: tuple(getattr(self, n)[i] for i in idx) for n in ("count", "base_part") if getattr(self, n)}
+        return Catalogue(self.name, self.path, currency=self.currency, **pick, **extra)  # type: ignore[arg-type]
 
 
 @dataclass(frozen=True)

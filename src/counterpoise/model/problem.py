@@ -21,6 +21,7 @@ from .substitution import Substitution
 from .tilt import Tilt
 from .payload import MIN_ADDED, Payload
 from .parts import SelectionSettings, SpringSlot
+from .robust import RobustSpec
 from .units import DisplayUnit
 
 
@@ -176,6 +177,7 @@ class Problem:
     #: a tilting base: the balance must hold for every tilt in these ranges ([gravity] tilt);
     #: each scenario then stands for one node of the tilt grid (:func:`~.tilt.tilt_nodes`)
     tilts: tuple[Tilt, ...] = ()
+    robust: RobustSpec | None = None  # [robust]: tolerances, robust design, tuning (counterpoise.robust)
 
     @cached_property
     def frame(self) -> Mapping[str, Frame]:

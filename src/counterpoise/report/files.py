@@ -124,7 +124,8 @@ def report_texts(result: DesignResult) -> dict[str, str]:
     """File name -> text of every report of ``result`` (substitution.csv only when the
     problem substitutes a body; payload problems add ``schedule.csv``; problems with
     catalogue parts ``springs.csv`` and ``tolerance.csv``; problems with free-stiffness
-    springs ``springs.csv``; problems with springs or counter-masses ``build.csv``, :mod:`.build`)."""
+    springs ``springs.csv``; problems with springs or counter-masses ``build.csv``, :mod:`.build`;
+    ``[robust]`` problems ``tolerance.csv`` and, with ``tune``, ``tuning.csv``: :mod:`.robust`)."""
     texts = {
         "design.csv": csv_text(design_rows(result) + parts.part_design_rows(result), DESIGN_COLUMNS),
         "summary.csv": csv_text([summary_row(result)], SUMMARY_COLUMNS),
@@ -142,6 +143,14 @@ def report_texts(result: DesignResult) -> dict[str, str]:
         texts["status.txt"] += payload_status_lines(result)
         if result.payload.schedule is not None:
             texts["schedule.csv"] = csv_text(schedule_rows(result), schedule_columns(result))
+    if getattr(result.solution, "robust", None) is not None:
+        from . import robust
+
+        texts["design.csv"] = csv_text(design_rows(result) + robust.design_rows(result), DESIGN_COLUMNS)
+        texts["status.txt"] += robust.status_lines(result)
+        texts["tolerance.csv"] = csv_text(robust.tolerance_rows(result), robust.TOLERANCE_COLUMNS)
+        if result.problem.robust is not None and result.problem.robust.tune:
+            texts["tuning.csv"] = csv_text(robust.tuning_rows(result), robust.tuning_columns(result))
     if result.parts is not None or result.springs:
         texts["springs.csv"] = csv_text(parts.springs_rows(result), parts.SPRINGS_COLUMNS)
     if result.parts is not None:

@@ -117,7 +117,7 @@ def _part_rows(result: DesignResult) -> list[Row]:
                 "spring": u.spring,
                 "slot": u.slot,
                 "part_number": u.part_number,
-                "count": 1,
+                "count": _count(result, u.slot, u.part_number),
                 "scenario": u.scenario,
                 "min_distance_mm": u.distance_min * mm,
                 "max_distance_mm": u.distance_max * mm,
@@ -232,6 +232,14 @@ def designed_status(result: DesignResult) -> str:
         )
         lines += [f"warning: designed spring {u.spring}: {w}" for w in s.warnings]
     return "".join(f"{line}\n" for line in lines)
+
+
+def _count(result: DesignResult, slot: str, part_number: str) -> int:
+    """How many identical springs of the base part a spring's part is (a slot with ``count``)."""
+    for s in result.problem.slots:
+        if s.name == slot and part_number in s.catalogue.part_number:
+            return s.catalogue.parts_in_parallel(s.catalogue.part_number.index(part_number))
+    return 1
 
 
 def tolerance_rows(result: DesignResult) -> list[Row]:

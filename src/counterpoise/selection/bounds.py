@@ -95,6 +95,8 @@ def certifiable(ctx: Any) -> str:
         return "the bound covers one spring per slot"
     if not ctx.rest_fixed:
         return "the rest of the mechanism depends on the geometry variables"
+    if ctx.others:
+        return "the bound covers a single scenario"
     variables = set(ctx.names)
     frames = frame_names(ctx.problem)
     for point in ctx.springs[0].ends:
@@ -159,12 +161,15 @@ def part_bounds(ctx: Any, designer: Any, threshold: float, budget: float, rows: 
     # u, u' at z0 and the exact affine directions U_i, U'_i (one design per variable)
     designs = {v: np.array([z0[i]] + [z0[i] + (width[i] if j == i else 0.0) for j in range(n_v)]) for i, v in enumerate(names)}
     u, du = _vectors(ctx, q, designs)
+    if ctx.columns is not None:  # a group's rows only (selection.groups.direct_groups)
+        du = du[:, :, ctx.columns]
+        n_q = du.shape[2]
     u0, du0 = u[0], du[0]
     U = (u[1:] - u0) / width[:, None, None]  # (n_v, N, 3)
     dU = (du[1:] - du0) / width[:, None, None, None]  # (n_v, N, n_q, 3)
     from .screening import energy_arrays
 
-    g, _ = energy_arrays(ctx.problem, ctx.subsystem, q, {k: np.array([v]) for k, v in ctx.home.items()}, ctx.base, ctx.gravity, ctx.springs)
+    g, _ = energy_arrays(ctx.problem, ctx.subsystem, q, {k: np.array([v]) for k, v in ctx.home.items()}, ctx.base, ctx.gravity, ctx.springs, True, ctx.exclude, ctx.columns)
     G = g.reshape(-1) / ctx.reference  # (N n_q,)
     norm_U = np.linalg.norm(U, axis=-1)  # (n_v, N)
     norm_dU = np.linalg.norm(dU, axis=-1)  # (n_v, N, n_q)

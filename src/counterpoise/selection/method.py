@@ -62,6 +62,10 @@ class _Given:
         # the screening reads the designer's formulation, reference and samples
         return getattr(self.designer, name)
 
+    def restricted(self, coordinates: Any, springs: Any) -> _Given:
+        """The designer of these rows alone (:meth:`MinimaxDesigner.restricted`), seen the same way."""
+        return _Given(self.designer.restricted(coordinates, springs), self.parameters, self.bounds)
+
     def solve(self, initial: Any = None, parameters: Mapping[str, float] | None = None, bounds: Any = None) -> Solution:
         merged = {**self.parameters, **(parameters or {})}
         return self.designer.solve(initial=initial, parameters=merged, bounds=bounds or self.bounds)  # type: ignore[no-any-return]
@@ -100,12 +104,15 @@ class PartsMethod:
         extra: tuple[float, ...] = ()
         for _ in range(REFINEMENTS + 1):
             searched = self._search_problem(extra)
+            start = initial
             if self.direct:
                 search = search_direct(searched, _Given(self._method_of(searched).designer, given, bounds))  # type: ignore[arg-type]
                 rows = dict(search.choice.parts) if search.choice else {s.name: 0 for s in self.problem.slots}
+                if start is None and search.choice is not None and len(search.groups) > 1:
+                    start = search.choice.values  # the groups' designs, searched one by one, put together
             else:
                 search, rows, _rates = parts.choose(with_options(searched, given, bounds))  # rows carry the rates
-            solution = self.inner.solve({**given, **part_parameters(self.problem, rows)}, bounds, initial, certify=certify)
+            solution = self.inner.solve({**given, **part_parameters(self.problem, rows)}, bounds, start, certify=certify)
             outcome = solution.payload
             checked = outcome.schedule_solution() if outcome is not None and outcome.schedule is not None else None
             chosen = parts.report(solution.problem, self._designer_of(solution), solution, search, rows, checked)

@@ -147,9 +147,12 @@ def report(
     bill: dict[str, BillLine] = {}
     for u in uses:
         cat = slots[u.slot].catalogue
-        line = bill.get(u.part_number)
-        quantity = (line.quantity if line else 0) + 1
-        bill[u.part_number] = BillLine(u.part_number, quantity, cat.price[rows[u.slot]], cat.currency)
+        row = rows[u.slot]
+        n = cat.parts_in_parallel(row)  # a slot with ``count``: n identical base parts per spring
+        base = cat.base_part_number(row)
+        line = bill.get(base)
+        quantity = (line.quantity if line else 0) + n
+        bill[base] = BillLine(base, quantity, cat.price[row] / n, cat.currency)
     tolerance = None
     corners: tuple[Corner, ...] = ()
     if solution.status is Status.OPTIMAL:

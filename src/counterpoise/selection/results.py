@@ -49,6 +49,8 @@ class Choice:
     objective: float
     price: float
     robust: float = math.nan  # worst-case residual ratio over the tolerance band
+    #: the design found with these parts (directly attached slots: a start for the final solve)
+    values: dict | None = None
 
 
 @dataclass

@@ -19,6 +19,10 @@ separate geometry variables: each spring's arrays are computed once on its own g
 all unordered pairs of grid geometries are screened per part (symmetry), the two offsets
 by box-constrained least squares (a feasible point: an upper estimate of that pair's best).
 
+Several scenarios (a payload range's samples, working modes) are screened together: each
+scenario's configurations follow the previous one's in the arrays (the part, its offset and
+the geometry are common to all; adjustable variables are not screened).
+
 From each part's best grid design a compass search (vectorised over parts) improves its
 geometry. A part's *screened ratio* is that of a real design (its lengths within limits on
 the screening configurations), not a lower bound; the certified bound is :mod:`.bounds`
@@ -82,15 +86,13 @@ def _names_of(problem: Problem, point: Any, frames: Mapping[str, frozenset[str]]
     return set().union(*(ex.names(t) for t in point.position)) | set(frames[point.frame])
 
 
-def _structure(problem: Problem) -> tuple[str, list[Any], dict[str, str], list[str], list[set[str]], set[str]] | str:
+def _structure(problem: Problem, slot: Any, exclude: frozenset[str], grid_only: frozenset[str] | None) -> tuple[str, list[Any], dict[str, str], list[str], list[set[str]], set[str]] | str:
     """(slot, its springs, spring -> cable variable, grid variables, per-spring geometry
     variables, variables the rest of the mechanism depends on),
-    or the reason screening does not apply."""
-    if len(problem.slots) != 1:
-        return "screening needs exactly one slot"
-    if len(problem.scenarios) != 1:
-        return "screening needs a single scenario"
-    slot = problem.slots[0]
+    or the reason screening does not apply. ``exclude``: springs left out of the rest (they
+    do not act on the screened rows); ``grid_only``: the variables that can matter (None: all)."""
+    if len(problem.scenarios) > 1 and any(v.adjustable for v in problem.variables):
+        return "screening needs design variables shared by every scenario (none adjustable)"
     springs = [s for s in problem.springs if s.slot == slot.name]
     if not springs or any(s.direct is None or s.subsystem is None for s in springs):
         return "screening needs directly attached springs in a subsystem"
@@ -107,7 +109,7 @@ def _structure(problem: Problem) -> tuple[str, list[Any], dict[str, str], list[s
     for c in problem.counter_masses:
         other |= (_names_of(problem, c.position, frames) | ex.names(c.mass)) & variables
     for s in problem.springs:
-        if s.slot != slot.name:
+        if s.slot != slot.name and s.name not in exclude:
             other |= (_names_of(problem, s.ends[0], frames) | _names_of(problem, s.ends[1], frames) | ex.names(s.stiffness)) & variables
     cables: dict[str, str] = {}
     for s in springs:
@@ -121,7 +123,9 @@ def _structure(problem: Problem) -> tuple[str, list[Any], dict[str, str], list[s
     for s, v in cables.items():
         if used[v] > 1 or v in other or any(v in g for g in geometry):
             return f"cable variable {v} also sets other lengths"
-    grid = sorted((variables - set(cables.values())))
+    grid = sorted((variables if grid_only is None else variables & grid_only) - set(cables.values()))
+    if grid_only is not None:
+        other &= grid_only
     return slot.name, springs, cables, grid, geometry, other
 
 
@@ -146,9 +150,21 @@ def _screen_configurations(problem: Problem, subsystem: str, seed: int) -> np.nd
     return configurations(problem, subsystem, SCREEN_CONFIGURATIONS * len(coords), np.random.default_rng(seed))
 
 
-def energy_arrays(problem: Problem, subsystem: str, q: np.ndarray, variables: Mapping[str, np.ndarray], base: Mapping[str, float], gravity: Sequence[float], springs: Sequence[Any], rest: bool = True) -> tuple[np.ndarray | None, dict[str, tuple[np.ndarray, np.ndarray]]]:
-    """G (n_g, N, n_q): ∂V/∂q of everything but ``springs`` (None unless ``rest``), and per
-    spring of ``springs`` (d (n_g, N), ∂d/∂q (n_g, N, n_q)), by complex step."""
+def energy_arrays(
+    problem: Problem,
+    subsystem: str,
+    q: np.ndarray,
+    variables: Mapping[str, np.ndarray],
+    base: Mapping[str, float],
+    gravity: Sequence[float],
+    springs: Sequence[Any],
+    rest: bool = True,
+    exclude: frozenset[str] = frozenset(),
+    columns: np.ndarray | None = None,
+) -> tuple[np.ndarray | None, dict[str, tuple[np.ndarray, np.ndarray]]]:
+    """G (n_g, N, n_q): ∂V/∂q of everything but ``springs`` and ``exclude`` (None unless
+    ``rest``), and per spring of ``springs`` (d (n_g, N), ∂d/∂q (n_g, N, n_q)), by complex
+    step; ``columns``: only these coordinates' derivatives (their indices in the subsystem)."""
     names = [c.name for c in problem.subsystem_coordinates(subsystem)]
     n, n_q = q.shape
     stacked = np.tile(q.astype(complex), (n_q, 1))
@@ -164,16 +180,18 @@ def energy_arrays(problem: Problem, subsystem: str, q: np.ndarray, variables: Ma
         mine = {s.name for s in springs}
         terms = [mech.gravity_energy(mech.value(b.mass), b.com) for b in problem.bodies if b.subsystem == subsystem]
         terms += [mech.gravity_energy(mech.value(c.mass), c.position) for c in problem.counter_masses if c.subsystem == subsystem]
-        terms += [mech.spring_energy(s) for s in problem.springs if s.subsystem == subsystem and s.name not in mine]
+        terms += [mech.spring_energy(s) for s in problem.springs if s.subsystem == subsystem and s.name not in mine and s.name not in exclude]
         energy = np.broadcast_to(np.asarray(sum(terms), dtype=complex), (n_g, n * n_q))
         g = (energy.imag / STEP).reshape(n_g, n_q, n).transpose(0, 2, 1)
+        if columns is not None:
+            g = g[:, :, columns]
     out = {}
     for s in springs:
         d = sub(mech.position(s.ends[0]), mech.position(s.ends[1]))
         squared = np.broadcast_to(np.asarray(dot(d, d), dtype=complex), (n_g, n * n_q))
         length = np.sqrt(np.maximum(squared.real[:, :n], 0.0))
         grad = (squared.imag / STEP).reshape(n_g, n_q, n).transpose(0, 2, 1) / (2 * np.maximum(length, 1e-12)[:, :, None])
-        out[s.name] = (length, grad)
+        out[s.name] = (length, grad if columns is None else grad[:, :, columns])
     return g, out
 
 
@@ -255,24 +273,38 @@ class _Context:
     subsystem: str
     names: list[str]  # geometry variables searched
     rest_fixed: bool  # G does not depend on the geometry variables (computed once)
+    #: residual rows screened: these coordinates' (indices in the subsystem; None: all) ...
+    columns: np.ndarray | None = None
+    #: ... on which these springs (of other slot groups) do not act: left out of G
+    exclude: frozenset[str] = frozenset()
+    #: the further scenarios' (base, gravity): their configurations follow the first's
+    others: tuple[tuple[dict[str, float], Sequence[float]], ...] = ()
     _rest: np.ndarray | None = None
 
     def arrays(self, designs: Mapping[str, np.ndarray], springs: Sequence[Any] | None = None) -> tuple[np.ndarray, list[tuple[np.ndarray, np.ndarray, np.ndarray]]]:
-        """G (n, M) and per spring (d (n, N), A = d ∂d/∂q (n, M), B = ∂d/∂q (n, M)), scaled by the reference."""
+        """G (n, M) and per spring (d (n, N), A = d ∂d/∂q (n, M), B = ∂d/∂q (n, M)), scaled by the
+        reference; with several scenarios, each scenario's configurations one after the other."""
         n = len(next(iter(designs.values()))) if designs else 1
         variables = {**{k: np.full(n, v) for k, v in self.home.items()}, **designs}
         springs = self.springs if springs is None else springs
+        scenarios = [(self.base, self.gravity), *self.others]
         if self.rest_fixed and self._rest is None:
-            g, _ = energy_arrays(self.problem, self.subsystem, self.q, {k: np.array([v]) for k, v in self.home.items()}, self.base, self.gravity, self.springs)
-            self._rest = g.reshape(1, -1) / self.reference  # type: ignore[union-attr]
-        g, arr = energy_arrays(self.problem, self.subsystem, self.q, variables, self.base, self.gravity, springs, rest=not self.rest_fixed)
+            home = {k: np.array([v]) for k, v in self.home.items()}
+            rest = [energy_arrays(self.problem, self.subsystem, self.q, home, b, g, self.springs, True, self.exclude, self.columns)[0] for b, g in scenarios]
+            self._rest = np.concatenate([g.reshape(1, -1) for g in rest], axis=1) / self.reference  # type: ignore[union-attr]
+        parts = [energy_arrays(self.problem, self.subsystem, self.q, variables, b, g, springs, not self.rest_fixed, self.exclude, self.columns) for b, g in scenarios]
         if self.rest_fixed:
             gflat = np.broadcast_to(self._rest, (n, self._rest.shape[1]))  # type: ignore[union-attr]
         else:
-            gflat = np.broadcast_to(g.reshape(g.shape[0], -1), (n, g.shape[1] * g.shape[2])) / self.reference  # type: ignore[union-attr]
+            flat = [np.broadcast_to(g.reshape(g.shape[0], -1), (n, g.shape[1] * g.shape[2])) for g, _ in parts]  # type: ignore[union-attr]
+            gflat = (flat[0] if len(flat) == 1 else np.concatenate(flat, axis=1)) / self.reference
         out = []
         for s in springs:
-            d, grad = arr[s.name]
+            if len(parts) == 1:
+                d, grad = parts[0][1][s.name]
+            else:
+                d = np.concatenate([np.broadcast_to(arr[s.name][0], (n, arr[s.name][0].shape[1])) for _, arr in parts], axis=1)
+                grad = np.concatenate([np.broadcast_to(arr[s.name][1], (n, *arr[s.name][1].shape[1:])) for _, arr in parts], axis=1)
             out.append((d, (d[:, :, None] * grad).reshape(n, -1) / self.reference, grad.reshape(n, -1) / self.reference))
         return gflat, out
 
@@ -358,16 +390,32 @@ def _two_offsets(s11, s22, s12, r1, r2, bounds) -> tuple[np.ndarray, np.ndarray]
     return t1, t2
 
 
-def screen(problem: Problem, designer: Any, parameters: Mapping[str, float]) -> Screen:
-    """Screen every part of the problem's single directly attached slot (see the module docstring).
+def screen(
+    problem: Problem,
+    designer: Any,
+    parameters: Mapping[str, float],
+    slot: str | None = None,
+    coordinates: frozenset[str] | None = None,
+    exclude: frozenset[str] = frozenset(),
+    variables: frozenset[str] | None = None,
+) -> Screen:
+    """Screen every part of a directly attached slot (see the module docstring).
 
-    ``parameters``: any part's parameters (only the scenario's base values and gravity are used).
+    ``parameters``: the parameters of any part of ``slot`` (only the scenario's base values
+    and gravity are used; other slots' parts stay as given). ``slot``: the slot screened
+    (default: the problem's only one). ``coordinates``: only these coordinates' residual
+    rows are screened (a group of slots, :func:`.groups.direct_groups`), on which the
+    springs ``exclude`` do not act (they are left out); ``variables``: the design variables
+    those rows involve (the others are not gridded).
     """
-    structure = _structure(problem)
+    if slot is None and len(problem.slots) != 1:
+        return Screen(False, "screening needs exactly one slot")
+    chosen = problem.slots[0] if slot is None else next(s for s in problem.slots if s.name == slot)
+    structure = _structure(problem, chosen, exclude, variables)
     if isinstance(structure, str):
         return Screen(False, structure)
     slot_name, springs, cables, grid_names, geometry, other = structure
-    slot = problem.slots[0]
+    slot = chosen
     if len(springs) > 2:
         return Screen(False, "screening covers one or two springs per slot")
     subsystem = springs[0].subsystem
@@ -378,10 +426,13 @@ def screen(problem: Problem, designer: Any, parameters: Mapping[str, float]) -> 
         return Screen(False, "screening needs coordinates of one kind (all revolute or all prismatic)")
     f = designer.formulation
     p = f.parameters.values(parameters)
-    gravity, base = f.parameters.scenario_values(p)[problem.scenarios[0].name]
-    base = dict(base)
-    base[slot_name] = 0.0  # the slot's springs are added per part: G is the rest
-    base[f"{slot_name}:initial_tension"] = 0.0
+    scenarios = []
+    for scenario_gravity, scenario_base in f.parameters.scenario_values(p).values():
+        scenario_base = dict(scenario_base)
+        scenario_base[slot_name] = 0.0  # the slot's springs are added per part: G is the rest
+        scenario_base[f"{slot_name}:initial_tension"] = 0.0
+        scenarios.append((scenario_base, scenario_gravity))
+    (base, gravity), others = scenarios[0], tuple(scenarios[1:])
     reference = designer.reference[next(iter(kinds))] or 1.0
     home = {v.name: v.initial for v in problem.variables}
     boxes = []
@@ -393,7 +444,12 @@ def screen(problem: Problem, designer: Any, parameters: Mapping[str, float]) -> 
             c = _fixed_cable(problem, s, base, gravity, home)
             boxes.append((c, c))
     q = _screen_configurations(problem, subsystem, problem.settings.seed + 17)
-    ctx = _Context(problem, springs, q, base, gravity, home, cables, boxes, _part_arrays(slot), reference, subsystem, grid_names, not other)
+    names = [c.name for c in problem.subsystem_coordinates(subsystem)]
+    mine = exclude & {s.name for s in problem.springs if s.subsystem == subsystem}
+    columns = None
+    if coordinates is not None and (set(names) - coordinates or mine):
+        columns = np.array([i for i, c in enumerate(names) if c in coordinates], dtype=int)
+    ctx = _Context(problem, springs, q, base, gravity, home, cables, boxes, _part_arrays(slot), reference, subsystem, grid_names, not other, columns, frozenset(mine), others)
     n_parts = len(slot.catalogue)
     if len(springs) == 1:
         return _screen_one(ctx, n_parts)

@@ -10,7 +10,7 @@ from __future__ import annotations
 from ...errors import ProblemFileError, raise_errors
 from ...model.problem import Problem, Settings
 from ..schema import ProblemFile
-from . import constraints, loops, mechanism, parts, payloads, quantities, report, robot, substitution
+from . import constraints, loops, mechanism, parts, payloads, quantities, report, robot, robust, substitution
 from .context import REPORT_FUNCTIONS, RESERVED, Context
 
 __all__ = ["REPORT_FUNCTIONS", "RESERVED", "resolve"]
@@ -79,6 +79,7 @@ def _resolve(ctx: Context) -> Problem:
     objective = quantities.objective(ctx)
     reports = report.report(ctx, subsystems, by_name)
     design_constraints = constraints.constraints(ctx, subsystems, by_name, springs, counter_masses)
+    robust_spec = robust.robust(ctx, bodies, springs)
     meta = spec.problem
     return Problem(
         name=meta.name,
@@ -105,4 +106,5 @@ def _resolve(ctx: Context) -> Problem:
         loops=closures,
         constraints=design_constraints,
         tilts=tilts,
+        robust=robust_spec,
     )

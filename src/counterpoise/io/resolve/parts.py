@@ -97,6 +97,10 @@ def slots(ctx: Context, found: dict[str, Catalogue], springs: dict[str, list[str
         if math.isnan(tension_tol):
             column = catalogue.array("initial_tension_tolerance")
             tension_tol = float(np.nanmax(column)) if np.isfinite(column).any() else DEFAULT_INITIAL_TENSION_TOLERANCE
+        if s.count is not None:
+            if s.count.min > s.count.max:
+                raise ctx.fail(f"{key}.count", f"min {s.count.min} is greater than max {s.count.max}")
+            catalogue = catalogue.parallel(s.count.min, s.count.max)
         out.append(SpringSlot(name, catalogue, tuple(springs[name]), rate_tol, tension_tol, s.description))
     return tuple(out)
 

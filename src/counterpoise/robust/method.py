@@ -1,0 +1,302 @@
+"""The robust design method: tolerances of the built balancer, the robust counterpart and
+the tuning table (docs/robust.md).
+
+:class:`RobustMethod` wraps a problem's ordinary design method (the inner one) and:
+
+1. designs the nominal balancer with the inner method, the ``tune`` variables held at their
+   ``initial`` value (the factory setting);
+2. with ``mode = "minimise"`` or ``"limit"``, solves the robust counterpart: when no free
+   variable moves a point, an LP (box) or SOCP (ellipsoid) in the masses and stiffnesses,
+   written with cvxpy (:mod:`.convex`); otherwise the minimax NLP over every corner of the
+   box in CasADi/IPOPT (:mod:`.minimax`), started from the nominal design;
+3. measures the worst case over the tolerance box of both designs, per tolerance kind and
+   over all (:mod:`.affine`), on a dense grid of configurations;
+4. with ``tune``, re-solves the ``tune`` variables at every corner of the tolerance box
+   (every other variable held at the design's value; one designer of the perturbed problem,
+   solved with each corner's deviations as parameter values) and verifies each corner
+   densely: the tuning range of each variable and the tuning table.
+"""
+
+from __future__ import annotations
+
+import copy
+import itertools
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from ..designer.convex import geometric_variables
+from ..designer.methods import DesignMethod
+from ..designer.solution import Solution, build_solution
+from ..formulation.layout import Slot
+from ..model.problem import Problem
+from ..solvers.base import SolverOutput, Status
+from .affine import LP_CONFIGURATIONS, Decomposition, Rows, worst
+from .perturb import Deviation, corner_name, corner_text, perturbed
+
+#: configurations per block on which the worst case of a design is measured
+BAND_CONFIGURATIONS = 10_000
+#: a deviation whose effect on every residual is below this share of the reference torque
+#: changes nothing (rounding): it is not one of the tuned corners' signs
+ZERO_EFFECT = 1e-12
+#: configurations per (subsystem, corner) on which the tuned corners are verified
+TUNE_VERIFY_SAMPLES = 2_000
+
+
+@dataclass(frozen=True)
+class Corner:
+    """One tolerance corner: its deviations, the tuning that re-balances it, residual ratios."""
+
+    name: str
+    signs: tuple[int, ...]
+    deviation: str
+    before: float  # worst residual ratio at this corner with the factory setting
+    after: float  # after tuning (dense verification)
+    settings: tuple[tuple[str, float], ...]  # (tune variable, SI value)
+
+
+@dataclass(frozen=True)
+class RobustReport:
+    """What ``robust.csv``, ``tolerance.csv`` and ``tuning.csv`` are written from."""
+
+    mode: str
+    shape: str
+    deviations: tuple[Deviation, ...]
+    #: per design ("nominal", "robust"): {kind or "all": worst-case ratio}, "residual": nominal ratio
+    bands: Mapping[str, Mapping[str, float]]
+    added_mass: Mapping[str, float]  # kg, per design
+    objective: Mapping[str, float]  # kg, per design
+    lp_ratio: float = float("nan")  # the worst case on the LP's rows
+    lp_seconds: float = 0.0
+    solver: str = ""  # of the counterpart: "cvxpy/Clarabel" (LP, SOCP) or "IPOPT" (minimax NLP)
+    corners: tuple[Corner, ...] = ()
+    tuning_range: Mapping[str, tuple[float, float]] = field(default_factory=dict)  # SI
+    tuning_status: str = ""  # "" (no tune), "balanced" or the failure
+
+    @property
+    def tuned_residual(self) -> float:
+        return max((c.after for c in self.corners), default=float("nan"))
+
+
+class RobustMethod:
+    """Robust design of a problem with ``[robust]`` around its inner design method."""
+
+    def __init__(self, problem: Problem, inner: DesignMethod) -> None:
+        if problem.robust is None:
+            raise ValueError(f"{problem.name}: no [robust] table")
+        self.problem = problem
+        self.inner = inner
+        self.perturbed, self.deviations = perturbed(problem)
+        self.decomposition = Decomposition(self.perturbed, self.deviations, problem)
+        self._nonnegative: Any = None
+        self._tuner: Any = None  # the designer of the tuning, built on first use
+        self._minimax: Any = None  # the minimax NLP (free geometry), built on first use
+
+    def with_spec(self, spec: Any) -> "RobustMethod":
+        """The same method (its inner method and decomposition shared) for another ``[robust]``
+        table of the same tolerances: a trade-off study varies the limit or the weight."""
+        if spec.tolerances != self._spec().tolerances:
+            raise ValueError("with_spec: the tolerances must stay the same")
+        other = copy.copy(self)
+        other.problem = replace(self.problem, robust=spec)
+        other._tuner = None if spec.tune != self._spec().tune else self._tuner
+        other._minimax = None if (spec.mode, spec.weight) != (self._spec().mode, self._spec().weight) else self._minimax
+        return other
+
+    # -- the method ----------------------------------------------------------------
+    def solve(
+        self,
+        parameters: Mapping[str, float] | None = None,
+        bounds: Mapping["Slot | str", tuple[float, float]] | None = None,
+        initial: Mapping[Slot, float] | None = None,
+        *,
+        certify: bool = True,
+    ) -> Solution:
+        spec = self._spec()
+        held = {**(bounds or {}), **{name: (self.problem.variable[name].initial,) * 2 for name in spec.tune}}
+        nominal = self.inner.solve(parameters, held, initial, certify=certify)
+        f = self.decomposition.formulation
+        d = f.design
+        p = f.parameters.values(parameters)
+        lbz, ubz = d.bounds(held)
+        z_nom = np.clip(d.to_z(d.vector(nominal.values)), lbz, ubz)
+        dense = self.decomposition.configurations(BAND_CONFIGURATIONS, self.problem.settings.seed)
+        bands = {"nominal": self._band(self.decomposition.rows(dense, z_nom, [], p))}
+        added = {"nominal": nominal.added_mass}
+        objective = {"nominal": nominal.objective}
+        lp_ratio, lp_seconds = float("nan"), 0.0
+        design, z, status, message = nominal, z_nom, nominal.status, nominal.message
+        if spec.mode != "none":
+            geometric = geometric_variables(self.problem)
+            moving = [i for i, slot in enumerate(d.slots) if slot.variable in geometric and lbz[i] < ubz[i]]
+            free = [i for i, slot in enumerate(d.slots) if slot.variable not in geometric and lbz[i] < ubz[i]]
+            if moving:  # the geometry is free: the minimax NLP over every corner (robust/minimax.py)
+                from .minimax import RobustMinimax
+
+                if self._minimax is None:
+                    try:
+                        self._minimax = RobustMinimax(self.decomposition, spec.mode, spec.weight, self.problem.settings.seed)
+                    except ValueError as exc:  # too many corners
+                        design.verdict = (Status.FAILED, f"robust design with free geometry: {exc}; hold the geometry or tolerance fewer items")
+                        return design
+                mm = self._minimax.solve(z_nom, p, lbz, ubz, spec.limit)
+                z = np.clip(mm.z, lbz, ubz)
+                lp_ratio, lp_seconds = mm.ratio, mm.seconds
+                status = mm.status
+                out = SolverOutput(z, status, mm.solver_status, mm.iterations, mm.seconds, "ipopt")
+                message = "robust design (minimax NLP over the tolerance corners, IPOPT)"
+                if status is not Status.OPTIMAL:
+                    message = self._infeasible_text(mm.solver_status) if status is Status.INFEASIBLE else f"robust minimax NLP: IPOPT {mm.solver_status}"
+                summary = f"minimax over {len(self._minimax.offsets)} corners on sampled configurations"
+            elif not free:
+                design.verdict = (Status.FAILED, f"[robust] mode = \"{spec.mode}\" needs a free mass or stiffness variable: every variable is held")
+                return design
+            else:
+                z_ref = z_nom.copy()
+                z_ref[free] = 0.0
+                rows = self.decomposition.rows(self.decomposition.configurations(LP_CONFIGURATIONS, self.problem.settings.seed), z_ref, free, p)
+                from .convex import solve_robust
+
+                lp = solve_robust(rows, self._objective(z_ref, free, p), self._signs(z_ref, free, p), (lbz[free], ubz[free]), spec.mode, spec.weight, spec.limit, spec.shape)
+                lp_ratio, lp_seconds = lp.ratio, lp.seconds
+                z = z_ref.copy()
+                z[free] = lp.dz
+                ok = lp.status == "optimal"
+                status = Status.OPTIMAL if ok else Status.INFEASIBLE
+                out = SolverOutput(z, status, lp.status, 0, lp.seconds, "cvxpy/clarabel")
+                message = f"robust design ({'LP' if spec.shape == 'box' else 'SOCP'}, cvxpy/Clarabel)"
+                if not ok:
+                    message = self._infeasible_text(lp.status)
+                summary = f"robust counterpart on {rows.r0.size} sampled rows"
+            design = build_solution(f, z, p, lbz, ubz, out, message, 0, summary)
+            design = replace(design, problem=self.problem, scenario_parameters=_without_deviations(design.scenario_parameters, self.deviations))
+            bands["robust"] = self._band(self.decomposition.rows(dense, np.clip(z, lbz, ubz), [], p))
+            added["robust"] = design.added_mass
+            objective["robust"] = design.objective
+        solver = "" if spec.mode == "none" else ("IPOPT" if out.solver == "ipopt" else "cvxpy/Clarabel")
+        report = RobustReport(spec.mode, spec.shape, self.deviations, bands, added, objective, lp_ratio, lp_seconds, solver=solver)
+        if spec.tune and status is Status.OPTIMAL:
+            report = self._tune(design, z, p, dense, report, parameters)
+            if report.tuning_status != "balanced":
+                status, message = Status.INFEASIBLE, report.tuning_status
+        key = "robust" if "robust" in bands else "nominal"
+        text = f"{message}: worst-case residual ratio {bands[key]['all']:.4g} over the tolerance box"
+        if key == "robust":
+            text += f" (nominal design {bands['nominal']['all']:.4g}); added mass {added['robust']:.6g} kg (nominal design {added['nominal']:.6g} kg)"
+        if report.corners and report.tuning_status == "balanced":
+            text += f"; tuned at {len(report.corners)} corners, largest residual ratio after tuning {report.tuned_residual:.2g}"
+        design.robust = report
+        if status is not Status.OPTIMAL:
+            if key == "robust" or report.tuning_status not in ("", "balanced"):
+                design.verdict = (status, message)  # the counterpart or the tuning failed: say which
+        elif key == "robust":
+            design.verdict = (status, text)  # the counterpart may leave the nominal unbalanced by choice
+        else:
+            design.message = text  # the ordinary design: judged by its dense check as usual
+        return design
+
+    # -- pieces --------------------------------------------------------------------
+    def _spec(self) -> Any:
+        if self.problem.robust is None:
+            raise ValueError(f"{self.problem.name}: no [robust] table")
+        return self.problem.robust
+
+    def _band(self, rows: Rows) -> dict[str, float]:
+        zero = np.zeros(rows.A.shape[1])
+        out = {"residual": float(np.max(np.abs(rows.r0) / rows.reference)), "all": float(np.max(worst(rows, zero, self._spec().shape)))}
+        for kind in dict.fromkeys([d.tolerance.kind for d in self.deviations] + (["initial_tension"] if self.decomposition.tensions else [])):
+            out[kind] = float(np.max(worst(rows, zero, self._spec().shape, [kind])))
+        return out
+
+    def _objective(self, z_ref: np.ndarray, free: list[int], p: np.ndarray) -> tuple[np.ndarray, float]:
+        report = self.decomposition.formulation.report_function
+        f0 = float(report(z_ref, p)[0])
+        c = np.array([float(report(z_ref + np.eye(z_ref.size)[j], p)[0]) - f0 for j in free])
+        return c, f0
+
+    def _signs(self, z_ref: np.ndarray, free: list[int], p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        import casadi as ca
+
+        f = self.decomposition.formulation
+        if self._nonnegative is None:
+            self._nonnegative = ca.Function("nonnegative", [f.z, f.p], [f.nonnegative])
+        g0 = np.array(self._nonnegative(z_ref, p)).reshape(-1)
+        if not g0.size:
+            return np.zeros((0, len(free))), g0
+        G = np.stack([np.array(self._nonnegative(z_ref + np.eye(z_ref.size)[j], p)).reshape(-1) - g0 for j in free], axis=1) if free else np.zeros((g0.size, 0))
+        return G, g0
+
+    def _infeasible_text(self, lp_status: str) -> str:
+        spec = self._spec()
+        if spec.mode == "limit":
+            return (
+                f"robust design infeasible ({lp_status}): no design within the bounds keeps the worst-case residual ratio "
+                f"at or below robust.limit = {spec.limit:g} over the tolerance box"
+            )
+        return f"robust design failed: cvxpy/Clarabel returned {lp_status}"
+
+    def _tune(
+        self, design: Solution, z: np.ndarray, p: np.ndarray, dense: list[np.ndarray], report: RobustReport, parameters: Mapping[str, float] | None
+    ) -> RobustReport:
+        """Re-solve the tune variables at every corner of the box, the other variables held.
+
+        One designer of the perturbed problem is built once, with every deviation at +h
+        (so that no balance condition hides behind a deviation that is 0 at build time),
+        and solved per corner with the corner's deviations as parameter values; each
+        corner's design is verified densely (``TUNE_VERIFY_SAMPLES`` configurations)."""
+        from ..designer.designer import Designer
+        from ..verify.check import verify
+
+        spec = self._spec()
+        rows = self.decomposition.rows(dense, z, [], p)  # the untuned worst case at each corner
+        # a deviation that changes no residual at this design (the z component of a point in a
+        # planar mechanism) is left at 0: it would only double the corners
+        scale = float(np.max(rows.reference)) * ZERO_EFFECT
+        active = [i for i in range(len(self.deviations)) if float(np.max(np.abs(rows.S0[:, i]), initial=0.0)) > scale]
+        corners = [(0,) * len(self.deviations)]
+        for signs in itertools.product((-1, 1), repeat=len(active)):
+            full = [0] * len(self.deviations)
+            for i, sign in zip(active, signs):
+                full[i] = sign
+            corners.append(tuple(full))
+        held = {slot: (value, value) for slot, value in design.values.items() if slot.variable not in spec.tune}
+        if self._tuner is None:
+            width = {d.parameter: d.half_width for d in self.deviations}
+            built = replace(
+                self.perturbed,
+                parameters=tuple(replace(q, value=width[q.name]) if q.name in width else q for q in self.perturbed.parameters),
+                settings=replace(self.perturbed.settings, verify_samples=min(self.perturbed.settings.verify_samples, TUNE_VERIFY_SAMPLES)),
+            )
+            self._tuner = Designer(built)
+        base = dict(parameters or {})
+        out = []
+        for sign in corners:
+            overrides = {**base, **{d.parameter: s * d.half_width for d, s in zip(self.deviations, sign)}}
+            solution = self._tuner.solve(parameters=overrides, bounds=held, certify=False)
+            after = float(verify(solution).residual_ratio)
+            shifted = rows.r0 + rows.S0 @ np.array(sign, dtype=float) if rows.S0.shape[1] else rows.r0
+            before = float(np.max(np.abs(shifted) / rows.reference))
+            values = solution.variable_values(self.problem.scenarios[0].name)
+            out.append(Corner(corner_name("", sign), sign, corner_text(self.deviations, sign), before, after, tuple((t, values[t]) for t in spec.tune)))
+        tuning_range = {t: (min(c.settings[i][1] for c in out), max(c.settings[i][1] for c in out)) for i, t in enumerate(spec.tune)}
+        tolerance = self.problem.settings.verify_tolerance
+        failed = [c for c in out if not c.after <= tolerance]
+        if failed:
+            c = max(failed, key=lambda c: c.after)
+            at = [f"{t} at its {self.problem.variable[t].bound_side(v)} bound" for t, v in c.settings if self.problem.variable[t].bound_side(v)]
+            reason = (
+                f"the bounds of {', '.join(spec.tune)} are too narrow ({', '.join(at)})"
+                if at
+                else f"{', '.join(spec.tune)} cannot re-balance this corner (the deviation changes the residual in a way the tuning does not reach)"
+            )
+            status = f"tuning infeasible: corner {c.name} ({c.deviation}) keeps a residual ratio of {c.after:.3g} after tuning (> {tolerance:g}); {reason}"
+        else:
+            status = "balanced"
+        return replace(report, corners=tuple(out), tuning_range=tuning_range, tuning_status=status)
+
+
+def _without_deviations(values: Mapping[str, Any], deviations: tuple[Deviation, ...]) -> dict[str, Any]:
+    names = {d.parameter for d in deviations}
+    return {s: (g, {k: v for k, v in base.items() if k not in names}) for s, (g, base) in values.items()}

@@ -1,0 +1,121 @@
+"""The robust design with geometry variables: a minimax NLP in CasADi, corners as scenarios.
+
+When a free design variable moves a point (a spring end, a counter-mass lever), the
+residual is no longer affine in the design and the counterpart is not convex. It is then
+solved by IPOPT in epigraph form, every corner of the tolerance box a scenario of the
+deviation parameters (:mod:`.perturb`):
+
+    minimise objective(z) [+ weight · ρ]
+    subject to −ρ ≤ r(q_s; z, δ_c)/T ≤ ρ   for every sampled q_s, coordinate and corner c
+               (ρ ≤ limit in ``limit`` mode), bounds of z, masses and stiffnesses ≥ 0.
+
+At each sampled configuration the residual is affine in the deviations, so its largest
+absolute value over the box lies at a corner: the corners make the worst case exact (box
+shape; an ellipsoid is treated as its bounding box here). Initial-tension tolerances are
+not in the NLP (their term depends on the geometry through |∂d/∂q|); the reported band,
+measured afterwards, includes them. A local optimum, started from the nominal design.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..solvers.base import Bounds, Status
+from ..solvers.ipopt import IPOPT_DEFAULTS, IpoptBackend
+from .affine import Decomposition
+
+#: configurations per coordinate and block in the NLP (× corners: its rows)
+SAMPLES_PER_COORDINATE = 48
+#: corners enumerated at most (2ⁿ for n deviations)
+MAX_CORNERS = 1024
+
+
+@dataclass(frozen=True)
+class MinimaxResult:
+    z: np.ndarray
+    status: Status
+    solver_status: str
+    ratio: float
+    seconds: float
+    iterations: int
+
+
+class RobustMinimax:
+    """The minimax NLP of a decomposition (built once per mode)."""
+
+    def __init__(self, decomposition: Decomposition, mode: str, weight: float, seed: int) -> None:
+        import casadi as ca
+
+        f = decomposition.formulation
+        devs = decomposition.deviations
+        if 2 ** len(devs) > MAX_CORNERS:
+            raise ValueError(f"{len(devs)} deviations: {2 ** len(devs)} corners is more than {MAX_CORNERS} for the minimax NLP")
+        self.f = f
+        layout = f.parameters
+        offsets = []
+        for signs in itertools.product((-1, 1), repeat=len(devs)):
+            off = np.zeros(layout.size)
+            for d, s in zip(devs, signs):
+                i = layout.base_names.index(d.parameter)
+                for c in range(len(decomposition.problem.scenarios)):
+                    off[c * layout.stride + 3 + i] = s * d.half_width
+            offsets.append(off)
+        self.offsets = offsets
+        # per block: coordinates sampled on a grid of about SAMPLES_PER_COORDINATE × n_q points
+        self.q = [decomposition.configurations(SAMPLES_PER_COORDINATE * len(b.coordinates), seed)[k] for k, b in enumerate(f.blocks)]
+        self.rho = ca.SX.sym("rho")
+        self.mode = mode
+        self.weight = weight
+        self._decomposition = decomposition
+        self._backend: IpoptBackend | None = None
+        self._reference: np.ndarray | None = None
+
+    def _build(self, z0: np.ndarray, p: np.ndarray) -> None:
+        import casadi as ca
+
+        f = self.f
+        rows = []
+        kinds, torques = [], []
+        for b, block in enumerate(f.blocks):
+            qb = self.q[b]
+            torque = np.abs(np.array(block.gravity_torque.map(len(qb))(qb.T, z0, p)))  # (n_q, N)
+            for j, name in enumerate(block.coordinates):
+                kinds.append(self._decomposition.problem.coordinate[name].unit.dimension == "")
+                torques.append(float(torque[j].max(initial=0.0)))
+        reference = {k: max((t for t, kk in zip(torques, kinds) if kk == k), default=1.0) or 1.0 for k in (True, False)}
+        i = 0
+        for b, block in enumerate(f.blocks):
+            qb = self.q[b]
+            mapped = block.residual.map(len(qb))
+            for off in self.offsets:
+                r = mapped(ca.DM(qb.T), f.z, f.p + ca.DM(off))  # (n_q, N)
+                for j in range(len(block.coordinates)):
+                    scaled = r[j, :].T / reference[kinds[i + j]]
+                    rows += [self.rho - scaled, self.rho + scaled]
+            i += len(block.coordinates)
+        self.n_rows = int(sum(r.numel() for r in rows))
+        g = ca.vertcat(*rows, f.nonnegative)
+        self.n_signs = int(f.nonnegative.numel())
+        objective = f.objective + (self.weight * self.rho if self.mode == "minimise" else 0)
+        options = {**IPOPT_DEFAULTS, "tol": 1e-9}
+        self._backend = IpoptBackend({"x": ca.vertcat(f.z, self.rho), "p": f.p, "f": objective, "g": g}, options, "robust_minimax")
+
+    def solve(self, z0: np.ndarray, p: np.ndarray, lbz: np.ndarray, ubz: np.ndarray, limit: float) -> MinimaxResult:
+        if self._backend is None:
+            self._build(z0, p)
+        backend = self._backend
+        if backend is None:
+            raise RuntimeError("robust minimax: the NLP was not built")
+        upper = limit if self.mode == "limit" else np.inf
+        b = Bounds(
+            np.concatenate([lbz, [0.0]]),
+            np.concatenate([ubz, [upper]]),
+            np.zeros(self.n_rows + self.n_signs),
+            np.full(self.n_rows + self.n_signs, np.inf),
+        )
+        start = upper if np.isfinite(upper) else 1.0
+        out = backend.solve(np.concatenate([z0, [start]]), p, b)
+        return MinimaxResult(out.z[:-1], out.status, out.solver_status, float(out.z[-1]), out.solve_time, out.iterations)
