@@ -18,12 +18,14 @@ demo: $(STAMP)
 	$(BIN)/counterpoise solve problems/*.toml --out results --plot
 
 # the committed studies in results/: the Pareto front of the free-extensions leg, a
-# 1000-point payload sweep of the hybrid (docs/studies.md) and the tilting-base trade-off
-# of the hybrid arm (docs/tilt.md)
+# 1000-point payload sweep of the hybrid (docs/studies.md), the tilting-base trade-off
+# of the hybrid arm (docs/tilt.md) and the whole holder's residual against the leg planes'
+# tilt (docs/seeds.md#yasir-holder)
 studies: $(STAMP)
 	$(BIN)/counterpoise study problems/yasir2019_free_extensions.toml --vary 'inertia_weight=0 1/m^2:400 1/m^2:41' --out results
 	$(BIN)/counterpoise study problems/yasir2019_hybrid.toml --vary 'm_endo=400 g:1000 g:1000' --out results
 	$(BIN)/python scripts/tilt_tradeoff.py results/tilt_hybrid_arm-tradeoff
+	$(BIN)/counterpoise study problems/yasir2019_holder.toml --vary 'tilt=1 deg:15 deg:8' --out results
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q

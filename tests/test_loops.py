@@ -264,10 +264,10 @@ def test_builder_makes_the_same_four_bar():
 
 #: file -> (key the one-line error names, fragment of its message)
 BAD_LOOPS = {
-    "loop_cannot_close_at_home.toml": ("loops.B", "the loop cannot close at home: its points stay about 4"),
+    "loop_cannot_close_at_home.toml": ("loops.B", "the loop cannot close at home (home theta2 = 0 deg): its points stay about 4"),
     # the gap comes from a local least-squares search, so its figure differs between machines
     # (30.22 mm here, 41.82 mm elsewhere): test_crank_too_long_gap checks it against the true minimum
-    "loop_crank_too_long.toml": ("loops.B", "the loop cannot close at home: its points stay about "),
+    "loop_crank_too_long.toml": ("loops.B", "the loop cannot close at home (home theta2 = 0 deg): its points stay about "),
     "loop_range_beyond_mobility.toml": ("loops.B", "cannot be assembled at theta2 = "),
     "loop_singular_in_range.toml": ("loops.B", "the mechanism is singular at theta2 = 180."),
     "loop_dependent_with_range.toml": ("subsystems.fourbar.coordinates.theta3.range", "has no range of its own"),
@@ -278,7 +278,11 @@ BAD_LOOPS = {
     "loop_revolute_without_axis.toml": ("loops.B.axis", "needs its axis"),
     "loop_spherical_with_axis.toml": ("loops.B.axis", "a spherical joint has no axis"),
     "loop_unknown_frame.toml": ("loops.B.b.frame", "unknown frame 'roker' (did you mean 'rocker'?)"),
-    "loop_unknown_joint.toml": ("loops.B.joint", "expected one of 'revolute' or 'spherical'"),
+    "loop_unknown_joint.toml": ("loops.B.joint", "expected one of 'revolute', 'spherical' or 'prismatic'"),
+    "loop_point_out_of_range.toml": ("loops.B.b.point.0", "value out of range: '1e+308 mm'"),
+    "loop_prismatic_without_axis.toml": ("loops.B.axis", "a prismatic joint needs its axis"),
+    "loop_axis_b_misaligned.toml": ("loops.B", "the joint's axes do not line up"),
+    "loop_spherical_with_axis_b.toml": ("loops.B.axis_b", "a spherical joint has no axis"),
     "loop_variable_geometry.toml": ("loops.B", "depends on design variable 'M_crank'"),
     "loop_direct_slot.toml": ("springs.rocker_spring.mount", "closed loops take catalogue parts behind a string only"),
 }

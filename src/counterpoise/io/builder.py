@@ -151,13 +151,17 @@ class ProblemBuilder:
         b: tuple[str, Vec3],
         axis: Vec3 | None = None,
         description: str = "",
+        axis_b: Vec3 | None = None,
     ) -> "ProblemBuilder":
         """The joint ``name`` where a closed loop was opened: ``joint`` is ``"revolute"`` (give
-        its ``axis`` in frame a's coordinates) or ``"spherical"``; ``a`` and ``b`` are
-        ``(frame, point)`` of the two points it keeps together (see docs/loops.md)."""
+        its ``axis`` in frame a's coordinates, and optionally ``axis_b``, the same axis in
+        frame b's), ``"prismatic"`` (its ``axis``: the slide) or ``"spherical"``; ``a`` and
+        ``b`` are ``(frame, point)`` of the two points it keeps together (see docs/loops.md)."""
         entry: dict[str, Any] = {"joint": joint, "a": {"frame": a[0], "point": list(a[1])}, "b": {"frame": b[0], "point": list(b[1])}}
         if axis is not None:
             entry["axis"] = list(axis)
+        if axis_b is not None:
+            entry["axis_b"] = list(axis_b)
         return self._put("loops", name, self._described(entry, description))
 
     def body(self, name: str, frame: str, mass: Value, com: Vec3, description: str = "") -> "ProblemBuilder":

@@ -215,12 +215,14 @@ class SubstitutionSpec(_Table):
 
 class LoopSpec(_Table):
     """A closed loop, opened at one joint: the two points that the joint keeps together
-    (and, for a revolute joint, its axis in frame a's coordinates). See docs/loops.md."""
+    (a revolute or prismatic joint: its axis in frame a's coordinates; a revolute joint may
+    give the same axis in frame b's coordinates, ``axis_b``). See docs/loops.md."""
 
-    joint: Literal["revolute", "spherical"]
+    joint: Literal["revolute", "spherical", "prismatic"]
     a: PointSpec
     b: PointSpec
     axis: Vec3 | None = None
+    axis_b: Vec3 | None = None
     description: str = ""
 
 

@@ -3,12 +3,20 @@
 For a subsystem whose coordinates split into independent ones q_i (with ranges) and
 dependent ones q_d (solved), the closure equations of its loops (:mod:`counterpoise.model.loops`)
 
-    h(q_i, q_d) = 0        (3 rows per loop: the joint's two points coincide;
-                            3 more for a revolute joint: its axis keeps its home direction in frame b)
+    h(q_i, q_d) = 0        (per loop, 3 point rows: the joint's two points coincide, or for a
+                            prismatic joint (p_a − p_b) × axis = 0; then the orientation rows:
+                            a revolute axis keeps its direction in frame b (3), a prismatic
+                            joint keeps the frames' relative rotation (9))
 
-define the configuration manifold. :class:`Closure` builds h and its Jacobian once (CasADi,
-at one scenario's parameter values) and solves it for many configurations at once:
+define the configuration manifold. :class:`Closure` builds h and its Jacobian once (at one
+scenario's parameter values) and solves it for many configurations at once:
 
+- **The assembled home** (:meth:`Closure._home`): the file's homes are starting guesses.
+  The point rows are closed first; the orientation targets are then given (``axis_b``) or
+  measured and snapped onto exact directions (:func:`_snap`); Gauss-Newton with truncated-SVD
+  steps then corrects every dependent coordinate on every row, and the mobility
+  n − rank ∂h/∂q is checked there. Homes rounded to a few digits give the configuration
+  exact ones give, also for over-constrained loops (docs/loops.md#the-home).
 - **Newton with a rank-revealing pseudo-inverse**: Δq_d = −(∂h/∂q_d)⁺ h. Redundant rows (a
   planar loop's out-of-plane rows, identically zero) only add zero singular values, which
   the pseudo-inverse drops; nobody has to remove equations.
@@ -16,10 +24,11 @@ at one scenario's parameter values) and solves it for many configurations at onc
   from the home configuration in q_i, in small steps, each predicted along the tangent
   dq_d/dq_i and corrected by Newton. Steps are small against the ranges
   (:data:`STEPS_PER_RANGE`), so the solution stays on the assembly branch of home.
-- **Input errors**: a loop that does not close at home, a configuration of the ranges that
-  cannot be assembled (the first one met from home is named), and a singular configuration
-  (∂h/∂q_d loses rank: the dependent coordinates are not determined there, and the generalized
-  force along the manifold is not defined) are :class:`ProblemFileError` naming the loop.
+- **Input errors**: a loop that does not close at home, too few degrees of freedom at home,
+  a configuration of the ranges that cannot be assembled (the first one met from home is
+  named), and a singular configuration (∂h/∂q_d loses rank: the dependent coordinates are not
+  determined there, and the generalized force along the manifold is not defined) are
+  :class:`ProblemFileError` naming the loop; messages at home state the home used.
 - **Tangent**: dq_d/dq_i = −(∂h/∂q_d)⁺ ∂h/∂q_i (implicit function theorem), used for the
   residual along the manifold (:mod:`counterpoise.formulation.manifold`,
   :mod:`counterpoise.verify.manifold`).
@@ -40,7 +49,8 @@ from typing import Any
 import numpy as np
 
 from ..errors import ProblemFileError
-from ..model.loops import REVOLUTE_JOINT
+from ..model.loops import PRISMATIC_JOINT, REVOLUTE_JOINT, SPHERICAL_JOINT
+from ..model.units import MAX_LENGTH_M
 from ..model.mechanism import GROUND
 from ..model.problem import Problem
 from .energy import Mechanics
@@ -52,6 +62,16 @@ CLOSURE_TOLERANCE = 1e-11
 #: Gauss-Newton iterations that measure the gap of a loop that cannot close at home.
 LEAST_SQUARES_ITERATIONS = 200
 LEAST_SQUARES_HALVINGS = 40
+#: Gauss-Newton iterations of the home solve on every closure row (from the homes, which
+#: are accurate to a few digits: it converges in a handful).
+HOME_ITERATIONS = 60
+#: An orientation target measured at a rounded home (a revolute axis in frame b, a prismatic
+#: joint's relative rotation) within this angle (rad, 0.057 deg) of an exact direction (a
+#: coordinate axis, or the revolute axis's own coordinates in frame a) is snapped onto it.
+AXIS_SNAP = 1e-3
+#: Chord iterations (the Jacobian of the prediction kept) of a dense sample's corrections
+#: before a configuration goes on with full Newton steps.
+CHORD_ITERATIONS = 8
 #: Newton corrections per continuation step (each converges quadratically from the predictor).
 NEWTON_ITERATIONS = 12
 #: Continuation steps over a path as long as the whole range of a coordinate (fewer for shorter paths).
@@ -77,6 +97,9 @@ RANK_TOLERANCE = 1e-9
 #: A configuration is singular when σ_min/σ_max of ∂h/∂q_d (its n_d largest singular
 #: values) is below this: the dependent coordinates are (nearly) undetermined there.
 SINGULAR_CONDITIONING = 1e-6
+#: Results of :meth:`Closure.solve` kept per closure (by their independent coordinates): the
+#: after-solve checks draw the same dense sample once per spring.
+SOLVED_CACHE = 8
 #: Continuation steps of the assembly check on each edge of the box of ranges.
 CHECK_STEPS = STEPS_PER_RANGE
 #: Loop sizes below this (m) are taken as this (a loop of zero size still gets a scale).
@@ -110,39 +133,87 @@ class Closure:
         self.dependent = np.array([i for i, c in enumerate(coords) if c.dependent], dtype=int)
         self.lower = np.array([coords[i].lower for i in self.independent])
         self.upper = np.array([coords[i].upper for i in self.independent])
-        self.home = np.array([c.home for c in coords])
+        #: the file's homes (starting guesses); ``home`` becomes the assembled home
+        self.given = np.array([c.home for c in coords])
+        self.home = self.given.copy()
         self.size = max(MIN_SIZE, _size(self._mechanics(self.home[None, :]), self.loops))
-        self.axis_b: dict[str, np.ndarray] = {}  # revolute axes in frame b, taken at home
-        self.m = 3 * len(self.loops)
-        # the home configuration, from the file's homes: positions first (axes in frame b are taken there)
-        self.home = self._home()
-        mech = self._mechanics(self.home[None, :])
-        for loop in self.loops:
-            if loop.joint == REVOLUTE_JOINT:
-                ra, _ = mech.pose(loop.a.frame)
-                rb, _ = mech.pose(loop.b.frame)
-                world = np.array([np.ravel(v)[0] for v in matvec(ra, mech.vector(loop.axis))], dtype=float)  # type: ignore[arg-type]
-                rb_home = np.array([[np.ravel(rb[r][c])[0] for c in range(3)] for r in range(3)], dtype=float)
-                self.axis_b[loop.name] = rb_home.T @ world
-        self.m = sum(3 + (3 if loop.name in self.axis_b else 0) for loop in self.loops)
+        if not self.size <= MAX_LENGTH_M:  # a length of 1e308 mm in a frame: out of range, not an overflow
+            raise ProblemFileError(
+                problem.path,
+                f"loops.{self.loops[0].name}",
+                f"the loop's points and frames reach {self.size:.3g} m from the origin at home: out of range "
+                f"(beyond {MAX_LENGTH_M:g} m, 1000 km; check the lengths of its frames' translations and of the parameters they use)",
+            )
+        #: the orientation targets: a revolute joint's axis in frame b (3,), a prismatic
+        #: joint's rotation of frame a in frame b (3, 3); empty while the points are closed first
+        self.targets: dict[str, np.ndarray] = {}
+        self.snapped: set[str] = set()  # loops whose target was snapped onto an exact direction
         self._grid: tuple[np.ndarray, ManifoldPoints] | None = None
+        self._solved: dict[tuple[tuple[int, ...], bytes], ManifoldPoints] = {}  # solve()'s results by their q_i
+        self.m = self._row_count()
+        self.home = self._home()
+        self.m = self._row_count()
+
+    def _row_count(self) -> int:
+        return sum(3 + (3 * (len(self.targets[loop.name].ravel()) // 3) if loop.name in self.targets else 0) for loop in self.loops)
 
     # -- equations -------------------------------------------------------------------
     def _mechanics(self, q: Any) -> Mechanics:
         return Mechanics(self.problem, self.base, {}, {name: q[:, i] for i, name in enumerate(self.names)}, [0.0, 0.0, 0.0])
 
     def _rows(self, q: Any) -> Any:
-        """h at configurations q (N, n), real or complex: (N, m)."""
+        """h at configurations q (N, n), real or complex: (N, m).
+
+        Per loop: the point rows (spherical, revolute: p_a − p_b; prismatic: (p_a − p_b) ×
+        the axis in world, the two points may slide along it), over the loop's size; then,
+        once the targets are set, the orientation rows (revolute: R_a axis − R_b axis_b;
+        prismatic: the columns of R_a − R_b R_ba)."""
         mech = self._mechanics(q)
         rows = []
+        n_conf = q.shape[0]
         for loop in self.loops:
             gap = sub(mech.position(loop.a), mech.position(loop.b))
-            rows += [np.broadcast_to(g, (q.shape[0],)) / self.size for g in gap]
-            if loop.name in self.axis_b:
-                ra, _ = mech.pose(loop.a.frame)
-                rb, _ = mech.pose(loop.b.frame)
-                rows += [np.broadcast_to(v, (q.shape[0],)) for v in sub(matvec(ra, mech.vector(loop.axis)), matvec(rb, list(self.axis_b[loop.name])))]  # type: ignore[arg-type]
+            ra, _ = mech.pose(loop.a.frame)
+            if loop.joint == PRISMATIC_JOINT:
+                u = matvec(ra, mech.vector(loop.axis))  # type: ignore[arg-type]
+                gap = [gap[1] * u[2] - gap[2] * u[1], gap[2] * u[0] - gap[0] * u[2], gap[0] * u[1] - gap[1] * u[0]]
+            rows += [np.broadcast_to(g, (n_conf,)) / self.size for g in gap]
+            target = self.targets.get(loop.name)
+            if target is None:
+                continue
+            rb, _ = mech.pose(loop.b.frame)
+            if loop.joint == REVOLUTE_JOINT:
+                rows += [np.broadcast_to(v, (n_conf,)) for v in sub(matvec(ra, mech.vector(loop.axis)), matvec(rb, list(target)))]  # type: ignore[arg-type]
+            else:
+                for col in range(3):
+                    rows += [np.broadcast_to(v, (n_conf,)) for v in sub([ra[r][col] for r in range(3)], matvec(rb, list(target[:, col])))]
         return np.stack(rows, axis=1)
+
+    def _orientation_targets(self, q: np.ndarray) -> dict[str, np.ndarray]:
+        """The orientation targets measured at configuration q (n,): each revolute axis in
+        frame b, each prismatic joint's rotation of frame a in frame b."""
+        mech = self._mechanics(q[None, :])
+        out: dict[str, np.ndarray] = {}
+        for loop in self.loops:
+            if loop.joint == SPHERICAL_JOINT:
+                continue
+            ra = _matrix(mech.pose(loop.a.frame)[0])
+            rb = _matrix(mech.pose(loop.b.frame)[0])
+            if loop.joint == REVOLUTE_JOINT:
+                out[loop.name] = rb.T @ ra @ _column(mech.vector(loop.axis))  # type: ignore[arg-type]
+            else:
+                out[loop.name] = rb.T @ ra
+        return out
+
+    def _given_targets(self) -> dict[str, np.ndarray]:
+        """Targets the file gives exactly (``axis_b``), and snapped ones (:func:`_snap`)."""
+        mech = self._mechanics(self.home[None, :])
+        out: dict[str, np.ndarray] = {}
+        for loop in self.loops:
+            if loop.axis_b is not None:
+                v = _column(mech.vector(loop.axis_b))
+                out[loop.name] = v / np.linalg.norm(v)
+        return out
 
     def equations(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """h (N, m) and ∂h/∂q (N, m, n) at configurations q (N, n), by complex step (every
@@ -181,42 +252,180 @@ class Closure:
         q[bad] = self.home
         return q, done & ~bad, jac
 
+    def _chord(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Newton's chord method from good predictions q (N, n): ∂h/∂q_d taken once at the
+        prediction, then only h per iteration (one evaluation instead of n + 1), then the full
+        Jacobian at the result (its tangent and conditioning). Configurations it does not close
+        within CHORD_ITERATIONS go on with :meth:`_newton`. Returns (q, converged, Jacobian)."""
+        d = self.dependent
+        n_conf = q.shape[0]
+        with np.errstate(all="ignore"):
+            h, jac = self.equations(q)
+            jd = jac[:, :, d]
+            normal = np.einsum("kmd,kme->kde", jd, jd)
+            normal += RANK_TOLERANCE**2 * np.trace(normal, axis1=1, axis2=2)[:, None, None] * np.eye(len(d))
+            finite = np.isfinite(normal).all(axis=(1, 2)) & (np.abs(np.linalg.det(np.nan_to_num(normal))) > 0)
+            inverse = np.zeros_like(normal)
+            if finite.any():
+                inverse[finite] = np.linalg.inv(normal[finite])
+            for _ in range(CHORD_ITERATIONS):
+                active = finite & (np.abs(h).max(axis=1) > CLOSURE_TOLERANCE)
+                if not active.any():
+                    break
+                step = np.einsum("kde,ke->kd", inverse, np.einsum("kmd,km->kd", jd, h))
+                q[:, d] -= np.where(active[:, None], step, 0.0)
+                h = np.asarray(self._rows(q)).real
+            h, jac = self.equations(q)
+        ok = np.isfinite(q).all(axis=1) & np.isfinite(h).all(axis=1) & (np.abs(h).max(axis=1) <= CLOSURE_TOLERANCE)
+        if not ok.all():  # the chord did not settle there: full Newton from where it is (or from the prediction)
+            redo = ~ok
+            start = np.where(np.isfinite(q[redo]).all(axis=1)[:, None], q[redo], self.home)
+            q_r, ok_r, jac_r = self._newton(start.copy(), np.ones(int(redo.sum()), dtype=bool))
+            q[redo], ok[redo], jac[redo] = q_r, ok_r, jac_r
+        return q, ok & np.ones(n_conf, dtype=bool), jac
+
     def _home(self) -> np.ndarray:
-        q = self.home[None, :].copy()
-        q, ok, jac = self._newton(q, np.ones(1, dtype=bool))
-        gaps = self.gaps(q)[0] if np.isfinite(q).all() else self.gaps(self.home[None, :])[0]
-        worst = int(np.argmax(gaps)) if len(gaps) else 0
-        if not ok[0]:
-            # the least-squares gap: Gauss-Newton on to the closest the loop comes to closing
-            with np.errstate(all="ignore"):
-                q = self.home[None, :].copy()
-                for _ in range(LEAST_SQUARES_ITERATIONS):  # damped: halve the step until the gap shrinks
-                    h, jac = self.equations(q)
-                    step = _least_squares(jac[:, :, self.dependent], h[:, :, None])[:, :, 0]
-                    if not np.isfinite(step).all():
-                        break
-                    for _ in range(LEAST_SQUARES_HALVINGS):
-                        trial = q.copy()
-                        trial[:, self.dependent] -= step
-                        if float(np.sum(self._rows(trial).real ** 2)) < float(np.sum(h**2)):
-                            q = trial
-                            break
-                        step = 0.5 * step
-                    else:
-                        break
-            closed = np.isfinite(q).all() and float(np.abs(self._rows(q).real).max(initial=0.0)) <= CLOSURE_TOLERANCE
-            if closed:  # Newton from the homes stalled, the damped steps closed it: take that
-                return q[0]
-            gaps = self.gaps(q)[0] if np.isfinite(q).all() else gaps
-            worst = int(np.argmax(gaps)) if len(gaps) else 0
-            loop = self.loops[worst]
+        """The assembled home: every dependent coordinate corrected on every closure equation.
+
+        1. Newton on the point rows from the file's homes (a loop that cannot close there
+           is an input error naming the least-squares gap).
+        2. The orientation targets: given (``axis_b``), or measured there and snapped onto
+           an exact direction within :data:`AXIS_SNAP` (:func:`_snap`): homes rounded to a
+           few digits then assemble the configuration their exact values would.
+        3. Gauss-Newton with rank-revealing steps on all rows (points and orientations), so
+           a coordinate that only the orientation rows see is corrected too.
+        4. The mobility at the assembled home: n − rank ∂h/∂q must leave room for every
+           independent coordinate, and ∂h/∂q_d must determine the dependent ones.
+        """
+        q = self._close_points()
+        measured = self._orientation_targets(q[0])
+        given = self._given_targets()
+        snapped = {name: t for name, t in ((name, _snap(v, self._axis_a(name))) for name, v in measured.items()) if t is not None}
+        self.targets = {**measured, **snapped, **given}
+        self.m = self._row_count()
+        assembled, ok = self._gauss_newton(q)
+        if not ok and snapped:  # a snapped direction the geometry does not have: keep the measured one
+            self.targets = {**measured, **given}
+            self.m = self._row_count()
+            assembled, ok = self._gauss_newton(q)
+        else:
+            self.snapped = set(snapped) - set(given)
+        if not ok:
+            loop = next((lp for lp in self.loops if lp.name in given), self.loops[0])
             raise ProblemFileError(
                 self.problem.path,
                 f"loops.{loop.name}",
-                f"the loop cannot close at home: its points stay about {_mm(gaps[worst])} apart at best "
-                f"(check the lengths and the homes of the dependent coordinates, which pick the assembly branch)",
+                f"the loop cannot close at home ({self.home_text()}): its points meet but the joint's axes do not line up "
+                f"(check axis_b against the frames, and the homes of the dependent coordinates)",
             )
-        return q[0]
+        self._check_mobility(assembled)
+        return assembled[0]
+
+    def _axis_a(self, name: str) -> np.ndarray | None:
+        """A revolute loop's axis in frame a's coordinates (numbers), None for a prismatic loop."""
+        loop = next(lp for lp in self.loops if lp.name == name)
+        if loop.joint != REVOLUTE_JOINT:
+            return None
+        return _column(self._mechanics(self.given[None, :]).vector(loop.axis))  # type: ignore[arg-type]
+
+    def home_text(self, q: np.ndarray | None = None) -> str:
+        """'home theta2 = 0 deg' (the independent coordinates' homes, in their units)."""
+        q = self.given if q is None else q
+        return "home " + self.describe(q[self.independent])
+
+    def _close_points(self) -> np.ndarray:
+        """Step 1 of :meth:`_home`: (1, n), the point rows closed from the file's homes."""
+        q = self.given[None, :].copy()
+        q, ok, _ = self._newton(q, np.ones(1, dtype=bool))
+        if ok[0]:
+            return q
+        # the least-squares gap: Gauss-Newton on to the closest the loop comes to closing
+        gaps = self.gaps(self.given[None, :])[0]
+        with np.errstate(all="ignore"):
+            q = self.given[None, :].copy()
+            for _ in range(LEAST_SQUARES_ITERATIONS):  # damped: halve the step until the gap shrinks
+                h, jac = self.equations(q)
+                step = _least_squares(jac[:, :, self.dependent], h[:, :, None])[:, :, 0]
+                if not np.isfinite(step).all():
+                    break
+                for _ in range(LEAST_SQUARES_HALVINGS):
+                    trial = q.copy()
+                    trial[:, self.dependent] -= step
+                    if float(np.sum(self._rows(trial).real ** 2)) < float(np.sum(h**2)):
+                        q = trial
+                        break
+                    step = 0.5 * step
+                else:
+                    break
+        closed = np.isfinite(q).all() and float(np.abs(self._rows(q).real).max(initial=0.0)) <= CLOSURE_TOLERANCE
+        if closed:  # Newton from the homes stalled, the damped steps closed it: take that
+            return q
+        gaps = self.gaps(q)[0] if np.isfinite(q).all() else gaps
+        worst = int(np.argmax(gaps)) if len(gaps) else 0
+        loop = self.loops[worst]
+        raise ProblemFileError(
+            self.problem.path,
+            f"loops.{loop.name}",
+            f"the loop cannot close at home ({self.home_text()}): its points stay about {_mm(gaps[worst])} apart at best "
+            f"(check the lengths and the homes of the dependent coordinates, which pick the assembly branch)",
+        )
+
+    def _gauss_newton(self, q: np.ndarray) -> tuple[np.ndarray, bool]:
+        """Gauss-Newton on q_d over every row from q (1, n), each step the minimum-norm
+        least-squares step through the SVD truncated at RANK_TOLERANCE (redundant rows of an
+        over-constrained loop are dropped, not fought), halved until ‖h‖ shrinks."""
+        q = q.copy()
+        d = self.dependent
+        with np.errstate(all="ignore"):
+            for _ in range(HOME_ITERATIONS):
+                h, jac = self.equations(q)
+                if not (np.isfinite(h).all() and np.isfinite(jac).all()):
+                    return q, False
+                if float(np.abs(h).max(initial=0.0)) <= CLOSURE_TOLERANCE:
+                    return q, True
+                step = np.linalg.lstsq(jac[0][:, d], h[0], rcond=RANK_TOLERANCE)[0]
+                now = float(np.sum(h**2))
+                for _ in range(LEAST_SQUARES_HALVINGS):
+                    trial = q.copy()
+                    trial[0, d] -= step
+                    if float(np.sum(self._rows(trial).real ** 2)) < now:
+                        q = trial
+                        break
+                    step = 0.5 * step
+                else:
+                    break
+        return q, bool(np.isfinite(q).all() and float(np.abs(self._rows(q).real).max(initial=0.0)) <= CLOSURE_TOLERANCE)
+
+    def _check_mobility(self, q: np.ndarray) -> None:
+        """Input errors at the assembled home q (1, n): fewer degrees of freedom than
+        independent coordinates (n − rank ∂h/∂q < n_i), or dependent coordinates that the
+        loops do not determine (σ_min/σ_max of ∂h/∂q_d below SINGULAR_CONDITIONING)."""
+        _, jac = self.equations(q)
+        sigma = np.linalg.svd(np.nan_to_num(jac[0], nan=0.0, posinf=0.0, neginf=0.0), compute_uv=False)
+        rank = int(np.sum(sigma > RANK_TOLERANCE * sigma[0])) if sigma.size and sigma[0] > 0 else 0
+        mobility = len(self.names) - rank
+        where = self.home_text(q[0])
+        if mobility < len(self.independent):
+            hint = ""
+            if set(self.targets) - self.snapped - {lp.name for lp in self.loops if lp.axis_b is not None}:
+                hint = (
+                    "; an over-constrained loop needs its joint axes exact, and an axis measured at a rounded home is not: "
+                    "give each revolute loop's axis_b (its axis in frame b's coordinates)"
+                )
+            raise ProblemFileError(
+                self.problem.path,
+                f"loops.{self.loops[0].name}",
+                f"the loops leave {mobility} degree(s) of freedom at the assembled {where}, fewer than the "
+                f"{len(self.independent)} independent coordinates: the ranges go beyond the mechanism's mobility{hint}",
+            )
+        _, cond = self.tangent(jac)
+        if cond[0] < SINGULAR_CONDITIONING:
+            raise ProblemFileError(
+                self.problem.path,
+                f"loops.{self.loops[0].name}",
+                f"the mechanism is singular at the assembled {where}: the loops do not determine the dependent coordinates there "
+                f"(the closure's Jacobian in them loses rank: a change point, a dead centre, or too few loops for the dependent coordinates)",
+            )
 
     def tangent(self, jac: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(dq_d/dq_i (N, n_d, n_i), conditioning (N,)) from ∂h/∂q (N, m, n)."""
@@ -239,6 +448,17 @@ class Closure:
         its path) that cannot be assembled or is singular.
         """
         qi = np.atleast_2d(np.asarray(qi, dtype=float))
+        key = (qi.shape, qi.tobytes())
+        found = self._solved.get(key)
+        if found is not None:  # the same draws again (one dense sample per spring, say): solved once
+            return ManifoldPoints(found.q.copy(), found.tangent.copy(), found.conditioning.copy())
+        points = self._solve(qi)
+        if len(self._solved) >= SOLVED_CACHE:
+            self._solved.pop(next(iter(self._solved)))
+        self._solved[key] = points
+        return ManifoldPoints(points.q.copy(), points.tangent.copy(), points.conditioning.copy())
+
+    def _solve(self, qi: np.ndarray) -> ManifoldPoints:
         n_i = len(self.independent)
         per_axis = self._per_axis()
         if per_axis**n_i > GRID_MAX_NODES:
@@ -252,7 +472,7 @@ class Closure:
         q[:, self.independent] = qi
         guess = q[:, self.dependent] + np.einsum("kdi,ki->kd", grid.tangent[flat], step)
         q[:, self.dependent] = guess
-        q, ok, jac = self._newton(q, np.ones(qi.shape[0], dtype=bool))
+        q, ok, jac = self._chord(q)
         # a correction as large as the prediction's whole change means Newton may have left the branch
         moved = np.abs(q[:, self.dependent] - guess).max(axis=1) if len(self.dependent) else np.zeros(qi.shape[0])
         predicted = np.abs(np.einsum("kdi,ki->kd", grid.tangent[flat], step)).max(axis=1) if len(self.dependent) else moved
@@ -341,7 +561,8 @@ class Closure:
                 self.problem.path,
                 f"loops.{self.loops[0].name}",
                 f"the mechanism is singular at {where}: the loops do not determine the dependent coordinates there "
-                f"(the closure's Jacobian in them loses rank: a change point or a dead centre); narrow the ranges to keep away from it",
+                f"(the closure's Jacobian in them loses rank: a change point or a dead centre, met going out from {self.home_text()}); "
+                f"narrow the ranges to keep away from it",
             )
         # the least-squares gap where the continuation stopped, from the last assembled configuration
         before = start + max(0.0, t - 1.0 / steps) * delta[k]
@@ -352,7 +573,7 @@ class Closure:
             self.problem.path,
             f"loops.{self.loops[worst].name}",
             f"the loop cannot be assembled at {where} (closure gap {_mm(gaps[worst])}): "
-            f"the ranges go beyond the mechanism's mobility on the branch of home",
+            f"the ranges go beyond the mechanism's mobility on the branch of {self.home_text()}",
         )
 
     def solve_from(self, before: np.ndarray, qi: np.ndarray) -> np.ndarray:
@@ -380,6 +601,38 @@ class Closure:
     def corners(self) -> np.ndarray:
         """Every corner of the box of independent ranges: (2^n_i, n_i)."""
         return np.array(list(itertools.product(*zip(self.lower, self.upper))), dtype=float).reshape(-1, len(self.independent))
+
+
+def _matrix(rot: Any) -> np.ndarray:
+    """A pose's 3 × 3 rotation (entries numbers or one-element arrays) as an array."""
+    return np.array([[float(np.ravel(rot[r][c])[0]) for c in range(3)] for r in range(3)], dtype=float)
+
+
+def _column(v: Sequence[Any]) -> np.ndarray:
+    return np.array([float(np.ravel(c)[0]) for c in v], dtype=float)
+
+
+def _snap(target: np.ndarray, axis_a: np.ndarray | None) -> np.ndarray | None:
+    """The exact direction a measured orientation target stands for, or None.
+
+    A revolute axis in frame b (3,): the nearest of ±x, ±y, ±z and ± the axis's own
+    coordinates in frame a, if within AXIS_SNAP rad. A prismatic joint's rotation (3, 3):
+    the nearest signed permutation (frames aligned up to quarter turns), if every entry is
+    within AXIS_SNAP of it. Homes are accurate to a few digits (1e-3 deg moves a target by
+    ~1e-5 rad), so an over-constrained mechanism built on exact directions keeps them.
+    """
+    if target.ndim == 1:
+        candidates = [np.eye(3)[k] * sign for k in range(3) for sign in (1.0, -1.0)]
+        if axis_a is not None and np.linalg.norm(axis_a) > 0:
+            unit = axis_a / np.linalg.norm(axis_a)
+            candidates += [unit, -unit]
+        unit_t = target / np.linalg.norm(target)
+        best = min(candidates, key=lambda c: float(np.linalg.norm(unit_t - c)))
+        return best.copy() if float(np.linalg.norm(unit_t - best)) <= AXIS_SNAP else None
+    rounded = np.rint(target)
+    if np.abs(target - rounded).max() <= AXIS_SNAP and np.allclose(rounded @ rounded.T, np.eye(3)) and np.linalg.det(rounded) > 0:
+        return rounded
+    return None
 
 
 def _polar(a: np.ndarray) -> np.ndarray:
@@ -421,7 +674,7 @@ def _size(mech: Mechanics, loops: Sequence[Any]) -> float:
 
 def _norm(v: Sequence[Any]) -> float:
     """|v| of a vector whose entries are numbers or one-element arrays."""
-    return float(np.sqrt(sum(float(np.ravel(c)[0]) ** 2 for c in v)))
+    return math.hypot(*(float(np.ravel(c)[0]) for c in v))  # no overflow for huge entries
 
 
 def _mm(metres: float) -> str:

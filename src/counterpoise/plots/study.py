@@ -2,7 +2,8 @@
 
 ``study.png``: the objective and every design variable (rows) against each varied key
 (columns), in the CSV's display units; points that did not end ``optimal`` are marked
-with a red cross on the objective row. ``pareto.png`` (when an objective weight is
+with a red cross on the objective row, and then a row of ``residual_ratio`` (every point,
+log scale) shows how far from balance each point's closest design stays. ``pareto.png`` (when an objective weight is
 varied): added mass against added inertia of the optimal points, coloured by the weight.
 """
 
@@ -38,7 +39,8 @@ def study_plots(folder: str | Path) -> list[Path]:
     ok = np.array([r["status"] == "optimal" for r in rows], dtype=bool)
     data = {c: np.array([_number(r.get(c, "")) for r in rows]) for c in columns if c not in ("status", "solver", "message")}
     plt = pyplot()
-    ys = ["objective_kg"] + variables
+    residual = (~ok).any() and "residual_ratio" in data and bool(np.isfinite(data["residual_ratio"]).any())
+    ys = ["objective_kg"] + (["residual_ratio"] if residual else []) + variables
     fig, axes = plt.subplots(len(ys), len(varied), figsize=(max(7.0, 5.0 * len(varied) + 1), 2.3 * len(ys) + 1.2), squeeze=False)
     one_axis = len(varied) == 1 and meta["plan"]["method"] == "grid"
     for j, x_name in enumerate(varied):
@@ -48,16 +50,24 @@ def study_plots(folder: str | Path) -> list[Path]:
             ax = axes[i, j]
             y = data[y_name]
             sel = order[ok[order]]
+            if y_name == "residual_ratio":  # every point: the closest design's residual, not only the optimal ones
+                sel = order[np.isfinite(y[order])]
+                if (y[sel] > 0).all() and sel.size:
+                    ax.set_yscale("log")
+            label = "every point" if y_name == "residual_ratio" else "optimal"
             if one_axis:
-                ax.plot(x[sel], y[sel], marker="o" if len(rows) <= 200 else None, markersize=3, linewidth=1.5, color="tab:blue", label="optimal")
+                ax.plot(x[sel], y[sel], marker="o" if len(rows) <= 200 else None, markersize=3, linewidth=1.5, color="tab:blue", label=label)
             else:
-                ax.scatter(x[sel], y[sel], s=8, color="tab:blue", label="optimal")
+                ax.scatter(x[sel], y[sel], s=8, color="tab:blue", label=label)
+            if i > 0 and y_name != "residual_ratio" and (~ok).any():  # the closest designs of the points not optimal
+                bad = ~ok & np.isfinite(x) & np.isfinite(y)
+                ax.scatter(x[bad], y[bad], marker="x", s=14, color="0.5", label="closest design (not optimal)")
             if i == 0 and (~ok).any():
                 bad = ~ok & np.isfinite(x)
                 ax.scatter(x[bad], np.where(np.isfinite(y[bad]), y[bad], np.nanmin(y[sel]) if sel.size else 0.0), marker="x", color="red",
                            label=f"not optimal ({int((~ok).sum())})")
             ax.set_xlabel(x_name)
-            ax.set_ylabel(y_name.replace("objective_kg", "objective [kg]"))
+            ax.set_ylabel(y_name.replace("objective_kg", "objective [kg]").replace("residual_ratio", "residual ratio"))
             ax.grid(alpha=0.3)
             if i == 0:
                 ax.legend(fontsize=8, loc="best")

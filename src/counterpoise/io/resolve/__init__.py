@@ -33,7 +33,7 @@ def resolve(spec: ProblemFile, label: str) -> Problem:
         ctx.check()  # a failure that follows from an error already found
         raise
     ctx.check()
-    return problem
+    return loops.assembled_homes(problem)  # closed loops: the homes the closure assembles (docs/loops.md#the-home)
 
 
 def _resolve(ctx: Context) -> Problem:

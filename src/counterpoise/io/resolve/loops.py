@@ -8,14 +8,16 @@ loading, and by the formulation), which raises the same one-line ProblemFileErro
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from typing import Any
 
 from ...model import expr as ex
-from ...model.loops import REVOLUTE_JOINT, Loop
+from ...model.loops import PRISMATIC_JOINT, REVOLUTE_JOINT, Loop
 from ...model.mechanism import GROUND, Coordinate, Frame, Point
-from ...model.units import LENGTH, canonical_dimension, dimension_name
+from ...model.problem import Problem
+from ...model.units import LENGTH, MAX_LENGTH_M, canonical_dimension, dimension_name
 from .context import Context
 
 
@@ -35,6 +37,17 @@ def dependent_coordinate(ctx: Context, sname: str, cname: str, c: Any, key: str)
     # expressions are checked for finiteness over this box: a dependent angle may take any value
     ctx.box[cname] = (home.si - math.pi, home.si + math.pi) if home.dimension == "" else (home.si, home.si)
     return Coordinate(cname, sname, home.si, home.si, home.si, home.unit, c.description, dependent=True)
+
+
+def _check_position(ctx: Context, point: Point, raw: Any, key: str) -> None:
+    """Each component of a loop point must be finite and within MAX_LENGTH_M (1000 km) at the
+    file's values: a literal beyond it is refused where it is read; this catches an expression
+    (a product of parameters) that reaches beyond it."""
+    for i, tree in enumerate(point.position):
+        shown = raw[i] if isinstance(raw, (list, tuple)) and i < len(raw) else raw
+        value = ctx.finite(tree, shown, key)
+        if abs(value) > MAX_LENGTH_M:
+            raise ctx.fail(f"{key}.{i}", f"value out of range: '{shown}' is {value:.3g} m; positions up to {MAX_LENGTH_M:g} m (1000 km) are accepted")
 
 
 def _frame_names(frame: str, frames: Mapping[str, Frame]) -> set[str]:
@@ -61,7 +74,9 @@ def loops(ctx: Context, frames: Mapping[str, Frame], coordinates: tuple[Coordina
         points: list[Point] = []
         for side in ("a", "b"):
             end = getattr(lp, side)
-            points.append(ctx.point(end.frame, end.point, f"{key}.{side}.point", frames, f"{key}.{side}.frame"))
+            point = ctx.point(end.frame, end.point, f"{key}.{side}.point", frames, f"{key}.{side}.frame")
+            _check_position(ctx, point, end.point, f"{key}.{side}.point")
+            points.append(point)
         a, b = points
         subs = {ctx.subsystem_of(p.frame, frames) for p in points} - {None}
         if not subs:
@@ -73,15 +88,20 @@ def loops(ctx: Context, frames: Mapping[str, Frame], coordinates: tuple[Coordina
         geometry = set().union(*(ex.names(c) for p in points for c in p.position)) | _frame_names(a.frame, frames) | _frame_names(b.frame, frames)
         if geometry & variables:
             raise ctx.fail(key, f"the loop's geometry depends on design variable '{sorted(geometry & variables)[0]}'; closures must be fixed by parameters and coordinates")
-        axis = None
-        if lp.joint == REVOLUTE_JOINT:
+        axis = axis_b = None
+        if lp.joint in (REVOLUTE_JOINT, PRISMATIC_JOINT):
             if lp.axis is None:
-                raise ctx.fail(f"{key}.axis", "missing required key: a revolute joint needs its axis (in frame a's coordinates)")
+                raise ctx.fail(f"{key}.axis", f"missing required key: a {lp.joint} joint needs its axis (in frame a's coordinates)")
             axis = ctx.axis(lp.axis, f"{key}.axis")
         elif lp.axis is not None:
             raise ctx.fail(f"{key}.axis", "a spherical joint has no axis (remove it, or joint = \"revolute\")")
+        if lp.axis_b is not None:
+            if lp.joint != REVOLUTE_JOINT:
+                why = "a spherical joint has no axis" if lp.joint != PRISMATIC_JOINT else "a prismatic joint keeps the frames' relative orientation of home"
+                raise ctx.fail(f"{key}.axis_b", f"only a revolute joint has axis_b ({why})")
+            axis_b = ctx.axis(lp.axis_b, f"{key}.axis_b")
         sub = next(iter(subs))
-        out.append(Loop(name, lp.joint, a, b, axis, sub, lp.description))  # type: ignore[arg-type]
+        out.append(Loop(name, lp.joint, a, b, axis, sub, lp.description, axis_b))  # type: ignore[arg-type]
     closed = {loop.subsystem for loop in out}
     for c in coordinates:
         if c.dependent and c.subsystem not in closed:
@@ -104,3 +124,28 @@ def loops(ctx: Context, frames: Mapping[str, Frame], coordinates: tuple[Coordina
     return tuple(out)
 
 
+
+
+def assembled_homes(problem: Problem) -> Problem:
+    """The problem with every dependent coordinate's home replaced by the assembled home.
+
+    The file's homes are starting guesses (a few digits do); the closure's home solve
+    (:class:`counterpoise.mechanics.closure.Closure`, at the first scenario's parameter
+    values) corrects them on every closure equation, and the corrected values are what every
+    later step sees: report quantities at home, `frames`, `draw`, the part search's home
+    design. A loop that cannot close at home raises the same ProblemFileError as
+    :func:`counterpoise.mechanics.closure.check_assembly`.
+    """
+    if not problem.loops:
+        return problem
+    from ...mechanics.closure import closure, scenario_base  # the kinematics: only for files with loops
+
+    base = scenario_base(problem, problem.scenarios[0].name)
+    home: dict[str, float] = {}
+    for sub in dict.fromkeys(loop.subsystem for loop in problem.loops):
+        c = closure(problem, sub, base)
+        home.update({c.names[i]: float(c.home[i]) for i in c.dependent})
+    coordinates = tuple(
+        dataclasses.replace(co, home=home[co.name], lower=home[co.name], upper=home[co.name]) if co.name in home else co for co in problem.coordinates
+    )
+    return dataclasses.replace(problem, coordinates=coordinates)
