@@ -28,7 +28,7 @@ from .designer.solution import Solution
 from .formulation.layout import Slot
 from .model.problem import Problem
 from .solvers.base import Status
-from .verify.check import verify
+from .verify.check import check as check_design
 from .verify.checks import Verification
 from .verify.judge import judge
 
@@ -88,17 +88,21 @@ def run(
     bounds: Mapping["Slot | str", tuple[float, float]] | None = None,
     initial: Mapping[Slot, float] | None = None,
     quantities: bool = True,
+    check: str = "dense",
 ) -> DesignResult:
-    """Solve ``method`` with these options, verify the design densely and judge it.
-    ``quantities=False``: no report quantities (a study, whose rows do not hold them)."""
+    """Solve ``method`` with these options, verify the design and judge it.
+    ``quantities=False``: no report quantities (a study, whose rows do not hold them).
+    ``check``: ``dense`` (the dense check) or ``auto`` (the exact certificate where it
+    applies and proves balance, see :func:`counterpoise.verify.check.check`); a design
+    method that verified its own design (a payload range, catalogue parts) keeps that."""
     solution = method.solve(parameters, bounds, initial)
-    verification = solution.verification or verify(solution)
+    verification = solution.verification or check_design(solution, check)
     status, message = judge(solution, verification)
     values = evaluate_quantities(solution) if quantities else ()
     return DesignResult(solution.problem, status, message, solution, verification, values, solution.payload, solution.parts)
 
 
-def design(problem: Problem, designer: Designer | Any | None = None, starts: int = 1, **solve_options: Any) -> DesignResult:
+def design(problem: Problem, designer: Designer | Any | None = None, starts: int = 1, check: str = "dense", **solve_options: Any) -> DesignResult:
     """Solve ``problem`` (with a prebuilt ``designer`` if given), verify it, evaluate reports.
 
     ``solve_options``: ``parameters``, ``bounds``, ``initial`` (see :func:`run`); any other
@@ -111,7 +115,7 @@ def design(problem: Problem, designer: Designer | Any | None = None, starts: int
     unknown = sorted(set(solve_options) - set(SOLVE_OPTIONS))
     if unknown:
         raise TypeError(f"design() got an unexpected option {unknown[0]!r} (expected {', '.join(SOLVE_OPTIONS)})")
-    return run(build_method(problem, starts, designer=designer), **solve_options)
+    return run(build_method(problem, starts, designer=designer), check=check, **solve_options)
 
 
 def operator_settings(problem: Problem, mass: float, method: DesignMethod | None = None) -> "OperatorSettings":

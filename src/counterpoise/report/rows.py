@@ -9,6 +9,7 @@ from __future__ import annotations
 from typing import Any
 
 from ..pipeline import DesignResult
+from ..verify.certificate import certificate_of
 from ..verify.checks import PRISMATIC, REVOLUTE
 
 Row = dict[str, Any]
@@ -23,6 +24,7 @@ SUMMARY_COLUMNS = [
     "max_residual_N_m",
     "max_gravity_torque_N_m",
     "residual_ratio",
+    "certificate",
     "checked_configurations",
     "iterations",
     "solve_time_s",
@@ -172,6 +174,7 @@ def summary_row(result: DesignResult) -> Row:
         "max_residual_N_m": v.max_residual(REVOLUTE),
         "max_gravity_torque_N_m": v.max_gravity_torque(REVOLUTE),
         "residual_ratio": v.residual_ratio,
+        "certificate": certificate_of(v),
         "checked_configurations": v.configurations,
         "iterations": s.iterations,
         "solve_time_s": s.solve_time,
