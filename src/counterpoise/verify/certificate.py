@@ -270,6 +270,14 @@ class ExactVerification(Verification):
 
     certificate: str = EXACT
 
+    def __post_init__(self) -> None:
+        # the reference of each kind, once (a study point asks for it once per coordinate)
+        object.__setattr__(self, "_references", {kind: Verification.reference(self, kind) for kind in {c.kind for c in self.checks}})
+
+    def reference(self, kind: str) -> float:
+        found: dict[str, float] = self.__dict__["_references"]
+        return found[kind] if kind in found else Verification.reference(self, kind)
+
 
 def certificate_of(verification: Verification) -> str:
     """``exact`` for a certified verification, ``sampled`` for the dense check's."""
@@ -317,13 +325,11 @@ class Certificate:
             with np.errstate(invalid="ignore"):
                 loads = np.abs(ts).max(axis=0)
                 balancers = np.abs(bs).max(axis=0)
-                magnitude = np.abs(rs)
+                worst = np.argmax(np.nan_to_num(np.abs(rs), nan=-1.0), axis=0)
             variables = solution.variable_values(part.scenario)
             gravity, base = solution.scenario_parameters[part.scenario]
             scale = _energy_scale_if_needed(problem, part.subsystem, part.samples, bound, loads, variables, base, gravity)
             for j, name in enumerate(part.evaluator.names):
-                column = magnitude[:, j]
-                worst = int(np.nanargmax(column)) if not np.isnan(column).all() else 0
                 checks.append(
                     CoordinateCheck(
                         subsystem=part.subsystem,
@@ -335,7 +341,7 @@ class Certificate:
                         max_balancer_force=float(balancers[j]),
                         energy_scale=scale,
                         configurations=part.size,
-                        worst_configuration=tuple(float(v) for v in part.samples[worst]),
+                        worst_configuration=tuple(float(v) for v in part.samples[worst[j]]),
                     )
                 )
         return ExactVerification(tuple(checks), problem.settings.verify_tolerance)
