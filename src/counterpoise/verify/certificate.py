@@ -246,20 +246,21 @@ class SubsystemCertificate:
         for j, axis in enumerate(self.axes):  # row-wise Kronecker product, in the grid's order
             b = axis.basis(self.samples[:, j])
             basis = (basis[:, :, None] * b[:, None, :]).reshape(len(self.samples), -1)
-        self.basis = basis
-
-    @property
-    def size(self) -> int:
-        return int(np.prod(self.shape))
+        # real and imaginary parts apart: Re(basis @ c) in two real products
+        self.basis_real, self.basis_imag = np.ascontiguousarray(basis.real), np.ascontiguousarray(basis.imag)
+        self.size = int(np.prod(self.shape))
+        self._revolute = tuple(j for j, a in enumerate(self.axes) if a.revolute)
+        self._scale = float(np.prod([len(self.axes[j].nodes) for j in self._revolute]))
+        self._prismatic = tuple(j for j, a in enumerate(self.axes) if not a.revolute and len(a.nodes) > 1)
 
     def coefficients(self, values: np.ndarray) -> np.ndarray:
-        """Coefficients (grid shape, n_q) of the polynomial through ``values`` (N, n_q)."""
-        c = values.reshape(*self.shape, values.shape[1]).astype(complex)
-        for j, axis in enumerate(self.axes):
-            if axis.revolute:
-                c = np.fft.fft(c, axis=j) / len(axis.nodes)
-            elif len(axis.nodes) > 1:
-                c = np.moveaxis(np.tensordot(axis.inverse, c, axes=([1], [j])), 0, j)
+        """Coefficients (grid shape, columns) of the polynomials through the columns of
+        ``values`` (N, columns) on the grid."""
+        c = values.reshape(*self.shape, values.shape[1])
+        if self._revolute:
+            c = np.fft.fftn(c, axes=self._revolute) / self._scale
+        for j in self._prismatic:
+            c = np.moveaxis(np.tensordot(self.axes[j].inverse, c, axes=([1], [j])), 0, j)
         return c
 
 
@@ -307,10 +308,13 @@ class Certificate:
             variables = solution.variable_values(part.scenario)
             gravity, base = solution.scenario_parameters[part.scenario]
             r, t = part.evaluator.evaluate(variables, base, gravity)
-            cr, ct = part.coefficients(r), part.coefficients(t)
             n_q = r.shape[1]
-            bound = np.abs(cr).reshape(-1, n_q).sum(axis=0)
-            both = (part.basis @ np.concatenate([cr.reshape(-1, n_q), ct.reshape(-1, n_q)], axis=1)).real
+            c = part.coefficients(np.concatenate([r, t], axis=1)).reshape(-1, 2 * n_q)
+            bound = np.abs(c[:, :n_q]).sum(axis=0)
+            if np.iscomplexobj(c):
+                both = part.basis_real @ c.real - part.basis_imag @ c.imag
+            else:
+                both = part.basis_real @ c
             rs, ts = both[:, :n_q], both[:, n_q:]
             out.append((part, bound, rs, ts, rs - ts))
         return out
@@ -322,10 +326,11 @@ class Certificate:
         problem = self.problem
         checks = []
         for part, bound, rs, ts, bs in self.bounds(solution):
+            n_q = rs.shape[1]
             with np.errstate(invalid="ignore"):
-                loads = np.abs(ts).max(axis=0)
-                balancers = np.abs(bs).max(axis=0)
-                worst = np.argmax(np.nan_to_num(np.abs(rs), nan=-1.0), axis=0)
+                top = np.abs(np.concatenate([ts, bs], axis=1)).max(axis=0)
+                loads, balancers = top[:n_q], top[n_q:]
+                worst = np.argmax(np.abs(rs), axis=0)  # a NaN one first
             variables = solution.variable_values(part.scenario)
             gravity, base = solution.scenario_parameters[part.scenario]
             scale = _energy_scale_if_needed(problem, part.subsystem, part.samples, bound, loads, variables, base, gravity)
