@@ -58,7 +58,7 @@ if TYPE_CHECKING:
 EXACT = "exact"
 SAMPLED = "sampled"
 #: configurations of the box on which the reference torque's exact polynomial is evaluated
-REFERENCE_SAMPLES = 2000
+REFERENCE_SAMPLES = 512
 #: largest product grid (configurations) per subsystem; above it the dense check is cheaper
 MAX_GRID = 4096
 #: largest polynomial degree of a prismatic coordinate
