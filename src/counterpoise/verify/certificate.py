@@ -50,7 +50,7 @@ from ..model import expr as ex
 from ..model.mechanism import GROUND, Point, Rotation, Translation
 from ..model.problem import Problem
 from .checks import PRISMATIC, REVOLUTE, CoordinateCheck, Verification
-from .residuals import SubsystemResiduals
+from .residuals import SubsystemResiduals, configurations
 
 if TYPE_CHECKING:
     from ..designer.solution import Solution
@@ -239,8 +239,6 @@ class SubsystemCertificate:
         self.shape = tuple(len(a.nodes) for a in self.axes)
         grid = np.array(list(itertools.product(*(a.nodes for a in self.axes))), dtype=float).reshape(-1, len(coords))
         self.evaluator = SubsystemResiduals(problem, subsystem, grid)
-        from .residuals import configurations
-
         self.samples = configurations(problem, subsystem, REFERENCE_SAMPLES, rng)
         basis = np.ones((len(self.samples), 1), dtype=complex)
         for j, axis in enumerate(self.axes):  # row-wise Kronecker product, in the grid's order
@@ -294,11 +292,13 @@ class Certificate:
         self.parts: list[SubsystemCertificate] = []
         for sub in problem.subsystems:
             found = degrees(problem, sub.name)
+            if not found:
+                continue  # no coordinates: nothing to check (as the dense check)
+            size = int(np.prod([2 * n + 1 if c.unit.dimension == "" else n + 1 for c in problem.subsystem_coordinates(sub.name) for n in [found[c.name]]]))
+            if size > MAX_GRID:
+                raise NotCertifiable(f"subsystem {sub.name!r} needs {size} grid configurations (more than {MAX_GRID})")
             for scenario in problem.scenarios:
-                part = SubsystemCertificate(problem, scenario.name, sub.name, found, rng)
-                if part.size > MAX_GRID:
-                    raise NotCertifiable(f"subsystem {sub.name!r} needs {part.size} grid configurations")
-                self.parts.append(part)
+                self.parts.append(SubsystemCertificate(problem, scenario.name, sub.name, found, rng))
 
     def bounds(self, solution: "Solution") -> list[tuple[SubsystemCertificate, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
         """Per part: (part, residual bound per coordinate, the residual, gravity torque and
