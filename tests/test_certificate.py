@@ -214,3 +214,12 @@ def test_solve_check_option(tmp_path, capsys):
 def test_design_default_is_the_dense_check():
     result = design(load_problem(PROBLEMS / "yasir2019_counter_mass.toml"))
     assert certificate_of(result.verification) == SAMPLED
+
+
+def test_fast_path_parses_check():
+    from counterpoise.cli.light import parse_solve
+
+    assert parse_solve(["solve", "a.toml", "--check", "auto"]).check == "auto"
+    assert parse_solve(["solve", "a.toml"]).check == "dense"
+    assert parse_solve(["solve", "a.toml", "--check", "bogus"]) is None  # the app says what is wrong
+    assert parse_solve(["solve", "a.toml", "--check", "auto", "--check=dense"]) is None
