@@ -223,3 +223,15 @@ def test_fast_path_parses_check():
     assert parse_solve(["solve", "a.toml"]).check == "dense"
     assert parse_solve(["solve", "a.toml", "--check", "bogus"]) is None  # the app says what is wrong
     assert parse_solve(["solve", "a.toml", "--check", "auto", "--check=dense"]) is None
+
+
+def test_study_of_a_closed_loop_falls_back_to_the_dense_check(tmp_path, capsys):
+    # a four-bar's residual lives on its loop's manifold: not certifiable, so every point
+    # is verified by the dense check even with the default --check auto
+    with pytest.raises(SystemExit) as exit_:
+        main(["study", str(PROBLEMS / "fourbar_counter_mass.toml"), "--vary", "m3=0.7 kg:0.9 kg:2", "--jobs", "1", "--no-plot", "--out", str(tmp_path)])
+    assert exit_.value.code in (0, None)
+    with (tmp_path / "fourbar_counter_mass-study" / "study.csv").open(encoding="utf-8") as handle:
+        rows = list(csv.DictReader(handle))
+    assert [r["certificate"] for r in rows] == [SAMPLED, SAMPLED]
+    assert all(r["status"] == "optimal" for r in rows)
