@@ -29,7 +29,7 @@ from .designer.solution import Solution
 from .formulation.layout import Slot
 from .model.problem import Problem
 from .solvers.base import Status
-from .verify.check import verify
+from .verify.check import check as check_design
 from .verify.checks import Verification
 from .verify.judge import judge
 
@@ -96,10 +96,14 @@ def run(
     bounds: Mapping["Slot | str", tuple[float, float]] | None = None,
     initial: Mapping[Slot, float] | None = None,
     quantities: bool = True,
+    check: str = "dense",
 ) -> DesignResult:
-    """Solve ``method`` with these options, verify the design densely, judge it and design
-    a helical spring for each free-stiffness spring. ``quantities=False``: no report
-    quantities and no designed springs (a study, whose rows hold neither)."""
+    """Solve ``method`` with these options, verify the design, judge it and design a helical
+    spring for each free-stiffness spring. ``quantities=False``: no report quantities and no
+    designed springs (a study, whose rows hold neither). ``check``: ``dense`` (the dense
+    check) or ``auto`` (the exact certificate where it applies and proves balance, see
+    :func:`counterpoise.verify.check.check`); a design method that verified its own design
+    (a payload range, catalogue parts) keeps that."""
     from . import progress
 
     name = getattr(getattr(method, "problem", None), "name", "")
@@ -110,7 +114,7 @@ def run(
         verification = solution.verification
     else:
         with progress.phase(f"{solution.problem.name}: verifying on {solution.problem.settings.verify_samples:,} configurations per subsystem and scenario"):
-            verification = verify(solution)
+            verification = check_design(solution, check)
     status, message = judge(solution, verification)
     values = evaluate_quantities(solution) if quantities else ()
     springs: tuple[Any, ...] = ()
@@ -121,7 +125,7 @@ def run(
     return DesignResult(solution.problem, status, message, solution, verification, values, solution.payload, solution.parts, springs)
 
 
-def design(problem: Problem, designer: Designer | Any | None = None, starts: int = 1, **solve_options: Any) -> DesignResult:
+def design(problem: Problem, designer: Designer | Any | None = None, starts: int = 1, check: str = "dense", **solve_options: Any) -> DesignResult:
     """Solve ``problem`` (with a prebuilt ``designer`` if given), verify it, evaluate reports.
 
     ``solve_options``: ``parameters``, ``bounds``, ``initial`` (see :func:`run`); any other
@@ -134,7 +138,7 @@ def design(problem: Problem, designer: Designer | Any | None = None, starts: int
     unknown = sorted(set(solve_options) - set(SOLVE_OPTIONS))
     if unknown:
         raise TypeError(f"design() got an unexpected option {unknown[0]!r} (expected {', '.join(SOLVE_OPTIONS)})")
-    return run(build_method(problem, starts, designer=designer), **solve_options)
+    return run(build_method(problem, starts, designer=designer), check=check, **solve_options)
 
 
 def operator_settings(problem: Problem, mass: float, method: DesignMethod | None = None) -> "OperatorSettings":

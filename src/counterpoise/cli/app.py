@@ -140,9 +140,13 @@ def solve(
         str, typer.Option("--report", help="html: also write report.html, one self-contained page of the design (docs/build.md); csv: the CSV files only.")
     ] = "html",
     wide: Annotated[bool, typer.Option("--wide", help="Show every column of the summary (inertia, objective, configurations, solve time).")] = False,
+    check: Annotated[
+        str,
+        typer.Option("--check", help="dense: the dense random check (default); auto: the exact certificate where the residual is a trigonometric polynomial and it proves balance, else dense (docs/studies.md)."),
+    ] = "dense",
 ) -> None:
     """Solve problem files and write their reports."""
-    from .light import REPORTS
+    from .light import CHECK_MODES, REPORTS
     from .run import solve_all
 
     if starts < 1:
@@ -151,9 +155,12 @@ def solve(
     if report not in REPORTS:
         err_console.print(f"--report: expected one of {', '.join(REPORTS)}, got '{report}'", markup=False)
         raise typer.Exit(2)
+    if check not in CHECK_MODES:
+        err_console.print(f"--check: expected one of {', '.join(CHECK_MODES)}, got '{check}'", markup=False)
+        raise typer.Exit(2)
     problems = _load_all(files, _overrides(set_))
     _check_out(out)
-    rows, worst = solve_all(problems, out, plot, starts, _err_line, html=report == "html")
+    rows, worst = solve_all(problems, out, plot, starts, _err_line, html=report == "html", check=check)
     _print_summary(rows, wide)
     raise typer.Exit(worst)
 
@@ -241,15 +248,23 @@ def study(
     batch_size: Annotated[int, typer.Option("--batch-size", help="Points per batch (one task of a worker).")] = 16,
     plot: Annotated[bool, typer.Option("--plot/--no-plot", help="Write study.png (and pareto.png when a weight is varied).")] = True,
     set_: SetOpt = None,
+    check: Annotated[
+        str,
+        typer.Option("--check", help="auto: each point by the exact certificate where the residual is a trigonometric polynomial and it proves balance, else the dense check (default); dense: the dense random check always."),
+    ] = "auto",
 ) -> None:
     """Solve a problem over a grid or a Latin hypercube of parameters, bounds or weights."""
     from ..studies.command import StudyOptions, run_study_command
+    from .light import CHECK_MODES
 
+    if check not in CHECK_MODES:
+        err_console.print(f"--check: expected one of {', '.join(CHECK_MODES)}, got '{check}'", markup=False)
+        raise typer.Exit(2)
     overrides = _overrides(set_)
     problem = _load_all([file], overrides)[0]
     _check_out(out)
     options = StudyOptions(tuple(vary), samples, method, seed, out, jobs, scheduler, scheduler_timeout, resume, time_limit, batch_size, plot,
-                           overrides=tuple(overrides.items()))
+                           overrides=tuple(overrides.items()), check=check)
     try:
         outcome = run_study_command(problem, options, err_console)
     except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM: workers stopped, finished batches kept

@@ -5,7 +5,7 @@ and ``counterpoise solve``. The standard library only at import.
   ``tests/test_speed.py`` checks that :data:`COMMANDS` lists exactly the commands of the
   typer app (:mod:`.app`), with the same one-line help: a command added there must be
   added here too.
-- ``counterpoise solve FILE... [--out DIR] [--set KEY=VALUE]... [--plot] [--starts N] [--report html|csv]``
+- ``counterpoise solve FILE... [--out DIR] [--set KEY=VALUE]... [--plot] [--starts N] [--report html|csv] [--check dense|auto]``
   is parsed and run here (:func:`solve`), with the same output, messages and exit status
   as the typer app's ``solve``: importing typer and rich costs 0.1–0.15 s, a quarter of
   a whole solve. Anything this path does not fully understand is handed to the typer app
@@ -75,10 +75,14 @@ def top_level_help() -> str:
 # -- solve ---------------------------------------------------------------------------------
 
 #: The app's ``solve`` options served here: name -> whether it takes a value.
-SOLVE_OPTIONS: dict[str, bool] = {"--out": True, "--set": True, "--starts": True, "--plot": False, "--report": True, "--wide": False}
+SOLVE_OPTIONS: dict[str, bool] = {"--out": True, "--set": True, "--starts": True, "--plot": False, "--report": True, "--wide": False, "--check": True}
 
 #: ``solve --report``: ``html`` (the default) writes report.html beside the CSV files, ``csv`` only those
 REPORTS = ("html", "csv")
+#: ``solve --check`` / ``study --check``: ``dense`` the dense random check; ``auto`` the exact
+#: certificate where the residual is a trigonometric polynomial and it proves balance, else
+#: the dense check (as :data:`counterpoise.verify.check.CHECKS`; kept here: no import at start)
+CHECK_MODES = ("auto", "dense")
 
 #: Exit status of an internal error (as :data:`counterpoise.cli.app.INTERNAL_ERROR`).
 INTERNAL_ERROR = 3
@@ -121,7 +125,7 @@ class SolveArgs:
     """The arguments of one ``solve`` call (a plain class: ``dataclasses`` costs ~10 ms
     to import, which ``--help`` would pay)."""
 
-    __slots__ = ("files", "out", "sets", "plot", "starts", "debug", "report", "wide")
+    __slots__ = ("files", "out", "sets", "plot", "starts", "debug", "report", "wide", "check")
 
     def __init__(
         self,
@@ -133,8 +137,10 @@ class SolveArgs:
         debug: bool = False,
         report: str = "html",
         wide: bool = False,
+        check: str = "dense",
     ) -> None:
         self.files, self.out, self.sets, self.plot, self.starts, self.debug, self.report, self.wide = files, out, sets, plot, starts, debug, report, wide
+        self.check = check
 
     def __eq__(self, other: object) -> bool:
         return isinstance(other, SolveArgs) and all(getattr(self, k) == getattr(other, k) for k in self.__slots__)
@@ -186,8 +192,11 @@ def parse_solve(args: list[str]) -> SolveArgs | None:
             value = rest[i]
             i += 1
         values[name].append(value)
-    if not files or len(values["--out"]) > 1 or len(values["--starts"]) > 1 or len(values["--report"]) > 1:
+    if not files or len(values["--out"]) > 1 or len(values["--starts"]) > 1 or len(values["--report"]) > 1 or len(values["--check"]) > 1:
         return None
+    check = values["--check"][0] if values["--check"] else "dense"
+    if check not in CHECK_MODES:
+        return None  # the app says what is wrong
     report = values["--report"][0] if values["--report"] else "html"
     if report not in REPORTS:
         return None  # the app says what is wrong
@@ -197,7 +206,7 @@ def parse_solve(args: list[str]) -> SolveArgs | None:
     out = values["--out"][0] if values["--out"] else "results"
     if not out:
         return None
-    return SolveArgs(tuple(files), out, tuple(values["--set"]), "--plot" in flags, int(starts), debug, report, "--wide" in flags)
+    return SolveArgs(tuple(files), out, tuple(values["--set"]), "--plot" in flags, int(starts), debug, report, "--wide" in flags, check)
 
 
 def solve(args: list[str], pause_gc: bool = False) -> int | None:
@@ -299,7 +308,7 @@ def _run(a: SolveArgs, paused_gc: bool = False) -> int:
 
         gc.freeze()
         gc.enable()
-    rows, worst = solve_all(problems, Path(a.out), a.plot, a.starts, _err, html=a.report == "html")
+    rows, worst = solve_all(problems, Path(a.out), a.plot, a.starts, _err, html=a.report == "html", check=a.check)
     print_summary(rows, a.wide)
     return worst
 

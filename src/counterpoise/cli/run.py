@@ -62,10 +62,13 @@ def load_all(files: list[Path], overrides: Mapping[str, object], err: Err) -> li
     return problems
 
 
-def solve_all(problems: list[Any], out: Path, plot: bool, starts: int, err: Err, html: bool = True) -> tuple[list[dict[str, Any]], int]:
+def solve_all(
+    problems: list[Any], out: Path, plot: bool, starts: int, err: Err, html: bool = True, check: str = "dense"
+) -> tuple[list[dict[str, Any]], int]:
     """Design, verify and write every problem (``plot``: energy.png and mechanism.png in its
     folder before the folder appears; ``html``: report.html, the page of the folder, last);
-    the summary rows and the worst exit status."""
+    the summary rows and the worst exit status. ``check``: ``dense`` or ``auto`` (the exact
+    certificate where it applies, :func:`counterpoise.verify.check.check`)."""
     from ..errors import CounterpoiseError, ProblemFileError
     from ..pipeline import design
     from ..report.files import write_reports
@@ -75,7 +78,7 @@ def solve_all(problems: list[Any], out: Path, plot: bool, starts: int, err: Err,
     for problem in problems:
         t0 = time.perf_counter()
         try:
-            result = design(problem, starts=starts)
+            result = design(problem, starts=starts, check=check)
         except ProblemFileError as exc:  # an input limit met while designing (a part search too large): exit 2
             err(str(exc))
             worst = max(worst, 2)

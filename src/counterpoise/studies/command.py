@@ -41,6 +41,7 @@ class StudyOptions:
     progress: bool = True
     #: the --set overrides the problem was loaded with (varied values are checked with them)
     overrides: tuple[tuple[str, Any], ...] = ()
+    check: str = "auto"  # auto: the exact certificate where it applies; dense: the dense check
 
 
 def make_runner(options: StudyOptions, label: str) -> Runner:
@@ -133,7 +134,7 @@ def run_study_command(problem: Problem, options: StudyOptions, console: Any) -> 
     if options.batch_size < 1:
         raise ProblemFileError(label, "--batch-size", f"must be at least 1, got {options.batch_size}")
     runner = make_runner(options, label)
-    task = StudyTask(problem, time_limit=options.time_limit)
+    task = StudyTask(problem, time_limit=options.time_limit, check=options.check)
     try:
         with terminate_as_interrupt():
             outcome = _run(problem, plan, options, runner, task, console)

@@ -47,6 +47,9 @@ class StudyTask:
     interval timer also stops Python code that hangs; such a point is recorded as ``timeout``.
     ``warm_start``: each point of a batch starts from the previous point's optimum (batches
     are the same whichever engine runs them, so the results are too).
+    ``check``: how each point is verified: ``auto`` by the exact certificate where the
+    residual is a trigonometric polynomial and its coefficients prove balance, else by the
+    dense check; ``dense`` always by the dense check (:func:`counterpoise.verify.check.check`).
     """
 
     problem: Problem
@@ -54,6 +57,7 @@ class StudyTask:
     time_limit: float | None = None
     warm_start: bool = True
     backend: str = "auto"
+    check: str = "auto"
 
     def designer(self, problem: Problem | None = None) -> Any:
         from ..designer.designer import Designer
@@ -104,6 +108,8 @@ class PointResult:
     solve_time: float
     solver: str = ""
     certificate_gap: float = float("nan")
+    #: ``exact``: balance proven by the certificate's coefficients; ``sampled``: the dense check
+    certificate: str = ""
 
 
 #: design methods built in this process, per thread (a CasADi function is not safe to call
@@ -172,13 +178,14 @@ def solve_point(task: StudyTask, point: Point, initial: Mapping[Any, float] | No
     """Solve and verify one point; never raises for a point's own failure (it is recorded)."""
     from ..errors import CounterpoiseError
     from ..pipeline import run as run_method
+    from ..verify.certificate import certificate_of
 
     parameters, sides, weights = split_point(point)
     t0 = time.perf_counter()
     try:
         with _time_limit(task.time_limit):
             method = _method_for(task, weights)
-            result = run_method(method, parameters=parameters, bounds=_bounds(task.problem, sides) or None, initial=initial, quantities=False)
+            result = run_method(method, parameters=parameters, bounds=_bounds(task.problem, sides) or None, initial=initial, quantities=False, check=task.check)
     except PointTimeout:
         return _failed(point, TIMEOUT, f"no result within the time limit of {task.time_limit:g} s", time.perf_counter() - t0), None
     except (CounterpoiseError, ArithmeticError, ValueError, KeyError, RuntimeError) as exc:
@@ -199,6 +206,7 @@ def solve_point(task: StudyTask, point: Point, initial: Mapping[Any, float] | No
         solve_time=s.solve_time,
         solver=s.solver,
         certificate_gap=s.certificate_gap,
+        certificate=certificate_of(result.verification),
     )
     return res, (s.values if status == "optimal" else None)
 

@@ -37,7 +37,7 @@ from .spec import StudyPlan
 
 FIXED_BEFORE = ["point"]
 FIXED_AFTER = ["status", "objective_kg", "added_mass_kg", "added_inertia_kg_m2"]
-FIXED_END = ["residual_ratio", "certificate_gap_kg", "solve_time_s", "solver", "message"]
+FIXED_END = ["residual_ratio", "certificate", "certificate_gap_kg", "solve_time_s", "solver", "message"]
 
 
 @dataclass
@@ -204,6 +204,7 @@ def result_row(problem: Problem, plan: StudyPlan, index: int, r: PointResult) ->
         added_mass_kg=_fmt(r.added_mass),
         added_inertia_kg_m2=_fmt(r.added_inertia),
         residual_ratio=_fmt(r.residual_ratio),
+        certificate=r.certificate,
         certificate_gap_kg=_fmt(r.certificate_gap),
         solve_time_s=_fmt(r.solve_time),
         solver=r.solver,

@@ -76,6 +76,26 @@ def _checked_scenarios(problem: Problem) -> tuple[Any, ...]:
     return tuple(out)
 
 
+#: how a design is checked: ``auto`` the exact certificate (:mod:`.certificate`) where it
+#: applies and proves balance, else the dense check; ``dense`` the dense check always
+CHECKS = ("auto", "dense")
+
+
+def check(solution: "Solution", mode: str = "dense") -> Verification:
+    """The verification of ``solution`` by ``mode`` (one of :data:`CHECKS`): with ``auto``
+    the certificate's (``certificate`` = ``exact``) when the residual is a trigonometric
+    polynomial and its coefficients prove balance, else the dense check's (``sampled``)."""
+    if mode not in CHECKS:
+        raise ValueError(f"check must be one of {', '.join(CHECKS)}, got {mode!r}")
+    if mode == "auto":
+        from .certificate import certify
+
+        found = certify(solution)
+        if found is not None:
+            return found
+    return verify(solution)
+
+
 def verify(solution: "Solution", samples: int | None = None, seed: int | None = None) -> Verification:
     """Check ``solution`` on random configurations plus corners, per (subsystem, scenario)."""
     problem = solution.problem
