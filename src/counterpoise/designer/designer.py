@@ -7,7 +7,9 @@ so ``solve(parameters=...)`` re-solves a study point without rebuilding, and var
 bounds may be changed per call. CasADi objects do not pickle: a designer pickles as its
 description (the problem and the solver options) and rebuilds itself in the worker.
 When the problem is an LP (fixed geometry) it is solved by Clarabel, and an IPOPT design
-gets a certificate gap (:mod:`.convex`).
+gets a certificate gap (:mod:`.convex`). Every polish of a solver's point (:meth:`Designer.finish`,
+``_snap``, :meth:`Designer.refine`, :meth:`Designer.polish_settings`) is one call of
+:func:`counterpoise.solvers.gauss_newton.gauss_newton` with its own free variables and rules.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from ..formulation.layout import Slot
 from ..formulation.manifold import for_geometry
 from ..model.problem import BOUND_TOLERANCE, Problem
 from ..solvers.base import Bounds, SolverOutput, Status
+from ..solvers.gauss_newton import Evaluate, Evaluation, gauss_newton
 from ..solvers.ipopt import IPOPT_DEFAULTS, IpoptBackend
 from ..threads import limit_blas_threads
 from . import convex
@@ -229,6 +232,17 @@ class Designer:
             self._residual_jacobian = ca.Function("gJ", [f.z, f.p], [eq, ca.jacobian(eq, f.z), signs])
         return self._residual_jacobian
 
+    def _balance_evaluation(self, p: np.ndarray) -> Evaluate:
+        """The balance equalities at ``p`` for :func:`~counterpoise.solvers.gauss_newton.gauss_newton`:
+        (g, ∂g/∂z, whether the sign constraints hold)."""
+        gj = self.residual_jacobian()
+
+        def evaluate(z: np.ndarray) -> Evaluation:
+            g, jac, signs = (np.array(v) for v in gj(z, p))
+            return g.reshape(-1), jac, _admissible(signs)
+
+        return evaluate
+
     def polish(self, z: np.ndarray, p: np.ndarray, bounds: Bounds, iterations: int = 8) -> np.ndarray:
         """Put variables that the solver left a hair inside a bound exactly on it.
 
@@ -273,23 +287,7 @@ class Designer:
         free = (z > lo) & (z < hi)
         if not free.any():
             return z
-        gj = self.residual_jacobian()
-        g, jac, _ = (np.array(v) for v in gj(z, p))
-        g = g.reshape(-1)
-        best, best_norm = z, float(np.abs(g).max(initial=0.0))
-        for _ in range(iterations):
-            if best_norm == 0.0:
-                break
-            candidate = best.copy()
-            step, *_ = np.linalg.lstsq(jac[:, free], -g, rcond=None)
-            candidate[free] = np.clip(candidate[free] + step, lo[free], hi[free])
-            g_new, jac_new, signs = (np.array(v) for v in gj(candidate, p))
-            g_new = g_new.reshape(-1)
-            norm = float(np.abs(g_new).max(initial=0.0))
-            if not (norm <= 0.5 * best_norm and (signs.size == 0 or signs.min() >= 0)):
-                break
-            best, best_norm, g, jac = candidate, norm, g_new, jac_new
-        return best
+        return gauss_newton(self._balance_evaluation(p), z, lo, hi, free=free, iterations=iterations, decrease=0.5).z
 
     def _snap(
         self, z: np.ndarray, p: np.ndarray, bounds: Bounds, at_lo: np.ndarray, at_hi: np.ndarray, iterations: int, objective_limit: float | None
@@ -303,19 +301,12 @@ class Designer:
         if not active.any() or np.array_equal(candidate, z):
             return z
         gj = self.residual_jacobian()
-        free = ~active
-        for _ in range(iterations):
-            g, jac, _ = (np.array(v) for v in gj(candidate, p))
-            g = g.reshape(-1)
-            if not g.size or np.abs(g).max() <= EXACT_BALANCE or not free.any():
-                break
-            step, *_ = np.linalg.lstsq(jac[:, free], -g, rcond=None)
-            candidate[free] = np.clip(candidate[free] + step, lo[free], hi[free])
+        candidate = gauss_newton(self._balance_evaluation(p), candidate, lo, hi, free=~active, iterations=iterations, tolerance=EXACT_BALANCE, decrease=None).z
         g_new, _, signs = (np.array(v).reshape(-1) for v in gj(candidate, p))
         g_old = np.array(gj(z, p)[0]).reshape(-1)
         worst_new = np.abs(g_new).max(initial=0.0)
         worst_old = np.abs(g_old).max(initial=0.0)
-        if not (worst_new <= max(worst_old, ROUNDING_FLOOR) and (signs.size == 0 or signs.min() >= 0)):
+        if not (worst_new <= max(worst_old, ROUNDING_FLOOR) and _admissible(signs)):
             return z
         if objective_limit is not None and not float(self.formulation.report_function(candidate, p)[0]) <= objective_limit:
             return z
@@ -332,24 +323,14 @@ class Designer:
         move only its adjustments, within their bounds. Kept when that setting's residual
         drops and the sign constraints hold; the dense check then says which scenarios are met.
         """
-        for setting, (function, columns) in self._setting_residuals().items():
-            r, jac = (np.array(v) for v in function(z, p))
-            r = r.reshape(-1)
-            best, best_norm = z, float(np.abs(r).max(initial=0.0))
-            candidate = z.copy()
-            for _ in range(iterations):
-                if best_norm == 0.0:
-                    break
-                step, *_ = np.linalg.lstsq(jac[:, columns], -r, rcond=None)
-                candidate[columns] = np.clip(candidate[columns] + step, b.lbz[columns], b.ubz[columns])
+        gj = self.residual_jacobian()
+        for function, columns in self._setting_residuals().values():
+
+            def evaluate(candidate: np.ndarray, function: Any = function) -> Evaluation:
                 r, jac = (np.array(v) for v in function(candidate, p))
-                r = r.reshape(-1)
-                norm = float(np.abs(r).max(initial=0.0))
-                signs = np.array(self.residual_jacobian()(candidate, p)[2]).reshape(-1)
-                if not (norm < best_norm and (signs.size == 0 or signs.min() >= 0)):
-                    break
-                best, best_norm = candidate.copy(), norm
-            z = best
+                return r, jac, _admissible(np.array(gj(candidate, p)[2]))
+
+            z = gauss_newton(evaluate, z, b.lbz, b.ubz, free=columns, iterations=iterations).z
         return z
 
     def _setting_residuals(self) -> dict[str, tuple[Any, np.ndarray]]:
@@ -424,21 +405,7 @@ class Designer:
         short of :meth:`balances`; a few Newton steps on g itself finish the job when a
         balanced design is that near. Kept only while |g| decreases and signs stay ≥ 0.
         """
-        gj = self.residual_jacobian()
-        g, jac, _ = (np.array(v) for v in gj(z, p))
-        best, best_norm = z, float(np.abs(g).max(initial=0.0))
-        candidate = z.copy()
-        for _ in range(iterations):
-            if best_norm <= EXACT_BALANCE or g.size == 0:
-                break
-            step, *_ = np.linalg.lstsq(jac, -g.reshape(-1), rcond=None)
-            candidate = np.clip(candidate + step, b.lbz, b.ubz)
-            g, jac, signs = (np.array(v) for v in gj(candidate, p))
-            norm = float(np.abs(g).max(initial=0.0))
-            if not (norm < best_norm and (signs.size == 0 or signs.min() >= 0)):
-                break
-            best, best_norm = candidate.copy(), norm
-        return best
+        return gauss_newton(self._balance_evaluation(p), z, b.lbz, b.ubz, iterations=iterations, tolerance=EXACT_BALANCE).z
 
     def _overdetermined(self, z0: np.ndarray, p: np.ndarray, b: Bounds, bounds: BoundsOverride | None) -> Solution:
         """More independent conditions than variables: balance only at special designs.
@@ -490,6 +457,11 @@ class Designer:
                 solution.constraints = evaluate(self.problem, solution, self.rows, None)
                 return solution
         return attach_constraints(solution, self.rows, rows_multipliers(out, self.rows))
+
+
+def _admissible(signs: np.ndarray) -> bool:
+    """The sign constraints (and constraint margins) hold: every one ≥ 0."""
+    return bool(signs.size == 0 or signs.min() >= 0)
 
 
 def _with_time(out: SolverOutput, seconds: float) -> SolverOutput:
