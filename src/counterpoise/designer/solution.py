@@ -56,6 +56,9 @@ class Solution:
     #: every design constraint at this design, per scenario
     #: (:class:`counterpoise.formulation.constraints.ConstraintValue`)
     constraints: tuple[Any, ...] = ()
+    #: infeasible balance: what the reported closest design is (the smallest worst residual
+    #: on sampled configurations, or least squares on the compressed conditions); None otherwise
+    closest: str | None = None
 
     def variable_values(self, scenario: str) -> dict[str, float]:
         """Value of every variable as seen by ``scenario``."""
