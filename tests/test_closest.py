@@ -70,7 +70,7 @@ FOURBAR = (ROOT / "problems" / "fourbar_counter_mass.toml").read_text().replace(
 
 def least_squares_only(self, z, p, b):
     """The closest design as it was: least squares on the compressed conditions."""
-    return z, designer_module.LEAST_SQUARES_CLOSEST, 0.0
+    return z, designer_module.LEAST_SQUARES_NO_CLOSER, 0.0
 
 
 def both(text: str, name: str):
@@ -134,3 +134,25 @@ def test_status_txt_says_what_the_closest_design_is(tmp_path, capsys):
     assert "status: infeasible" in status
     assert "at the closest design (minimax: the smallest worst residual on" in status
     capsys.readouterr()
+
+
+def test_a_probe_gets_least_squares_and_certify_upgrades_it():
+    """``solve(certify=False)`` (the probes of part searches and schedules) skips the minimax
+    solve and says so; :meth:`Designer.certify` of the design reported makes it the minimax
+    one: M b = 0.45 kg·m with b = 0.1 m, M = 4.5 kg (see TWO_TIPS)."""
+    from counterpoise.designer import Designer
+
+    d = Designer(load_problem_text(FIXED_LEVER, "two_tips.toml"))
+    probe = d.solve(certify=False)
+    assert probe.status is Status.INFEASIBLE and probe.closest == designer_module.LEAST_SQUARES_CLOSEST
+    d.certify(probe)
+    assert probe.closest is not None and probe.closest.startswith("minimax")
+    assert {s.variable: v for s, v in probe.values.items()}["M"] == pytest.approx(4.5, rel=1e-6)
+
+
+def test_multistart_reports_the_minimax_closest_design():
+    """--starts 2 solves with certify=False and certifies the best: the minimax design."""
+    result = design(load_problem_text(FREE_LEVER, "two_tips_free.toml"), starts=2)
+    assert result.status is Status.INFEASIBLE
+    assert result.verification.residual_ratio == pytest.approx(0.25, rel=1e-6)
+    assert "minimax" in result.message

@@ -93,7 +93,7 @@ def nonlinear_constraints(designer: "Designer") -> tuple[str, ...]:
     return tuple(names)
 
 
-def solve_convex(designer: "Designer", z0: np.ndarray, p: np.ndarray, b: Bounds, bounds: Any) -> tuple[np.ndarray, SolverOutput, str, str | None]:
+def solve_convex(designer: "Designer", z0: np.ndarray, p: np.ndarray, b: Bounds, bounds: Any, minimax: bool = True) -> tuple[np.ndarray, SolverOutput, str, str | None]:
     """The LP's optimum (variables on a bound put exactly on it), or the closest design:
     (scaled point, solver output, message, what the closest design is or None) for the
     designer to build its Solution from."""
@@ -109,7 +109,7 @@ def solve_convex(designer: "Designer", z0: np.ndarray, p: np.ndarray, b: Bounds,
         return z, out, "balanced design found (LP, Clarabel)", None
     if out.status is Status.INFEASIBLE:
         closest = designer.closest_design(z0, p, bounds)
-        z, kind, seconds = designer.closest_minimax(closest.z, p, b)
+        z, kind, seconds = designer.closest_reported(closest.z, p, b, minimax)
         z = designer.polish_settings(z, p, b)
         out = SolverOutput(z, Status.INFEASIBLE, out.solver_status, out.iterations, out.solve_time + closest.solve_time + seconds, out.solver)
         return z, out, "CLARABEL: infeasible", kind

@@ -60,9 +60,12 @@ BoundsOverride = Mapping["Slot | str", tuple[float, float]]
 #: A variable put on its bound in the minimax closest design may raise the worst sampled
 #: residual ratio by this much (absolute): rounding, not a worse design.
 MINIMAX_ROUNDING = 1e-12
-#: ``Solution.closest`` when the least-squares closest design is reported (the minimax
-#: design failed or was no closer, see :meth:`Designer.closest_minimax`)
+#: ``Solution.closest`` of a solve with ``certify=False`` (a probe of a part search or a
+#: schedule): the least-squares closest design, which :meth:`Designer.certify` upgrades
 LEAST_SQUARES_CLOSEST = "least squares on the compressed balance conditions"
+#: ``Solution.closest`` when the minimax design failed or was no closer (see
+#: :meth:`Designer.closest_minimax`)
+LEAST_SQUARES_NO_CLOSER = LEAST_SQUARES_CLOSEST + "; the minimax design was no closer"
 
 #: Seeded random starts of the closest-design search after the given ones (see
 #: :meth:`Designer.closest_design_multistart`); only an infeasible-looking solve pays for them.
@@ -149,9 +152,11 @@ class Designer:
         result says whether it still holds (a parameter that was 0 at build time may have
         hidden a condition).
 
-        ``certify``: compute the solution's certificate gap (an LP, see :mod:`.convex`);
+        ``certify``: compute the solution's certificate gap (an LP, see :mod:`.convex`) and,
+        for an infeasible problem, the minimax closest design (:meth:`closest_minimax`);
         callers that solve many times and report one design (part searches, schedules,
-        multi-start) pass False and :meth:`certify` the one they report.
+        multi-start) pass False (their probes get the least-squares closest design) and
+        :meth:`certify` the one they report.
         """
         other = for_geometry(self, parameters, lambda problem: Designer(problem, self._ipopt_options, self.backend_choice))
         if other is not self:  # closed loops: a new geometry needs its own manifold equalities
@@ -162,7 +167,7 @@ class Designer:
         p = self.formulation.parameters.values(parameters) if parameters else self.parameters
         b = self.bounds(self.n_equalities, bounds)
         z0 = np.clip(d.to_z(d.vector(initial or {})), b.lbz, b.ubz)
-        solution = self._solve(z0, p, b, bounds)
+        solution = self._solve(z0, p, b, bounds, certify)
         add = violations(self.problem, solution.constraints)
         if add and self._round < MAX_ROUNDS:
             # a workspace extreme beyond its bound between the sampled configurations: add
@@ -185,20 +190,43 @@ class Designer:
         if self._refined is not None:
             return self._refined.certify(solution, parameters, bounds)
         p = self.formulation.parameters.values(parameters) if parameters else self.parameters
-        solution.certificate_gap = self._certificate_gap(solution, p, self.bounds(self.n_equalities, bounds))
+        b = self.bounds(self.n_equalities, bounds)
+        if solution.status is Status.INFEASIBLE and solution.closest == LEAST_SQUARES_CLOSEST:
+            self._upgrade_closest(solution, p, b)
+        solution.certificate_gap = self._certificate_gap(solution, p, b)
         return solution
+
+    def _upgrade_closest(self, solution: Solution, p: np.ndarray, b: Bounds) -> None:
+        """Replace, in place, the least-squares closest design of a solve made with
+        ``certify=False`` by the minimax one (:meth:`closest_minimax`): the design reported."""
+        d = self.formulation.design
+        z, kind, seconds = self.closest_minimax(d.to_z(d.vector(solution.values)), p, b)
+        if kind != LEAST_SQUARES_NO_CLOSER:
+            z = self.polish_settings(z, p, b)
+        out = SolverOutput(z, solution.status, solution.solver_status, solution.iterations, solution.solve_time + seconds, solution.solver)
+        new = self._solution(z, p, b, out, solution.message, kind)
+        for name in ("status", "message", "values", "objective", "added_mass", "added_inertia", "solve_time", "scenario_parameters", "verdict", "constraints", "closest"):
+            setattr(solution, name, getattr(new, name))
+
+    def closest_reported(self, z: np.ndarray, p: np.ndarray, b: Bounds, minimax: bool) -> tuple[np.ndarray, str, float]:
+        """(closest design, what it is, seconds): minimax, or least squares when not ``minimax``."""
+        if minimax:
+            return self.closest_minimax(z, p, b)
+        return z, LEAST_SQUARES_CLOSEST, 0.0
 
     def _certificate_gap(self, solution: Solution, p: np.ndarray, b: Bounds) -> float:
         d = self.formulation.design
         return self.certificate.gap(d.to_z(d.vector(solution.values)), p, b, solution.solver, solution.objective)
 
-    def _solve(self, z0: np.ndarray, p: np.ndarray, b: Bounds, bounds: BoundsOverride | None) -> Solution:
+    def _solve(self, z0: np.ndarray, p: np.ndarray, b: Bounds, bounds: BoundsOverride | None, minimax: bool = True) -> Solution:
+        """``minimax``: report the minimax closest design of an infeasible problem (else the
+        least-squares one, upgraded by :meth:`certify`)."""
         d = self.formulation.design
         if self.convex is not None:
-            z, out, message, kind = convex.solve_convex(self, z0, p, b, bounds)
+            z, out, message, kind = convex.solve_convex(self, z0, p, b, bounds, minimax)
             return self._solution(z, p, b, out, message, kind)
         if self.n_equalities > len(d):
-            return self._overdetermined(z0, p, b, bounds)
+            return self._overdetermined(z0, p, b, bounds, minimax)
         out = self.backend.solve(z0, p, b)
         z, message = out.z, f"{out.solver.upper()}: {out.solver_status}"
         closest_kind: str | None = None
@@ -220,7 +248,7 @@ class Designer:
                     out = SolverOutput(closest.z, Status.FAILED, code, out.iterations, out.solve_time, out.solver)
                     z, message = closest.z, "IPOPT declared a balanceable problem infeasible; the closest design is reported"
             else:
-                z, closest_kind, seconds = self.closest_minimax(closest.z, p, b)
+                z, closest_kind, seconds = self.closest_reported(closest.z, p, b, minimax)
                 z = self.polish_settings(z, p, b)
                 elapsed += seconds
             out = _with_time(out, elapsed)
@@ -444,7 +472,7 @@ class Designer:
         signs = np.array(self.residual_jacobian()(candidate, p)[2]).reshape(-1)[: int(self.formulation.nonnegative.numel())]
         if out.status is Status.OPTIMAL and _admissible(signs) and reached < least_squares:
             return candidate, f"minimax: the smallest worst residual on {m.n_samples} sampled configurations", out.solve_time
-        return z, LEAST_SQUARES_CLOSEST, out.solve_time
+        return z, LEAST_SQUARES_NO_CLOSER, out.solve_time
 
     def refine(self, z: np.ndarray, p: np.ndarray, b: Bounds, iterations: int = 8) -> np.ndarray:
         """Gauss-Newton steps on the balance equalities from ``z``, within the bounds.
@@ -455,7 +483,7 @@ class Designer:
         """
         return gauss_newton(self._balance_evaluation(p), z, b.lbz, b.ubz, iterations=iterations, tolerance=EXACT_BALANCE).z
 
-    def _overdetermined(self, z0: np.ndarray, p: np.ndarray, b: Bounds, bounds: BoundsOverride | None) -> Solution:
+    def _overdetermined(self, z0: np.ndarray, p: np.ndarray, b: Bounds, bounds: BoundsOverride | None, minimax: bool = True) -> Solution:
         """More independent conditions than variables: balance only at special designs.
 
         Find the closest design; if it balances, the conditions are locally redundant:
@@ -470,7 +498,7 @@ class Designer:
         g, jac, _ = (np.array(v) for v in self.residual_jacobian()(closest.z, p))
         if not self.balances(closest.z, p):
             message = "more independent balance conditions than design variables, and no design within the bounds meets them"
-            z, kind, seconds = self.closest_minimax(closest.z, p, b)
+            z, kind, seconds = self.closest_reported(closest.z, p, b, minimax)
             z = self.polish_settings(z, p, b)
             out = SolverOutput(z, Status.INFEASIBLE, "overdetermined", closest.iterations, closest.solve_time + seconds, closest.solver)
             return self._solution(z, p, b, out, message, kind)
