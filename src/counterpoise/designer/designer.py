@@ -443,8 +443,8 @@ class Designer:
 
         Least squares on the compressed conditions (``z``, from :meth:`closest_design`) is not
         that design: it weighs the scaled conditions, not the residual ratio the dense check
-        reports (on an infeasible four-bar, a worst residual of 11.9 % where 9.39 % can be
-        reached). So the epigraph NLP of :class:`~counterpoise.designer.minimax.MinimaxDesigner`
+        reports (issue 24: on an infeasible four-bar, a worst residual of 11.9 % where 9.39 %
+        can be reached; tests/test_closest.py has such a four-bar and a closed-form case). So the epigraph NLP of :class:`~counterpoise.designer.minimax.MinimaxDesigner`
         (min t s.t. |r_j(q_s; z)| ≤ t·T on sampled configurations, T the largest unbalanced
         gravity force of the coordinate's kind; built on first use) is solved from ``z``
         within the bounds, design constraints left out as in the least-squares design.

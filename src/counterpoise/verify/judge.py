@@ -78,5 +78,5 @@ def _unmet_message(solution: "Solution", verification: Verification) -> str:
     if at_bounds:
         text += f"; at the closest design{kind} " + ", ".join(at_bounds)
     elif kind:
-        text += f"; at the closest design{kind} every variable is inside its bounds"
+        text += f"; at the closest design{kind} no variable is reported at a bound"
     return text
