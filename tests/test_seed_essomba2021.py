@@ -163,14 +163,20 @@ class TestPositionLockedAdjustment:
         assert result.status.value == "infeasible"
         assert "in scenario 'down'" in result.message or "in scenario 'up'" in result.message
         worst = summary_row(result)["worst_scenario"]
-        assert worst in ("down", "up")
+        assert worst in MODES
         assert f"in scenario '{worst}'" in result.message
         # the springs cannot even come close: the worst residual is a large share of gravity's
         assert result.verification.residual_ratio > 0.5
 
-    def test_horizontal_mode_alone_would_balance(self, result):
-        """Control: with θ_L = 0 the horizontal mode is the design's own mode and is not the worst."""
-        assert summary_row(result)["worst_scenario"] != "horizontal"
+    def test_closest_design_trades_the_modes(self, result):
+        """The closest design is the one with the smallest worst residual (minimax, issue 24).
+        With θ_L = 0 the horizontal mode alone could be balanced, but a design that balances it
+        leaves 'down' (or 'up') worse than one that trades the three modes: the horizontal
+        mode keeps a residual too (the least-squares design balanced it and left 'down' at
+        9.35 N·m; the minimax one leaves 8.01 N·m in each mode, on one machine)."""
+        assert "(minimax: the smallest worst residual on" in result.message
+        horizontal = [c for c in result.verification.checks if c.scenario == "horizontal"]
+        assert max(result.verification.ratio(c) for c in horizontal) > 0.1
 
 
 def _position_with_catalogue_rates(factor: str) -> str:

@@ -93,9 +93,10 @@ def nonlinear_constraints(designer: "Designer") -> tuple[str, ...]:
     return tuple(names)
 
 
-def solve_convex(designer: "Designer", z0: np.ndarray, p: np.ndarray, b: Bounds, bounds: Any) -> tuple[np.ndarray, SolverOutput, str]:
+def solve_convex(designer: "Designer", z0: np.ndarray, p: np.ndarray, b: Bounds, bounds: Any, minimax: bool = True) -> tuple[np.ndarray, SolverOutput, str, str | None]:
     """The LP's optimum (variables on a bound put exactly on it), or the closest design:
-    (scaled point, solver output, message) for the designer to build its Solution from."""
+    (scaled point, solver output, message, what the closest design is or None) for the
+    designer to build its Solution from."""
     out = designer.convex.solve(z0, p, b)
     if out.status is Status.OPTIMAL:
         # An interior-point LP solution meets the equalities to ~1e-8 relative: put bound
@@ -105,13 +106,14 @@ def solve_convex(designer: "Designer", z0: np.ndarray, p: np.ndarray, b: Bounds,
         on_bound = (z <= b.lbz) | (z >= b.ubz)
         fixed = Bounds(np.where(on_bound, z, b.lbz), np.where(on_bound, z, b.ubz), b.lbg, b.ubg)
         z = designer.refine(z, p, fixed)
-        return z, out, "balanced design found (LP, Clarabel)"
+        return z, out, "balanced design found (LP, Clarabel)", None
     if out.status is Status.INFEASIBLE:
         closest = designer.closest_design(z0, p, bounds)
-        z = designer.polish_settings(closest.z, p, b)
-        out = SolverOutput(z, Status.INFEASIBLE, out.solver_status, out.iterations, out.solve_time + closest.solve_time, out.solver)
-        return z, out, "CLARABEL: infeasible"
-    return out.z, out, f"CLARABEL: {out.solver_status}"
+        z, kind, seconds = designer.closest_reported(closest.z, p, b, minimax)
+        z = designer.polish_settings(z, p, b)
+        out = SolverOutput(z, Status.INFEASIBLE, out.solver_status, out.iterations, out.solve_time + closest.solve_time + seconds, out.solver)
+        return z, out, "CLARABEL: infeasible", kind
+    return out.z, out, f"CLARABEL: {out.solver_status}", None
 
 
 class Certificate:

@@ -7,7 +7,9 @@ so ``solve(parameters=...)`` re-solves a study point without rebuilding, and var
 bounds may be changed per call. CasADi objects do not pickle: a designer pickles as its
 description (the problem and the solver options) and rebuilds itself in the worker.
 When the problem is an LP (fixed geometry) it is solved by Clarabel, and an IPOPT design
-gets a certificate gap (:mod:`.convex`).
+gets a certificate gap (:mod:`.convex`). Every polish of a solver's point (:meth:`Designer.finish`,
+``_snap``, :meth:`Designer.refine`, :meth:`Designer.polish_settings`) is one call of
+:func:`counterpoise.solvers.gauss_newton.gauss_newton` with its own free variables and rules.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from ..formulation.layout import Slot
 from ..formulation.manifold import for_geometry
 from ..model.problem import BOUND_TOLERANCE, Problem
 from ..solvers.base import Bounds, SolverOutput, Status
+from ..solvers.gauss_newton import Evaluate, Evaluation, gauss_newton, worst
 from ..solvers.ipopt import IPOPT_DEFAULTS, IpoptBackend
 from ..threads import limit_blas_threads
 from . import convex
@@ -53,6 +56,16 @@ POLISH_CONFIGURATIONS = 8
 ROUNDING_FLOOR = 1e-12
 
 BoundsOverride = Mapping["Slot | str", tuple[float, float]]
+
+#: A variable put on its bound in the minimax closest design may raise the worst sampled
+#: residual ratio by this much (absolute): rounding, not a worse design.
+MINIMAX_ROUNDING = 1e-12
+#: ``Solution.closest`` of a solve with ``certify=False`` (a probe of a part search or a
+#: schedule): the least-squares closest design, which :meth:`Designer.certify` upgrades
+LEAST_SQUARES_CLOSEST = "least squares on the compressed balance conditions"
+#: ``Solution.closest`` when the minimax design failed or was no closer (see
+#: :meth:`Designer.closest_minimax`)
+LEAST_SQUARES_NO_CLOSER = LEAST_SQUARES_CLOSEST + "; the minimax design was no closer"
 
 #: Seeded random starts of the closest-design search after the given ones (see
 #: :meth:`Designer.closest_design_multistart`); only an infeasible-looking solve pays for them.
@@ -98,6 +111,7 @@ class Designer:
         self._feasibility: IpoptBackend | None = None
         self._residual_jacobian: Any = None
         self._settings: dict[str, tuple[Any, np.ndarray]] | None = None
+        self._minimax: Any = None  # the epigraph NLP of the closest design (built on first use)
 
     def __reduce__(self) -> tuple[Any, ...]:
         """Pickle as a description; the worker rebuilds the CasADi objects."""
@@ -138,9 +152,11 @@ class Designer:
         result says whether it still holds (a parameter that was 0 at build time may have
         hidden a condition).
 
-        ``certify``: compute the solution's certificate gap (an LP, see :mod:`.convex`);
+        ``certify``: compute the solution's certificate gap (an LP, see :mod:`.convex`) and,
+        for an infeasible problem, the minimax closest design (:meth:`closest_minimax`);
         callers that solve many times and report one design (part searches, schedules,
-        multi-start) pass False and :meth:`certify` the one they report.
+        multi-start) pass False (their probes get the least-squares closest design) and
+        :meth:`certify` the one they report.
         """
         other = for_geometry(self, parameters, lambda problem: Designer(problem, self._ipopt_options, self.backend_choice))
         if other is not self:  # closed loops: a new geometry needs its own manifold equalities
@@ -151,7 +167,7 @@ class Designer:
         p = self.formulation.parameters.values(parameters) if parameters else self.parameters
         b = self.bounds(self.n_equalities, bounds)
         z0 = np.clip(d.to_z(d.vector(initial or {})), b.lbz, b.ubz)
-        solution = self._solve(z0, p, b, bounds)
+        solution = self._solve(z0, p, b, bounds, certify)
         add = violations(self.problem, solution.constraints)
         if add and self._round < MAX_ROUNDS:
             # a workspace extreme beyond its bound between the sampled configurations: add
@@ -174,22 +190,46 @@ class Designer:
         if self._refined is not None:
             return self._refined.certify(solution, parameters, bounds)
         p = self.formulation.parameters.values(parameters) if parameters else self.parameters
-        solution.certificate_gap = self._certificate_gap(solution, p, self.bounds(self.n_equalities, bounds))
+        b = self.bounds(self.n_equalities, bounds)
+        if solution.status is Status.INFEASIBLE and solution.closest == LEAST_SQUARES_CLOSEST:
+            self._upgrade_closest(solution, p, b)
+        solution.certificate_gap = self._certificate_gap(solution, p, b)
         return solution
+
+    def _upgrade_closest(self, solution: Solution, p: np.ndarray, b: Bounds) -> None:
+        """Replace, in place, the least-squares closest design of a solve made with
+        ``certify=False`` by the minimax one (:meth:`closest_minimax`): the design reported."""
+        d = self.formulation.design
+        z, kind, seconds = self.closest_minimax(d.to_z(d.vector(solution.values)), p, b)
+        if kind != LEAST_SQUARES_NO_CLOSER:
+            z = self.polish_settings(z, p, b)
+        out = SolverOutput(z, solution.status, solution.solver_status, solution.iterations, solution.solve_time + seconds, solution.solver)
+        new = self._solution(z, p, b, out, solution.message, kind)
+        for name in ("status", "message", "values", "objective", "added_mass", "added_inertia", "solve_time", "scenario_parameters", "verdict", "constraints", "closest"):
+            setattr(solution, name, getattr(new, name))
+
+    def closest_reported(self, z: np.ndarray, p: np.ndarray, b: Bounds, minimax: bool) -> tuple[np.ndarray, str, float]:
+        """(closest design, what it is, seconds): minimax, or least squares when not ``minimax``."""
+        if minimax:
+            return self.closest_minimax(z, p, b)
+        return z, LEAST_SQUARES_CLOSEST, 0.0
 
     def _certificate_gap(self, solution: Solution, p: np.ndarray, b: Bounds) -> float:
         d = self.formulation.design
         return self.certificate.gap(d.to_z(d.vector(solution.values)), p, b, solution.solver, solution.objective)
 
-    def _solve(self, z0: np.ndarray, p: np.ndarray, b: Bounds, bounds: BoundsOverride | None) -> Solution:
+    def _solve(self, z0: np.ndarray, p: np.ndarray, b: Bounds, bounds: BoundsOverride | None, minimax: bool = True) -> Solution:
+        """``minimax``: report the minimax closest design of an infeasible problem (else the
+        least-squares one, upgraded by :meth:`certify`)."""
         d = self.formulation.design
         if self.convex is not None:
-            z, out, message = convex.solve_convex(self, z0, p, b, bounds)
-            return self._solution(z, p, b, out, message)
+            z, out, message, kind = convex.solve_convex(self, z0, p, b, bounds, minimax)
+            return self._solution(z, p, b, out, message, kind)
         if self.n_equalities > len(d):
-            return self._overdetermined(z0, p, b, bounds)
+            return self._overdetermined(z0, p, b, bounds, minimax)
         out = self.backend.solve(z0, p, b)
         z, message = out.z, f"{out.solver.upper()}: {out.solver_status}"
+        closest_kind: str | None = None
         if out.status is Status.OPTIMAL:
             z, message = self.polish(z, p, b), "balanced design found"
         elif out.status is Status.INFEASIBLE:
@@ -208,9 +248,11 @@ class Designer:
                     out = SolverOutput(closest.z, Status.FAILED, code, out.iterations, out.solve_time, out.solver)
                     z, message = closest.z, "IPOPT declared a balanceable problem infeasible; the closest design is reported"
             else:
-                z = self.polish_settings(closest.z, p, b)
+                z, closest_kind, seconds = self.closest_reported(closest.z, p, b, minimax)
+                z = self.polish_settings(z, p, b)
+                elapsed += seconds
             out = _with_time(out, elapsed)
-        return self._solution(z, p, b, out, message)
+        return self._solution(z, p, b, out, message, closest_kind)
 
     def balances(self, z: np.ndarray, p: np.ndarray, tolerance: float = BALANCE_TOLERANCE) -> bool:
         """Whether the compressed balance equalities hold at ``z`` (scaled as in the NLP)."""
@@ -228,6 +270,17 @@ class Designer:
             signs = ca.vertcat(f.nonnegative, self.rows.margins()) if self.rows is not None else f.nonnegative
             self._residual_jacobian = ca.Function("gJ", [f.z, f.p], [eq, ca.jacobian(eq, f.z), signs])
         return self._residual_jacobian
+
+    def _balance_evaluation(self, p: np.ndarray) -> Evaluate:
+        """The balance equalities at ``p`` for :func:`~counterpoise.solvers.gauss_newton.gauss_newton`:
+        (g, ∂g/∂z, whether the sign constraints hold)."""
+        gj = self.residual_jacobian()
+
+        def evaluate(z: np.ndarray) -> Evaluation:
+            g, jac, signs = (np.array(v) for v in gj(z, p))
+            return g.reshape(-1), jac, _admissible(signs)
+
+        return evaluate
 
     def polish(self, z: np.ndarray, p: np.ndarray, bounds: Bounds, iterations: int = 8) -> np.ndarray:
         """Put variables that the solver left a hair inside a bound exactly on it.
@@ -273,23 +326,7 @@ class Designer:
         free = (z > lo) & (z < hi)
         if not free.any():
             return z
-        gj = self.residual_jacobian()
-        g, jac, _ = (np.array(v) for v in gj(z, p))
-        g = g.reshape(-1)
-        best, best_norm = z, float(np.abs(g).max(initial=0.0))
-        for _ in range(iterations):
-            if best_norm == 0.0:
-                break
-            candidate = best.copy()
-            step, *_ = np.linalg.lstsq(jac[:, free], -g, rcond=None)
-            candidate[free] = np.clip(candidate[free] + step, lo[free], hi[free])
-            g_new, jac_new, signs = (np.array(v) for v in gj(candidate, p))
-            g_new = g_new.reshape(-1)
-            norm = float(np.abs(g_new).max(initial=0.0))
-            if not (norm <= 0.5 * best_norm and (signs.size == 0 or signs.min() >= 0)):
-                break
-            best, best_norm, g, jac = candidate, norm, g_new, jac_new
-        return best
+        return gauss_newton(self._balance_evaluation(p), z, lo, hi, free=free, iterations=iterations, decrease=0.5).z
 
     def _snap(
         self, z: np.ndarray, p: np.ndarray, bounds: Bounds, at_lo: np.ndarray, at_hi: np.ndarray, iterations: int, objective_limit: float | None
@@ -303,19 +340,12 @@ class Designer:
         if not active.any() or np.array_equal(candidate, z):
             return z
         gj = self.residual_jacobian()
-        free = ~active
-        for _ in range(iterations):
-            g, jac, _ = (np.array(v) for v in gj(candidate, p))
-            g = g.reshape(-1)
-            if not g.size or np.abs(g).max() <= EXACT_BALANCE or not free.any():
-                break
-            step, *_ = np.linalg.lstsq(jac[:, free], -g, rcond=None)
-            candidate[free] = np.clip(candidate[free] + step, lo[free], hi[free])
+        candidate = gauss_newton(self._balance_evaluation(p), candidate, lo, hi, free=~active, iterations=iterations, tolerance=EXACT_BALANCE, decrease=None).z
         g_new, _, signs = (np.array(v).reshape(-1) for v in gj(candidate, p))
         g_old = np.array(gj(z, p)[0]).reshape(-1)
         worst_new = np.abs(g_new).max(initial=0.0)
         worst_old = np.abs(g_old).max(initial=0.0)
-        if not (worst_new <= max(worst_old, ROUNDING_FLOOR) and (signs.size == 0 or signs.min() >= 0)):
+        if not (worst_new <= max(worst_old, ROUNDING_FLOOR) and _admissible(signs)):
             return z
         if objective_limit is not None and not float(self.formulation.report_function(candidate, p)[0]) <= objective_limit:
             return z
@@ -332,24 +362,14 @@ class Designer:
         move only its adjustments, within their bounds. Kept when that setting's residual
         drops and the sign constraints hold; the dense check then says which scenarios are met.
         """
-        for setting, (function, columns) in self._setting_residuals().items():
-            r, jac = (np.array(v) for v in function(z, p))
-            r = r.reshape(-1)
-            best, best_norm = z, float(np.abs(r).max(initial=0.0))
-            candidate = z.copy()
-            for _ in range(iterations):
-                if best_norm == 0.0:
-                    break
-                step, *_ = np.linalg.lstsq(jac[:, columns], -r, rcond=None)
-                candidate[columns] = np.clip(candidate[columns] + step, b.lbz[columns], b.ubz[columns])
+        gj = self.residual_jacobian()
+        for function, columns in self._setting_residuals().values():
+
+            def evaluate(candidate: np.ndarray, function: Any = function) -> Evaluation:
                 r, jac = (np.array(v) for v in function(candidate, p))
-                r = r.reshape(-1)
-                norm = float(np.abs(r).max(initial=0.0))
-                signs = np.array(self.residual_jacobian()(candidate, p)[2]).reshape(-1)
-                if not (norm < best_norm and (signs.size == 0 or signs.min() >= 0)):
-                    break
-                best, best_norm = candidate.copy(), norm
-            z = best
+                return r, jac, _admissible(np.array(gj(candidate, p)[2]))
+
+            z = gauss_newton(evaluate, z, b.lbz, b.ubz, free=columns, iterations=iterations).z
         return z
 
     def _setting_residuals(self) -> dict[str, tuple[Any, np.ndarray]]:
@@ -417,6 +437,43 @@ class Designer:
                 break
         return _with_time(min(tried)[2], elapsed)
 
+    def closest_minimax(self, z: np.ndarray, p: np.ndarray, b: Bounds) -> tuple[np.ndarray, str, float]:
+        """The closest design reported for a balance that cannot be met: the one with the
+        smallest worst residual ratio, the figure the report gives.
+
+        Least squares on the compressed conditions (``z``, from :meth:`closest_design`) is not
+        that design: it weighs the scaled conditions, not the residual ratio the dense check
+        reports (issue 24: on an infeasible four-bar, a worst residual of 11.9 % where 9.39 %
+        can be reached; tests/test_closest.py has such a four-bar and a closed-form case). So the epigraph NLP of :class:`~counterpoise.designer.minimax.MinimaxDesigner`
+        (min t s.t. |r_j(q_s; z)| ≤ t·T on sampled configurations, T the largest unbalanced
+        gravity force of the coordinate's kind; built on first use) is solved from ``z``
+        within the bounds, design constraints left out as in the least-squares design.
+        Variables within BOUND_TOLERANCE × span of a bound are put on it when that does not
+        raise the worst sampled ratio (beyond rounding). The minimax design is kept when IPOPT
+        converged, the sign constraints hold and its worst sampled ratio is below the
+        least-squares one; else ``z`` stands.
+
+        Returns (design, what it is: the text of ``Solution.closest``, solve seconds).
+        """
+        from .minimax import MinimaxDesigner
+
+        if self._minimax is None:
+            self._minimax = MinimaxDesigner(self.problem, self._ipopt_options)
+        m = self._minimax
+        lo, hi = b.lbz, b.ubz
+        least_squares = worst(m.ratios(z, p))
+        out, _ = m.smallest_worst_ratio(z, p, lo, hi)
+        candidate = np.clip(out.z, lo, hi)
+        reached = worst(m.ratios(candidate, p))
+        band = BOUND_TOLERANCE * (hi - lo)
+        snapped = np.where((candidate - lo <= band) & (hi > lo), lo, np.where((hi - candidate <= band) & (hi > lo), hi, candidate))
+        if not np.array_equal(snapped, candidate) and worst(m.ratios(snapped, p)) <= reached + MINIMAX_ROUNDING:
+            candidate, reached = snapped, worst(m.ratios(snapped, p))
+        signs = np.array(self.residual_jacobian()(candidate, p)[2]).reshape(-1)[: int(self.formulation.nonnegative.numel())]
+        if out.status is Status.OPTIMAL and _admissible(signs) and reached < least_squares:
+            return candidate, f"minimax: the smallest worst residual on {m.n_samples} sampled configurations", out.solve_time
+        return z, LEAST_SQUARES_NO_CLOSER, out.solve_time
+
     def refine(self, z: np.ndarray, p: np.ndarray, b: Bounds, iterations: int = 8) -> np.ndarray:
         """Gauss-Newton steps on the balance equalities from ``z``, within the bounds.
 
@@ -424,23 +481,9 @@ class Designer:
         short of :meth:`balances`; a few Newton steps on g itself finish the job when a
         balanced design is that near. Kept only while |g| decreases and signs stay ≥ 0.
         """
-        gj = self.residual_jacobian()
-        g, jac, _ = (np.array(v) for v in gj(z, p))
-        best, best_norm = z, float(np.abs(g).max(initial=0.0))
-        candidate = z.copy()
-        for _ in range(iterations):
-            if best_norm <= EXACT_BALANCE or g.size == 0:
-                break
-            step, *_ = np.linalg.lstsq(jac, -g.reshape(-1), rcond=None)
-            candidate = np.clip(candidate + step, b.lbz, b.ubz)
-            g, jac, signs = (np.array(v) for v in gj(candidate, p))
-            norm = float(np.abs(g).max(initial=0.0))
-            if not (norm < best_norm and (signs.size == 0 or signs.min() >= 0)):
-                break
-            best, best_norm = candidate.copy(), norm
-        return best
+        return gauss_newton(self._balance_evaluation(p), z, b.lbz, b.ubz, iterations=iterations, tolerance=EXACT_BALANCE).z
 
-    def _overdetermined(self, z0: np.ndarray, p: np.ndarray, b: Bounds, bounds: BoundsOverride | None) -> Solution:
+    def _overdetermined(self, z0: np.ndarray, p: np.ndarray, b: Bounds, bounds: BoundsOverride | None, minimax: bool = True) -> Solution:
         """More independent conditions than variables: balance only at special designs.
 
         Find the closest design; if it balances, the conditions are locally redundant:
@@ -455,9 +498,10 @@ class Designer:
         g, jac, _ = (np.array(v) for v in self.residual_jacobian()(closest.z, p))
         if not self.balances(closest.z, p):
             message = "more independent balance conditions than design variables, and no design within the bounds meets them"
-            z = self.polish_settings(closest.z, p, b)
-            out = SolverOutput(z, Status.INFEASIBLE, "overdetermined", closest.iterations, closest.solve_time, closest.solver)
-            return self._solution(z, p, b, out, message)
+            z, kind, seconds = self.closest_reported(closest.z, p, b, minimax)
+            z = self.polish_settings(z, p, b)
+            out = SolverOutput(z, Status.INFEASIBLE, "overdetermined", closest.iterations, closest.solve_time + seconds, closest.solver)
+            return self._solution(z, p, b, out, message, kind)
         u, s, _ = np.linalg.svd(jac, full_matrices=False)
         r = int(np.sum(s > RANK_TOLERANCE * s[0])) if s.size and s[0] > 0 else 0
         reduced = ca.mtimes(ca.DM(u[:, :r].T), self.conditions.equalities)
@@ -473,8 +517,11 @@ class Designer:
             out = SolverOutput(out.z, Status.FAILED, out.solver_status, out.iterations, out.solve_time, out.solver)
         return self._solution(z, p, b, out, message)
 
-    def _solution(self, z: np.ndarray, parameters: np.ndarray, b: Bounds, out: SolverOutput, message: str) -> Solution:
+    def _solution(self, z: np.ndarray, parameters: np.ndarray, b: Bounds, out: SolverOutput, message: str, closest: str | None = None) -> Solution:
+        """``closest``: what the reported closest design of an infeasible problem is (see
+        :meth:`closest_minimax`); None for a design that balances."""
         solution = build_solution(self.formulation, z, parameters, b.lbz, b.ubz, out, message, self.n_equalities, self.conditions.summary())
+        solution.closest = closest
         if self.rows is None:
             return solution
         if self.nonlinear_constraints:
@@ -490,6 +537,11 @@ class Designer:
                 solution.constraints = evaluate(self.problem, solution, self.rows, None)
                 return solution
         return attach_constraints(solution, self.rows, rows_multipliers(out, self.rows))
+
+
+def _admissible(signs: np.ndarray) -> bool:
+    """The sign constraints (and constraint margins) hold: every one ≥ 0."""
+    return bool(signs.size == 0 or signs.min() >= 0)
 
 
 def _with_time(out: SolverOutput, seconds: float) -> SolverOutput:

@@ -132,6 +132,7 @@ class MinimaxDesigner:
             for j, name in enumerate(_independent(block, tangents.get(key))):
                 revolute = problem.coordinate[name].unit.dimension == ""
                 torque[revolute] = max(torque[revolute], float(np.abs(values[j]).max(initial=0.0)))
+        ratios = []
         for block in f.blocks:
             key = (block.subsystem, block.scenario)
             q = samples[key]
@@ -143,7 +144,12 @@ class MinimaxDesigner:
                 scale = torque[revolute] or 1.0
                 r = residual[j, :].T / scale
                 rows += [t - r, t + r]  # both ≥ 0
+                ratios.append(r)
         self.reference = torque
+        #: sampled configurations (every subsystem and scenario)
+        self.n_samples = int(sum(q.shape[0] for q in samples.values()))
+        self._ratios = ca.vertcat(*ratios)
+        self._ratio_function: Any = None
         # spring lengths within [L0, L_max] on the samples
         functions = casadi_functions()
         for c, scenario in enumerate(problem.scenarios):
@@ -202,13 +208,7 @@ class MinimaxDesigner:
         lbz, ubz = d.bounds(bounds)
         z0 = np.clip(d.to_z(d.vector(initial or {})), lbz, ubz)
         rows = self.rows
-        b = Bounds(
-            np.concatenate([lbz, [0.0]]),
-            np.concatenate([ubz, [np.inf]]),
-            np.concatenate([np.zeros(self.n_rows + self.n_signs), rows.lbg if rows is not None else []]),
-            np.concatenate([np.full(self.n_rows + self.n_signs, np.inf), rows.ubg if rows is not None else []]),
-        )
-        out = self.backend.solve(np.concatenate([z0, [INITIAL_RATIO]]), p, b)
+        out = self.backend.solve(np.concatenate([z0, [INITIAL_RATIO]]), p, self._bounds(lbz, ubz, True))
         t = float(out.z[-1])
         ok = out.status is Status.OPTIMAL
         message = (
@@ -240,3 +240,36 @@ class MinimaxDesigner:
             start = dict(solution.values)
             return refined.solve(start, parameters, bounds)
         return solution
+
+    def _bounds(self, lbz: np.ndarray, ubz: np.ndarray, constraints: bool) -> Bounds:
+        """Bounds of (z, t) and of [epigraph and spring-length rows ≥ 0; signs ≥ 0; constraint
+        rows (free when ``constraints`` is False)]."""
+        rows = self.rows
+        n = self.n_rows + self.n_signs
+        m = rows.lbg.size if rows is not None else 0
+        return Bounds(
+            np.concatenate([lbz, [0.0]]),
+            np.concatenate([ubz, [np.inf]]),
+            np.concatenate([np.zeros(n), (rows.lbg if constraints else np.full(m, -np.inf)) if rows is not None else []]),
+            np.concatenate([np.full(n, np.inf), (rows.ubg if constraints else np.full(m, np.inf)) if rows is not None else []]),
+        )
+
+    def ratios(self, z: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """The residual ratios r_j(q_s; z) / T on every sampled configuration (scaled ``z``)."""
+        import casadi as ca
+
+        if self._ratio_function is None:
+            f = self.formulation
+            self._ratio_function = ca.Function("ratios", [f.z, f.p], [self._ratios])
+        return np.array(self._ratio_function(z, p)).reshape(-1)
+
+    def smallest_worst_ratio(self, z0: np.ndarray, p: np.ndarray, lbz: np.ndarray, ubz: np.ndarray) -> tuple[SolverOutput, float]:
+        """The design within [lbz, ubz] (scaled) with the smallest worst residual ratio on the
+        samples, from ``z0``, design constraints left out: the closest design of a balance
+        problem that cannot be met (see :meth:`counterpoise.designer.designer.Designer.closest_minimax`).
+        Returns the solver's output (without t) and t."""
+        z0 = np.clip(z0, lbz, ubz)
+        t0 = max(INITIAL_RATIO, 2.0 * float(np.abs(self.ratios(z0, p)).max(initial=0.0)))
+        out = self.backend.solve(np.concatenate([z0, [t0]]), p, self._bounds(lbz, ubz, False))
+        design = SolverOutput(out.z[:-1], out.status, out.solver_status, out.iterations, out.solve_time, out.solver)
+        return design, float(out.z[-1])

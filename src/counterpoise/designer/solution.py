@@ -58,6 +58,9 @@ class Solution:
     constraints: tuple[Any, ...] = ()
     #: designs with [robust]: the :class:`counterpoise.robust.RobustReport`
     robust: Any = None
+    #: infeasible balance: what the reported closest design is (the smallest worst residual
+    #: on sampled configurations, or least squares on the compressed conditions); None otherwise
+    closest: str | None = None
 
     def variable_values(self, scenario: str) -> dict[str, float]:
         """Value of every variable as seen by ``scenario``."""

@@ -82,6 +82,9 @@ def _unmet_message(solution: "Solution", verification: Verification) -> str:
             bound = v.lower if side == "lower" else v.upper
             at_bounds.append(f"{name} at its {side} bound {v.unit.from_si(bound):.6g} {v.unit.label}")
     text = "balance cannot be met within the bounds: " + ("; ".join(parts) or solution.message)
+    kind = f" ({solution.closest})" if solution.closest else ""
     if at_bounds:
-        text += "; at the closest design " + ", ".join(at_bounds)
+        text += f"; at the closest design{kind} " + ", ".join(at_bounds)
+    elif kind:
+        text += f"; at the closest design{kind} no variable is reported at a bound"
     return text
