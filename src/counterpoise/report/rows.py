@@ -249,11 +249,5 @@ def status_text(result: DesignResult) -> str:
         f"message: {result.message}\n"
         f"solver: {s.solver} ({s.solver_status}), {s.iterations} iterations\n"
         f"balance conditions: {s.conditions} ({s.condition_summary})\n"
-        + (
-            "closest design: the least-squares fit of the balance conditions (not the design of the "
-            "smallest worst residual: a minimax design may reach a smaller one; the residuals above are "
-            "this design's, from the dense check)\n"
-            if result.status.value == "infeasible" and s.sampled_ratio is None
-            else ""
-        )
+        + (f"closest design: {s.closest}\n" if result.status.value == "infeasible" and getattr(s, "closest", None) else "")
     )
