@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from ..errors import InputError
 from ..model.expr import suggest
@@ -260,7 +261,7 @@ def _quaternion_matrix(q: object) -> Matrix:
     )
 
 
-def _compile_mjcf(path: Path) -> tuple[object, list[str]]:
+def _compile_mjcf(path: Path) -> tuple[Any, list[str]]:  # Any: mujoco.MjModel (mujoco ships no type information)
     """MuJoCo's model of ``path`` and the warnings its compiler gave (kept, not printed: the
     one-line contract). An MJCF whose mesh files are missing is compiled without those
     meshes when every body with such a mesh has an explicit ``<inertial>`` (the meshes then
@@ -279,7 +280,7 @@ def _compile_mjcf(path: Path) -> tuple[object, list[str]]:
             if spec is None:
                 raise InputError(f"cannot read the MJCF {path.name}: {text[:200]}{_mjcf_hint(text)}") from None
         try:
-            return spec.compile(), warnings  # type: ignore[attr-defined]
+            return spec.compile(), warnings
         except ValueError as exc:
             raise InputError(f"cannot read the MJCF {path.name}: {' '.join(str(exc).split())[:200]}") from None
     finally:
@@ -292,7 +293,7 @@ def _mjcf_hint(text: str) -> str:
     return ""
 
 
-def _without_missing_meshes(path: Path) -> object | None:
+def _without_missing_meshes(path: Path) -> Any:  # Any: mujoco.MjSpec or None (mujoco ships no type information)
     """The model's spec with every mesh whose file is missing removed, with the geoms that
     use it; None when there is no such mesh or a body that loses one has no explicit
     ``<inertial>`` (its mass would change)."""

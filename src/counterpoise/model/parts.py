@@ -17,7 +17,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Any
+from typing import SupportsInt
+from collections.abc import Iterable
 
 import numpy as np
 
@@ -69,11 +70,11 @@ class Catalogue:
     def arrays(self) -> dict[str, np.ndarray]:
         return {n: self.array(n) for n in NUMERIC_FIELDS}
 
-    def subset(self, rows: Any) -> "Catalogue":
+    def subset(self, rows: Iterable[SupportsInt]) -> "Catalogue":
         """The catalogue restricted to ``rows`` (indices), in that order."""
         idx = [int(i) for i in rows]
         pick = {n: tuple(getattr(self, n)[i] for i in idx) for n in ("part_number", "material", *NUMERIC_FIELDS)}
-        return Catalogue(self.name, self.path, currency=self.currency, **pick)  # type: ignore[arg-type]
+        return Catalogue(self.name, self.path, currency=self.currency, **pick)
 
 
 @dataclass(frozen=True)

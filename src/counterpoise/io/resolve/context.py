@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Callable, Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping, Set as AbstractSet
 from contextlib import contextmanager
 from typing import Any
 
@@ -446,7 +446,7 @@ def example_unit(dimension: str) -> str:
     return {LENGTH: "mm", MASS: "g", STIFFNESS: "N/mm"}.get(dimension, "mm")
 
 
-def topological(nodes: Mapping[str, Any], deps: Callable[[str], set[str]], section: str, label: str, key_suffix: str = "") -> list[str]:
+def topological(nodes: Mapping[str, object], deps: Callable[[str], AbstractSet[str]], section: str, label: str, key_suffix: str = "") -> list[str]:
     """Order ``nodes`` so that dependencies come first; a cycle is a ProblemFileError."""
     order: list[str] = []
     state: dict[str, int] = {}

@@ -14,7 +14,7 @@ from typing import Any
 
 from ...model import expr as ex
 from ...model.loops import REVOLUTE_JOINT, Loop
-from ...model.mechanism import GROUND, Coordinate, Frame, Point
+from ...model.mechanism import GROUND, Coordinate, Frame, Point, Rotation
 from ...model.units import LENGTH, canonical_dimension, dimension_name
 from .context import Context
 
@@ -44,7 +44,7 @@ def _frame_names(frame: str, frames: Mapping[str, Frame]) -> set[str]:
     while name is not None and name != GROUND:
         f = frames[name]
         for t in f.transforms:
-            trees = (t.angle, *t.axis) if hasattr(t, "angle") else t.vector
+            trees = (t.angle, *t.axis) if isinstance(t, Rotation) else t.vector
             for tree in trees:
                 used |= ex.names(tree)
         name = f.parent

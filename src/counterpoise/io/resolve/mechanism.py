@@ -95,7 +95,7 @@ def frames(ctx: Context, given: tuple[Frame, ...] = ()) -> tuple[Frame, ...]:
     ctx.check()  # every unknown parent or orientation frame, one line each
     order = topological(
         {n: None for n in specs},
-        lambda n: {specs[n].parent, specs[n].orientation} & set(specs),
+        lambda n: {p for p in (specs[n].parent, specs[n].orientation) if p is not None} & specs.keys(),
         "frames",
         ctx.label,
         key_suffix="parent",
@@ -126,8 +126,8 @@ def frames(ctx: Context, given: tuple[Frame, ...] = ()) -> tuple[Frame, ...]:
                 transforms.append(Translation(vec))
         if f.orientation is not None:
             turns = reorientation(f.parent, transforms, f.orientation, frames)
-            for t in turns:
-                used |= ex.names(t.angle)
+            for turn in turns:
+                used |= ex.names(turn.angle)
             transforms += turns
             keys += [f"{key}.orientation"] * len(turns)
         subsystems = {coordinate_subsystem[n] for n in used if n in coordinate_subsystem}

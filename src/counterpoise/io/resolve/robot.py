@@ -58,8 +58,9 @@ def read(ctx: Context) -> RobotModel | None:
             if name not in joints:
                 what = "a fixed joint: it does not move" if name in fixed else f"unknown joint '{name}' in {path.name}{suggest(name, list(joints))}"
                 raise ctx.fail(key, what)
-            if joints[name].mimic is not None:
-                raise ctx.fail(key, f"joint '{name}' follows joint '{joints[name].mimic[0]}' (mimic): list that joint instead")
+            mimic = joints[name].mimic
+            if mimic is not None:
+                raise ctx.fail(key, f"joint '{name}' follows joint '{mimic[0]}' (mimic): list that joint instead")
     for name in spec.locked:
         if name in spec.joints:
             raise ctx.fail(f"robot.locked.{name}", f"joint '{name}' is listed both as moving (robot.joints) and as locked")
@@ -167,10 +168,10 @@ def _values(ctx: Context, model: RobotModel, spec: RobotSpec) -> dict[str, ex.Ex
     out: dict[str, ex.Expr] = {name: ex.Name(name) for name in spec.joints}
     for name, raw in spec.locked.items():
         key = f"robot.locked.{name}"
-        value = ctx.literal(raw, key)
-        _check_dimension(ctx, joints[name], value.dimension, key, raw)
-        _within(ctx, joints[name], [value.si], value.unit, key, f"locked value '{raw}'")
-        out[name] = ex.Num(value.si)
+        locked = ctx.literal(raw, key)
+        _check_dimension(ctx, joints[name], locked.dimension, key, raw)
+        _within(ctx, joints[name], [locked.si], locked.unit, key, f"locked value '{raw}'")
+        out[name] = ex.Num(locked.si)
 
     def value(name: str, seen: tuple[str, ...]) -> ex.Expr:
         if name in out:
