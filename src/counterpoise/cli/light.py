@@ -263,9 +263,9 @@ def coerce(value: str) -> object:
     if value in ("true", "false"):
         return value == "true"
     if value[:1] in ("[", "{"):
-        try:
+        if sys.version_info >= (3, 11):
             import tomllib  # the standard library from Python 3.11
-        except ImportError:  # pragma: no cover
+        else:  # pragma: no cover
             import tomli as tomllib
         try:
             return tomllib.loads(f"value = {value}")["value"]

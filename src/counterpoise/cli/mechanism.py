@@ -105,9 +105,9 @@ def read_design(problem: Problem, folder: Path) -> Design:
         if setting in values:
             variables[name] = values[setting]
         else:
-            first = next(iter(values))
-            variables[name] = values[first]
-            shown_at = first
+            first_setting = next(iter(values))
+            variables[name] = values[first_setting]
+            shown_at = first_setting
     missing = [v.name for v in problem.variables if v.name not in variables]
     if missing:
         raise AtError(f"{where}: design.csv has no value of variable '{missing[0]}' (a design of another version of the file?)")

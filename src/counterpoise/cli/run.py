@@ -40,7 +40,7 @@ def load_all(files: list[Path], overrides: Mapping[str, object], err: Err) -> li
     seen: dict[str, Path] = {}
     for path in files:
         try:
-            problem = load_problem(path, overrides)  # type: ignore[arg-type]
+            problem = load_problem(path, overrides)
             check_assembly(problem)  # closed loops: closes at home, assembles over the ranges (docs/loops.md)
         except ProblemFileError as exc:
             errors.append(str(exc))

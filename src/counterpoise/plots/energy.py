@@ -121,7 +121,7 @@ def energy_plot(result: "DesignResult", folder: str | Path) -> list[Path]:
                 coords = {n: points.q[:, i] for i, n in enumerate(c.names)}
                 tangent = (c, points.tangent)
             bodies, grav, spring = _energies(problem, sub.name, coords, variables, base, gravity)
-            x = coord.unit.from_si(q)
+            x = np.asarray(q, dtype=float) / coord.unit.to_si  # the display unit's from_si, on an array
             xlabel = f"{name} [{coord.unit.label}]"
             ax = axes[r, 0]
             ax.plot(x, bodies, label=UNBALANCED, color="tab:red", linestyle="--", linewidth=1)

@@ -612,11 +612,11 @@ def _draw(
     springs = {s.name: s for s in problem.springs}
     ends = [p for p in placed if p.kind == "spring"]
     amplitude = 0.025 * style["extent"]
-    for a, b in zip(ends[::2], ends[1::2]):
-        name = a.name.rsplit(".", 1)[0]
-        pa, pb = xy(a.position), xy(b.position)
+    for ea, eb in zip(ends[::2], ends[1::2]):
+        name = ea.name.rsplit(".", 1)[0]
+        pa, pb = xy(ea.position), xy(eb.position)
         chosen = name not in unset
-        color = cmap(norm(a.force)) if chosen else NO_PART
+        color = cmap(norm(ea.force)) if chosen else NO_PART
         line = _zigzag(pa, pb, amplitude=amplitude)
         ax.plot(line[:, 0], line[:, 1], color=color, linewidth=1.6, zorder=6)
         obs.segments.append((pa, pb))
@@ -627,7 +627,7 @@ def _draw(
             obs.points.append((pa, 5.0))
         else:
             pen.mark(pa, marker="o", markersize=3, color=color, zorder=6)
-        label("spring", 0.5 * (pa + pb), name, a.force if chosen else None, f" {_fmt_force(a.force)}" if chosen else ": part not chosen")
+        label("spring", 0.5 * (pa + pb), name, ea.force if chosen else None, f" {_fmt_force(ea.force)}" if chosen else ": part not chosen")
     requests.extend(merged.values())
 
 

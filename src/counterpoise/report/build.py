@@ -144,7 +144,7 @@ def workspace_distances(result: DesignResult) -> dict[str, tuple[float, float]]:
         for s in problem.springs:
             if s.subsystem is not None and s.subsystem in q:
                 columns = q[s.subsystem]
-                coordinates = {c.name: columns[:, i] for i, c in enumerate(problem.subsystem_coordinates(s.subsystem))}
+                coordinates: dict[str, np.ndarray | float] = {c.name: columns[:, i] for i, c in enumerate(problem.subsystem_coordinates(s.subsystem))}
             else:  # fixed to ground at both ends: one configuration
                 coordinates = {c.name: c.home for c in problem.coordinates}
             mech = Mechanics(problem, base, variables, coordinates, gravity)

@@ -132,7 +132,7 @@ def _part_rows(result: DesignResult) -> list[Row]:
                 "margin_slack_mm": u.margin_slack * mm,
                 "margin_length_mm": u.margin_length * mm,
                 "margin_load_N": u.margin_load,
-                **(_catalogue_data(cat, i, slot.rate_tolerance) if cat is not None and i is not None else {}),
+                **(_catalogue_data(cat, i, slot.rate_tolerance) if cat is not None and slot is not None and i is not None else {}),
             }
         )
     return rows
