@@ -44,8 +44,11 @@ Initial = Mapping[Slot, float]
 class DesignMethod(Protocol):
     """A way to design one problem; built once, solved many times."""
 
-    #: the problem whose design :meth:`solve` returns (an outer method may solve a derived one)
-    problem: Problem
+    @property
+    def problem(self) -> Problem:
+        """The problem whose design :meth:`solve` returns (an outer method may solve a
+        derived one). Read-only: the innermost methods answer their designer's."""
+        ...
 
     def solve(
         self, parameters: Parameters | None = None, bounds: BoundsOverride | None = None, initial: Initial | None = None, *, certify: bool = True
@@ -63,7 +66,10 @@ class SampledMethod(Protocol):
     payload sample): what an outer part search must search on, and the inner method of each
     sampled problem. :class:`counterpoise.payload.method.PayloadMethod` is one."""
 
-    problem: Problem
+    @property
+    def problem(self) -> Problem:
+        """The problem as given (before sampling)."""
+        ...
 
     def search_problem_with(self, extra: tuple[float, ...] = ()) -> Problem:
         """The sampled problem a part search sees, with ``extra`` samples (SI) added."""

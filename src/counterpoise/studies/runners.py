@@ -23,14 +23,18 @@ from concurrent.futures import ProcessPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 from ..model.problem import Problem
+
+if TYPE_CHECKING:
+    from ..formulation.layout import Slot
 
 #: One study point: values (SI) by key. A bare name is a literal parameter of the file
 #: (``m_endo``); ``VAR.lower`` / ``VAR.upper`` a variable's bound; ``objective.mass_weight``
 #: and ``objective.inertia_weight`` the objective's weights (see :mod:`.spec`).
 Point = Mapping[str, float]
+T = TypeVar("T")
 
 #: statuses a point can end with, besides the design statuses (optimal, infeasible, failed)
 TIMEOUT = "timeout"
@@ -138,24 +142,24 @@ def _method_for(task: StudyTask, weights: Mapping[str, float]) -> Any:
     return method
 
 
-def split_point(point: Point) -> tuple[dict[str, float], dict[str, tuple[str, float]], dict[str, float]]:
-    """(parameters, bounds {variable: (side, value)}, objective weights) of a point."""
+def split_point(point: Point) -> tuple[dict[str, float], dict[str, list[tuple[str, float]]], dict[str, float]]:
+    """(parameters, bounds {variable: [(side, value), ...]}, objective weights) of a point."""
     parameters: dict[str, float] = {}
-    bounds: dict[str, tuple[str, float]] = {}
+    bounds: dict[str, list[tuple[str, float]]] = {}
     weights: dict[str, float] = {}
     for key, value in point.items():
         if key.startswith("objective."):
             weights[key.removeprefix("objective.")] = float(value)
         elif key.endswith(".lower") or key.endswith(".upper"):
             name, _, side = key.rpartition(".")
-            bounds.setdefault(name, []).append((side, float(value)))  # type: ignore[arg-type]
+            bounds.setdefault(name, []).append((side, float(value)))
         else:
             parameters[key] = float(value)
-    return parameters, bounds, weights  # type: ignore[return-value]
+    return parameters, bounds, weights
 
 
-def _bounds(problem: Problem, sides: Mapping[str, Any]) -> dict[str, tuple[float, float]]:
-    out = {}
+def _bounds(problem: Problem, sides: Mapping[str, Sequence[tuple[str, float]]]) -> dict[Slot | str, tuple[float, float]]:
+    out: dict[Slot | str, tuple[float, float]] = {}
     for name, items in sides.items():
         v = problem.variable[name]
         lo, hi = v.lower, v.upper
@@ -357,7 +361,7 @@ def tune_allocator() -> bool:
     return all(mallopt(code, value) == 1 for code, value in MALLOC_SETTINGS.values())
 
 
-def batched(points: Sequence[Point], size: int) -> list[Sequence[Point]]:
+def batched(points: Sequence[T], size: int) -> list[Sequence[T]]:
     """Consecutive batches of at most ``size`` points."""
     if size < 1:
         raise ValueError("batch size must be at least 1")

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass
+from typing import NoReturn
 
 import numpy as np
 
@@ -103,7 +104,7 @@ def parse_vary(problem: Problem, text: str, label: str) -> Vary:
     name, sep, rest = text.partition("=")
     name = name.strip()
 
-    def fail(message: str) -> None:
+    def fail(message: str) -> NoReturn:
         raise ProblemFileError(label, f"--vary {name or text}", message)
 
     if not sep or not name:
