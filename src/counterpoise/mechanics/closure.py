@@ -41,7 +41,7 @@ import numpy as np
 
 from ..errors import ProblemFileError
 from ..model.loops import REVOLUTE_JOINT
-from ..model.mechanism import GROUND
+from ..model.mechanism import GROUND, Rotation
 from ..model.problem import Problem
 from .energy import Mechanics
 from .kinematics import matvec, sub
@@ -121,7 +121,8 @@ class Closure:
             if loop.joint == REVOLUTE_JOINT:
                 ra, _ = mech.pose(loop.a.frame)
                 rb, _ = mech.pose(loop.b.frame)
-                world = np.array([np.ravel(v)[0] for v in matvec(ra, mech.vector(loop.axis))], dtype=float)  # type: ignore[arg-type]
+                axis = mech.vector(loop.axis)  # type: ignore[arg-type]  # a revolute loop joint always has its axis
+                world = np.array([float(np.ravel(v)[0]) for v in matvec(ra, axis)], dtype=float)
                 rb_home = np.array([[np.ravel(rb[r][c])[0] for c in range(3)] for r in range(3)], dtype=float)
                 self.axis_b[loop.name] = rb_home.T @ world
         self.m = sum(3 + (3 if loop.name in self.axis_b else 0) for loop in self.loops)
@@ -455,7 +456,7 @@ def geometry_parameters(problem: Problem, subsystem: str) -> tuple[str, ...]:
             while name is not None and name != GROUND:
                 f = problem.frame[name]
                 for t in f.transforms:
-                    for tree in ((t.angle, *t.axis) if hasattr(t, "angle") else t.vector):
+                    for tree in ((t.angle, *t.axis) if isinstance(t, Rotation) else t.vector):
                         used |= ex.names(tree)
                 name = f.parent
     derived = {p.name: p.expr for p in problem.parameters if not p.is_base}
