@@ -25,7 +25,9 @@ studies: $(STAMP)
 	$(BIN)/counterpoise study problems/yasir2019_hybrid.toml --vary 'm_endo=400 g:1000 g:1000' --out results
 	$(BIN)/python scripts/tilt_tradeoff.py results/tilt_hybrid_arm-tradeoff
 
+# type check first (docs/development.md: the settings are [tool.mypy] in pyproject.toml), then the suite
 test: $(STAMP)
+	$(BIN)/python -m mypy
 	$(BIN)/python -m pytest -q
 
 bench: $(STAMP)
