@@ -87,11 +87,11 @@ class Core:
 
     @property
     def problem(self) -> Problem:
-        return self.designer.problem  # type: ignore[no-any-return]
+        return self.designer.problem
 
     @property
     def formulation(self) -> Formulation:
-        return self.designer.formulation  # type: ignore[no-any-return]
+        return self.designer.formulation
 
     def certify(self, solution: Solution, parameters: Parameters | None = None, bounds: BoundsOverride | None = None) -> Solution:
         return solution
@@ -109,10 +109,10 @@ class Plain(Core):
     def solve(
         self, parameters: Parameters | None = None, bounds: BoundsOverride | None = None, initial: Initial | None = None, *, certify: bool = True
     ) -> Solution:
-        return self.designer.solve(initial=initial, parameters=parameters, bounds=bounds, certify=certify)  # type: ignore[no-any-return]
+        return self.designer.solve(initial=initial, parameters=parameters, bounds=bounds, certify=certify)
 
     def certify(self, solution: Solution, parameters: Parameters | None = None, bounds: BoundsOverride | None = None) -> Solution:
-        return self.designer.certify(solution, parameters, bounds)  # type: ignore[no-any-return]
+        return self.designer.certify(solution, parameters, bounds)
 
 
 class Minimax(Core):
@@ -124,7 +124,7 @@ class Minimax(Core):
     def solve(
         self, parameters: Parameters | None = None, bounds: BoundsOverride | None = None, initial: Initial | None = None, *, certify: bool = True
     ) -> Solution:
-        return self.designer.solve(initial=initial, parameters=parameters, bounds=bounds)  # type: ignore[no-any-return]
+        return self.designer.solve(initial=initial, parameters=parameters, bounds=bounds)
 
 
 class MultiStart(Core):

@@ -64,7 +64,7 @@ class _Given:
 
     def solve(self, initial: Any = None, parameters: Mapping[str, float] | None = None, bounds: Any = None) -> Solution:
         merged = {**self.parameters, **(parameters or {})}
-        return self.designer.solve(initial=initial, parameters=merged, bounds=bounds or self.bounds)  # type: ignore[no-any-return]
+        return self.designer.solve(initial=initial, parameters=merged, bounds=bounds or self.bounds)
 
 
 class PartsMethod:

@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..mechanics import NUMPY_FUNCTIONS, Mechanics
 from ..mechanics.kinematics import dot, sub
@@ -111,6 +112,8 @@ def _structure(problem: Problem) -> tuple[str, list[Any], dict[str, str], list[s
             other |= (_names_of(problem, s.ends[0], frames) | _names_of(problem, s.ends[1], frames) | ex.names(s.stiffness)) & variables
     cables: dict[str, str] = {}
     for s in springs:
+        if s.direct is None:  # excluded above
+            continue
         names = ex.names(s.direct.cable) & variables
         if isinstance(s.direct.cable, ex.Name) and names:
             cables[s.name] = s.direct.cable.id
@@ -118,7 +121,7 @@ def _structure(problem: Problem) -> tuple[str, list[Any], dict[str, str], list[s
             return "screening needs each cable to be a variable of its own or fixed"
         for v in names:
             used[v] = used.get(v, 0) + 1
-    for s, v in cables.items():
+    for v in cables.values():
         if used[v] > 1 or v in other or any(v in g for g in geometry):
             return f"cable variable {v} also sets other lengths"
     grid = sorted((variables - set(cables.values())))
@@ -154,7 +157,7 @@ def energy_arrays(problem: Problem, subsystem: str, q: np.ndarray, variables: Ma
     stacked = np.tile(q.astype(complex), (n_q, 1))
     for j in range(n_q):
         stacked[j * n : (j + 1) * n, j] += 1j * STEP
-    coords = {name: stacked[None, :, i] for i, name in enumerate(names)}
+    coords: dict[str, np.ndarray | float] = {name: stacked[None, :, i] for i, name in enumerate(names)}
     coords.update({c.name: c.home for c in problem.coordinates if c.name not in coords})
     var = {k: np.asarray(v, dtype=float)[:, None] for k, v in variables.items()}
     n_g = max((len(v) for v in variables.values()), default=1)
@@ -267,7 +270,7 @@ class _Context:
             self._rest = g.reshape(1, -1) / self.reference  # type: ignore[union-attr]
         g, arr = energy_arrays(self.problem, self.subsystem, self.q, variables, self.base, self.gravity, springs, rest=not self.rest_fixed)
         if self.rest_fixed:
-            gflat = np.broadcast_to(self._rest, (n, self._rest.shape[1]))  # type: ignore[union-attr]
+            gflat = np.broadcast_to(self._rest, (n, self._rest.shape[1]))  # type: ignore[arg-type, union-attr]  # set above whenever rest_fixed
         else:
             gflat = np.broadcast_to(g.reshape(g.shape[0], -1), (n, g.shape[1] * g.shape[2])) / self.reference  # type: ignore[union-attr]
         out = []
@@ -347,7 +350,9 @@ class _Context:
         return ratio, start
 
 
-def _two_offsets(s11, s22, s12, r1, r2, bounds) -> tuple[np.ndarray, np.ndarray]:
+def _two_offsets(
+    s11: np.ndarray, s22: np.ndarray, s12: np.ndarray, r1: np.ndarray, r2: np.ndarray, bounds: Sequence[tuple[ArrayLike, ArrayLike]]
+) -> tuple[np.ndarray, np.ndarray]:
     """Least-squares offsets of two springs, clipped into their intervals (the second
     re-solved for the clipped first)."""
     (lo1, hi1), (lo2, hi2) = bounds
