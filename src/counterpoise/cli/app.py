@@ -273,7 +273,7 @@ def study(
 EXIT_SIGINT, EXIT_SIGTERM = 130, 143
 
 
-def _study_interrupted(problem, out: Path, exc: KeyboardInterrupt) -> None:  # type: ignore[no-untyped-def]
+def _study_interrupted(problem: Problem, out: Path, exc: KeyboardInterrupt) -> None:
     from ..studies.command import StudyTerminated
     from ..studies.study import study_folder, study_in_progress
 

@@ -18,6 +18,7 @@ Every mistake raises a one-line :class:`~counterpoise.errors.ProblemFileError`
 from __future__ import annotations
 
 import itertools
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import NoReturn
 
@@ -76,7 +77,7 @@ class StudyPlan:
         return {"method": self.method, "samples": self.samples, "seed": self.seed, "vary": [v.as_dict() for v in self.varies]}
 
 
-def _resolve_key(problem: Problem, name: str, fail) -> tuple[str, str, DisplayUnit | None]:  # type: ignore[no-untyped-def]
+def _resolve_key(problem: Problem, name: str, fail: Callable[[str], NoReturn]) -> tuple[str, str, DisplayUnit | None]:
     """(point key, expected dimension, unit the file uses) of a --vary name."""
     bare = name.removeprefix("parameters.").removeprefix("variables.").removeprefix("objective.")
     parameters = {p.name: p for p in problem.parameters}
