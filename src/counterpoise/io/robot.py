@@ -13,11 +13,15 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from collections.abc import Iterable, Sequence
+from typing import TYPE_CHECKING, Any, SupportsFloat
 
 from ..errors import InputError
 from ..model.expr import suggest
 from ..model.units import MAX_LENGTH_M
+
+if TYPE_CHECKING:
+    from lxml import etree
 
 Triple = tuple[float, float, float]
 Matrix = tuple[Triple, Triple, Triple]
@@ -106,8 +110,8 @@ def _check_link(path: Path, link: RobotLink) -> None:
             raise InputError(f"{path.name}: joint '{joint.name}' has limits that are not finite numbers: {_show(joint.limits)}")
 
 
-def _show(values: object) -> str:
-    return "(" + ", ".join(f"{float(v):g}" for v in values) + ")"  # type: ignore[attr-defined]
+def _show(values: Iterable[SupportsFloat]) -> str:
+    return "(" + ", ".join(f"{float(v):g}" for v in values) + ")"
 
 
 def _check_inertia(path: Path, link: str, inertia: object) -> None:
@@ -134,20 +138,21 @@ def rpy_from_matrix(r: Matrix) -> Triple:
     return (math.atan2(r[2][1], r[2][2]), pitch, math.atan2(r[1][0], r[0][0]))
 
 
-def _triple(values: object) -> Triple:
-    x, y, z = (float(v) for v in values)  # type: ignore[attr-defined]
+def _triple(values: Iterable[SupportsFloat]) -> Triple:
+    x, y, z = (float(v) for v in values)
     return (x, y, z)
 
 
-def _matrix(m: object) -> Matrix:
-    return (_triple(m[0][:3]), _triple(m[1][:3]), _triple(m[2][:3]))  # type: ignore[index]
+def _matrix(m: Sequence[Sequence[SupportsFloat]]) -> Matrix:
+    """The rotation part of a 4x4 (or 3x3) transform, rows first."""
+    return (_triple(m[0][:3]), _triple(m[1][:3]), _triple(m[2][:3]))
 
 
-def _is_xacro(root: object) -> bool:
+def _is_xacro(root: etree._Element) -> bool:
     """Whether a parsed XML tree is a xacro file (ROS macros) rather than plain URDF."""
     if XACRO_NAMESPACE in (getattr(root, "nsmap", None) or {}).values():
         return True
-    return any(isinstance(e.tag, str) and e.tag.startswith("{" + XACRO_NAMESPACE + "}") for e in root.iter())  # type: ignore[attr-defined]
+    return any(isinstance(e.tag, str) and e.tag.startswith("{" + XACRO_NAMESPACE + "}") for e in root.iter())
 
 
 def _xacro_hint(path: Path) -> str:
@@ -250,8 +255,8 @@ def _read_urdf(path: Path) -> RobotModel:
     return RobotModel(str(path), "urdf", tuple(out))
 
 
-def _quaternion_matrix(q: object) -> Matrix:
-    w, x, y, z = (float(v) for v in q)  # type: ignore[attr-defined]
+def _quaternion_matrix(q: Iterable[SupportsFloat]) -> Matrix:
+    w, x, y, z = (float(v) for v in q)
     n = math.sqrt(w * w + x * x + y * y + z * z)
     w, x, y, z = w / n, x / n, y / n, z / n
     return (

@@ -335,14 +335,16 @@ class Context:
 
     def axis(self, value: Any, key: str) -> tuple[ex.Expr, ex.Expr, ex.Expr]:
         if isinstance(value, str):
-            return tuple(ex.Num(c) for c in AXES[value])  # type: ignore[return-value]
+            x, y, z = AXES[value]
+            return (ex.Num(x), ex.Num(y), ex.Num(z))
         # an axis may depend on parameters and variables (a tilt), not on coordinates
         vec = self.vector(value, key, DIMENSIONLESS, "an axis component", self.design_names())
         norm = math.sqrt(sum(self.finite(c, value, key) ** 2 for c in vec))
         if norm == 0:
             raise self.fail(key, "the rotation axis must not be the zero vector")
-        if all(isinstance(c, ex.Num) for c in vec):
-            return tuple(ex.Num(c.value / norm) for c in vec)  # type: ignore[union-attr,return-value]
+        a, b, c = vec
+        if isinstance(a, ex.Num) and isinstance(b, ex.Num) and isinstance(c, ex.Num):
+            return (ex.Num(a.value / norm), ex.Num(b.value / norm), ex.Num(c.value / norm))
         return vec
 
     def point(self, frame: str, position: Iterable[Any], key: str, frames: Mapping[str, Frame], frame_key: str) -> Point:

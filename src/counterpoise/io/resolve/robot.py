@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 from ...errors import InputError
 from ...model import expr as ex
 from ...model.mechanism import GROUND, Body, Coordinate, Frame, Point, Rotation, Subsystem, Transform, Translation
-from ...model.units import LENGTH, canonical_dimension, dimension_name
+from ...model.units import LENGTH, DisplayUnit, canonical_dimension, dimension_name
 from ..schema import RobotSpec
 from .context import RESERVED, Context, suggest
 
@@ -117,15 +117,15 @@ def _check_dimension(ctx: Context, joint: RobotJoint, dimension: str, key: str, 
         raise ctx.fail(key, f"expected {what}, got {dimension_name(dimension)} ('{raw}')")
 
 
-def _within(ctx: Context, joint: RobotJoint, values: list[float], unit: object, key: str, what: str) -> None:
+def _within(ctx: Context, joint: RobotJoint, values: list[float], unit: DisplayUnit, key: str, what: str) -> None:
     if joint.limits is None:
         return
     lo, hi = joint.limits
     if any(v < lo - LIMIT_SLACK or v > hi + LIMIT_SLACK for v in values):
         # enough digits that a limit of ±3.14159 rad does not read as the ±180 deg it misses
-        show = [f"{unit.from_si(v):.10g} {unit.symbol}".strip() for v in (lo, hi)]  # type: ignore[attr-defined]
+        show = [f"{unit.from_si(v):.10g} {unit.symbol}".strip() for v in (lo, hi)]
         worst = max(max(lo - v, v - hi) for v in values)
-        beyond = f"{unit.from_si(worst) if unit.symbol != '' else worst:.3g} {unit.symbol}".strip()  # type: ignore[attr-defined]
+        beyond = f"{unit.from_si(worst) if unit.symbol != '' else worst:.3g} {unit.symbol}".strip()
         raise ctx.fail(key, f"{what} goes beyond the joint's limits [{show[0]}, {show[1]}] in the model (by {beyond})")
 
 
