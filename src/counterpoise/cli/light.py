@@ -427,7 +427,7 @@ def rich_summary(rows: list[dict[str, Any]], console: Any = None, wide: bool = F
     keep = summary_columns(rows, wide)
     for j in keep:
         col, justify = SUMMARY_COLUMNS[j]
-        table.add_column(col, justify=justify, overflow="fold")  # type: ignore[arg-type]
+        table.add_column(col, justify=justify, overflow="fold")  # type: ignore[arg-type]  # SUMMARY_COLUMNS holds rich's justify names
     for r in rows:
         cells = summary_cells(r, keep)
         style = "green" if r["status"] == "optimal" else "red"

@@ -236,7 +236,7 @@ def frames_table(problem: Problem, at: Sequence[str] | None, as_csv: bool, conso
             table.add_column(col, justify="right" if col in ("x", "y", "z", "mass_kg", "force_N") else "left")
     for r in table_rows:
         table.add_row(*(v for i, v in enumerate(r) if HEADER[i] != "unit"))
-    console.print(table)  # type: ignore[attr-defined]
+    console.print(table)  # type: ignore[attr-defined]  # a rich Console, imported lazily
 
 
 def draw(problem: Problem, at: Sequence[str] | None, out: Path, design_dir: Path | None = None) -> Any:

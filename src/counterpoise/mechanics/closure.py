@@ -142,7 +142,7 @@ class Closure:
             if loop.name in self.axis_b:
                 ra, _ = mech.pose(loop.a.frame)
                 rb, _ = mech.pose(loop.b.frame)
-                rows += [np.broadcast_to(v, (q.shape[0],)) for v in sub(matvec(ra, mech.vector(loop.axis)), matvec(rb, list(self.axis_b[loop.name])))]  # type: ignore[arg-type]
+                rows += [np.broadcast_to(v, (q.shape[0],)) for v in sub(matvec(ra, mech.vector(loop.axis)), matvec(rb, list(self.axis_b[loop.name])))]  # type: ignore[arg-type]  # a loop in axis_b is revolute: it has its axis
         return np.stack(rows, axis=1)
 
     def equations(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -462,7 +462,7 @@ def geometry_parameters(problem: Problem, subsystem: str) -> tuple[str, ...]:
     derived = {p.name: p.expr for p in problem.parameters if not p.is_base}
     todo = [n for n in used if n in derived]
     while todo:
-        for n in ex.names(derived[todo.pop()]):  # type: ignore[arg-type]
+        for n in ex.names(derived[todo.pop()]):  # type: ignore[arg-type]  # a derived parameter has its expr
             if n not in used:
                 used.add(n)
                 if n in derived:

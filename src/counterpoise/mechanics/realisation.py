@@ -122,7 +122,7 @@ def realise_spring(
         free_length = float(mech.value(spring.direct.free_length))
         initial_tension = float(mech.value(spring.direct.initial_tension))
         cable = float(mech.value(spring.direct.cable))
-    return replace(realise(rate, d, lo, hi, free_length, initial_tension, cable), ends=ends)  # type: ignore[arg-type]
+    return replace(realise(rate, d, lo, hi, free_length, initial_tension, cable), ends=ends)  # type: ignore[arg-type]  # a point is three floats
 
 
 def finite(value: float) -> float | None:

@@ -671,8 +671,8 @@ def _place_labels(fig: Any, axes: list[Any], requests: list[_Request], obstacles
             ax.annotate("", r.anchor, xytext=ax.transData.inverted().transform(_nearest_on_box(box, p)), textcoords="data", annotation_clip=False, zorder=8,
                         arrowprops={"arrowstyle": "-", "color": r.color, "linewidth": 0.5, "shrinkA": 0, "shrinkB": 2, "alpha": 0.8})
         placed.append(box)
-        labels.append(Label(r.kind, tuple(r.names), tuple(r.values), text, r.view, (float(r.anchor[0]), float(r.anchor[1])), tuple(float(c) for c in box)))  # type: ignore[arg-type]
-    return labels, omitted, [tuple(float(c) for c in frames[ax]) for ax in axes]  # type: ignore[misc]
+        labels.append(Label(r.kind, tuple(r.names), tuple(r.values), text, r.view, (float(r.anchor[0]), float(r.anchor[1])), tuple(float(c) for c in box)))  # type: ignore[arg-type]  # a box is four floats
+    return labels, omitted, [tuple(float(c) for c in frames[ax]) for ax in axes]  # type: ignore[misc]  # a box is four floats
 
 
 def _text(r: _Request) -> str:

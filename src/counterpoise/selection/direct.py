@@ -74,7 +74,7 @@ def _terminal_progress(done: int, total: int) -> None:
 
 def _choice(problem: Problem, rows: dict[str, int], sol: object) -> Choice:
     price = sum(len(s.springs) * s.catalogue.price[rows[s.name]] for s in problem.slots)
-    return Choice(rows, {s.name: s.catalogue.rate[rows[s.name]] for s in problem.slots}, sol.objective, float(price), robust=float(sol.sampled_ratio))  # type: ignore[attr-defined]
+    return Choice(rows, {s.name: s.catalogue.rate[rows[s.name]] for s in problem.slots}, sol.objective, float(price), robust=float(sol.sampled_ratio))  # type: ignore[attr-defined]  # a minimax Solution (objective, sampled_ratio)
 
 
 def _order(c: Choice) -> tuple[float, float]:

@@ -101,7 +101,7 @@ class PartsMethod:
         for _ in range(REFINEMENTS + 1):
             searched = self._search_problem(extra)
             if self.direct:
-                search = search_direct(searched, _Given(self._method_of(searched).designer, given, bounds))  # type: ignore[arg-type]
+                search = search_direct(searched, _Given(self._method_of(searched).designer, given, bounds))  # type: ignore[arg-type]  # _Given answers the designer calls search_direct makes
                 rows = dict(search.choice.parts) if search.choice else {s.name: 0 for s in self.problem.slots}
             else:
                 search, rows, _rates = parts.choose(with_options(searched, given, bounds))  # rows carry the rates

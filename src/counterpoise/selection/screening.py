@@ -267,12 +267,12 @@ class _Context:
         springs = self.springs if springs is None else springs
         if self.rest_fixed and self._rest is None:
             g, _ = energy_arrays(self.problem, self.subsystem, self.q, {k: np.array([v]) for k, v in self.home.items()}, self.base, self.gravity, self.springs)
-            self._rest = g.reshape(1, -1) / self.reference  # type: ignore[union-attr]
+            self._rest = g.reshape(1, -1) / self.reference  # type: ignore[union-attr]  # energy_arrays gives G with rest=True, the default
         g, arr = energy_arrays(self.problem, self.subsystem, self.q, variables, self.base, self.gravity, springs, rest=not self.rest_fixed)
         if self.rest_fixed:
             gflat = np.broadcast_to(self._rest, (n, self._rest.shape[1]))  # type: ignore[arg-type, union-attr]  # set above whenever rest_fixed
         else:
-            gflat = np.broadcast_to(g.reshape(g.shape[0], -1), (n, g.shape[1] * g.shape[2])) / self.reference  # type: ignore[union-attr]
+            gflat = np.broadcast_to(g.reshape(g.shape[0], -1), (n, g.shape[1] * g.shape[2])) / self.reference  # type: ignore[union-attr]  # G is given with rest=True (not rest_fixed)
         out = []
         for s in springs:
             d, grad = arr[s.name]

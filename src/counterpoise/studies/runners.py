@@ -238,7 +238,7 @@ def _time_limit(seconds: float | None) -> Iterator[None]:
 
     previous = signal.signal(signal.SIGALRM, _raise)
     # a little slack so that the solver's own limit (a clean status) normally fires first
-    signal.setitimer(signal.ITIMER_REAL, float(seconds) * 1.5 + 0.5)  # type: ignore[arg-type]
+    signal.setitimer(signal.ITIMER_REAL, float(seconds) * 1.5 + 0.5)  # type: ignore[arg-type]  # called only with a time limit
     try:
         yield
     finally:

@@ -159,7 +159,7 @@ def plan_study(problem: Problem, texts: list[str], label: str, samples: int | No
         for v in varies:
             if v.count is None:
                 raise ProblemFileError(label, f"--vary {v.key}", "a grid needs N (NAME=START:STOP:N), or use --samples N --method lhs")
-        axes = [np.linspace(v.start, v.stop, v.count) for v in varies]  # type: ignore[arg-type]
+        axes = [np.linspace(v.start, v.stop, v.count) for v in varies]  # type: ignore[arg-type]  # every count is set: checked just above
         points = tuple({v.key: float(x) for v, x in zip(varies, combo)} for combo in itertools.product(*axes))
         return StudyPlan(varies, method, None, None, points)
     if samples is None:

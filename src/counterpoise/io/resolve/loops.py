@@ -63,11 +63,11 @@ def loops(ctx: Context, frames: Mapping[str, Frame], coordinates: tuple[Coordina
             end = getattr(lp, side)
             points.append(ctx.point(end.frame, end.point, f"{key}.{side}.point", frames, f"{key}.{side}.frame"))
         a, b = points
-        subs = {ctx.subsystem_of(p.frame, frames) for p in points} - {None}
+        subs = {n for n in (ctx.subsystem_of(p.frame, frames) for p in points) if n is not None}
         if not subs:
             raise ctx.fail(key, f"frames '{a.frame}' and '{b.frame}' are both fixed to ground: a loop must pass through moving frames")
         if len(subs) > 1:
-            raise ctx.fail(key, f"joins subsystems {' and '.join(sorted(subs))}; a loop must close within one subsystem")  # type: ignore[arg-type]
+            raise ctx.fail(key, f"joins subsystems {' and '.join(sorted(subs))}; a loop must close within one subsystem")
         if a.frame == b.frame:
             raise ctx.fail(f"{key}.b.frame", f"both ends are in frame '{a.frame}': the loop is not open at this joint")
         geometry = set().union(*(ex.names(c) for p in points for c in p.position)) | _frame_names(a.frame, frames) | _frame_names(b.frame, frames)
@@ -81,7 +81,7 @@ def loops(ctx: Context, frames: Mapping[str, Frame], coordinates: tuple[Coordina
         elif lp.axis is not None:
             raise ctx.fail(f"{key}.axis", "a spherical joint has no axis (remove it, or joint = \"revolute\")")
         sub = next(iter(subs))
-        out.append(Loop(name, lp.joint, a, b, axis, sub, lp.description))  # type: ignore[arg-type]
+        out.append(Loop(name, lp.joint, a, b, axis, sub, lp.description))
     closed = {loop.subsystem for loop in out}
     for c in coordinates:
         if c.dependent and c.subsystem not in closed:

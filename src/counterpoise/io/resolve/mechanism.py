@@ -260,9 +260,9 @@ def springs(ctx: Context, frames: Mapping[str, Frame]) -> tuple[ZeroFreeLengthSp
             ctx.nonnegative(k, s.stiffness, f"{key}.stiffness", STIFFNESS, "a stiffness")
         a = ctx.point(s.from_.frame, s.from_.point, f"{key}.from.point", frames, f"{key}.from.frame")
         b = ctx.point(s.to.frame, s.to.point, f"{key}.to.point", frames, f"{key}.to.frame")
-        subs = {ctx.subsystem_of(a.frame, frames), ctx.subsystem_of(b.frame, frames)} - {None}
+        subs = {n for n in (ctx.subsystem_of(a.frame, frames), ctx.subsystem_of(b.frame, frames)) if n is not None}
         if len(subs) > 1:
-            raise ctx.fail(key, f"connects subsystems {' and '.join(sorted(subs))}; subsystems must move independently")  # type: ignore[arg-type]
+            raise ctx.fail(key, f"connects subsystems {' and '.join(sorted(subs))}; subsystems must move independently")
         options = design_options(ctx, s, key)
         out.append(ZeroFreeLengthSpring(name, k, (a, b), next(iter(subs), None), s.description, s.slot, direct_mount(ctx, s, key), options))
     return tuple(out)
@@ -328,4 +328,4 @@ def direct_mount(ctx: Context, s: Any, key: str) -> DirectMount | None:
     if "cable" in given:
         cable = ctx.expression(given["cable"], f"{key}.cable", ctx.design_names())
         ctx.nonnegative(cable, given["cable"], f"{key}.cable", LENGTH, "a length")
-    return DirectMount(values["free_length"], values["initial_tension"], cable, values["max_length"])  # type: ignore[arg-type]
+    return DirectMount(values["free_length"], values["initial_tension"], cable, values["max_length"])  # type: ignore[arg-type]  # the required values were checked above

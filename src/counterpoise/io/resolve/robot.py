@@ -219,12 +219,12 @@ def _motion(joint: RobotJoint, value: ex.Expr) -> list[Transform]:
     norm = math.sqrt(sum(c * c for c in joint.axis))
     axis = tuple(ex.Num(c / norm) for c in joint.axis)
     if joint.kind == "prismatic":
-        return [Translation(tuple(ex.BinOp("*", a, value) if a.value else ex.Num(0.0) for a in axis))]  # type: ignore[arg-type]
-    motion: list[Transform] = [Rotation(axis, value)]  # type: ignore[arg-type]
+        return [Translation(tuple(ex.BinOp("*", a, value) if a.value else ex.Num(0.0) for a in axis))]  # type: ignore[arg-type]  # an axis is three components
+    motion: list[Transform] = [Rotation(axis, value)]  # type: ignore[arg-type]  # an axis is three components
     if any(joint.anchor):
         there = tuple(ex.Num(c) for c in joint.anchor)
         back = tuple(ex.Num(-c) for c in joint.anchor)
-        motion = [Translation(there), *motion, Translation(back)]  # type: ignore[arg-type]
+        motion = [Translation(there), *motion, Translation(back)]  # type: ignore[arg-type]  # there and back are three components
     return motion
 
 
@@ -241,7 +241,7 @@ def frames(ctx: Context, model: RobotModel | None) -> tuple[Frame, ...]:
         keys: list[str] = []
         origin_key = f"robot.{model.format}"
         if any(link.xyz):
-            transforms.append(Translation(tuple(ex.Num(c) for c in link.xyz)))  # type: ignore[arg-type]
+            transforms.append(Translation(tuple(ex.Num(c) for c in link.xyz)))  # type: ignore[arg-type]  # a vector of the model is three floats
             keys.append(origin_key)
         rotations = _rotations(link.rotation)
         transforms += rotations
@@ -266,6 +266,6 @@ def bodies(ctx: Context, model: RobotModel | None, frames: dict[str, Frame]) -> 
     out = []
     for link in model.links:
         if link.mass > 0:
-            com = Point(link.name, tuple(ex.Num(c) for c in link.com))  # type: ignore[arg-type]
+            com = Point(link.name, tuple(ex.Num(c) for c in link.com))  # type: ignore[arg-type]  # a vector of the model is three floats
             out.append(Body(link.name, ex.Num(link.mass), com, frames[link.name].subsystem, f"link of {Path(model.path).name}"))
     return tuple(out)

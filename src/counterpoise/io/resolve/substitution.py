@@ -91,7 +91,7 @@ def substitutions(
         masses = []
         for j, (pname, point) in enumerate(masses_points):
             mass = _linear_combination(matrix[j], moments)
-            masses.append(SubstitutedMass(pname, mass, point, tuple(float(v) for v in points[j])))  # type: ignore[arg-type]
+            masses.append(SubstitutedMass(pname, mass, point, tuple(float(v) for v in points[j])))  # type: ignore[arg-type]  # a row of points is three floats
             new_bodies.append(Body(pname, mass, point, ctx.subsystem_of(point.frame, frames), f"substituted from body '{body_name}'"))
             reports.append(ReportQuantity(pname, mass, unit, f"mass substituted from body '{body_name}' at {point.frame}"))
         replaced[body_name] = new_bodies
