@@ -128,7 +128,7 @@ def constraint_rows(result: DesignResult) -> list[Row]:
     problem = result.problem
     rows: list[Row] = []
     values = list(result.solution.constraints)
-    by_name: dict[str, list[Any]] = {}
+    by_name: dict[str, list[ConstraintValue]] = {}
     for v in values:
         by_name.setdefault(v.name, []).append(v)
     # like report quantities: one row when every scenario agrees (value and mark), else one per scenario
