@@ -28,6 +28,8 @@ from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 from ..model.problem import Problem
 
 if TYPE_CHECKING:
+    from ..designer.designer import Designer
+    from ..designer.methods import DesignMethod
     from ..formulation.layout import Slot
 
 #: One study point: values (SI) by key. A bare name is a literal parameter of the file
@@ -59,7 +61,7 @@ class StudyTask:
     warm_start: bool = True
     backend: str = "auto"
 
-    def designer(self, problem: Problem | None = None) -> Any:
+    def designer(self, problem: Problem | None = None) -> Designer:
         from ..designer.designer import Designer
 
         options = dict(self.ipopt_options)
@@ -70,7 +72,7 @@ class StudyTask:
             designer.convex.options["time_limit"] = float(self.time_limit)
         return designer
 
-    def method(self, problem: Problem | None = None) -> Any:
+    def method(self, problem: Problem | None = None) -> DesignMethod:
         """The design method of ``problem`` (this task's by default), built once per worker.
 
         Where the innermost solve is the :class:`~counterpoise.designer.designer.Designer`
@@ -121,12 +123,12 @@ class PointTimeout(Exception):
     """Raised by the interval timer when a point runs past the study's time limit."""
 
 
-def _method_for(task: StudyTask, weights: Mapping[str, float]) -> Any:
+def _method_for(task: StudyTask, weights: Mapping[str, float]) -> DesignMethod:
     """The design method of this task (and objective weights, which are built into the NLP),
     kept per worker under the problem's content (:attr:`StudyTask.key`)."""
     problem = task.problem
     key = (task.key, (weights.get("mass_weight", problem.objective.mass_weight), weights.get("inertia_weight", problem.objective.inertia_weight)))
-    cache: OrderedDict[Any, Any] = _WORKER.__dict__.setdefault("methods", OrderedDict())
+    cache: OrderedDict[tuple[str, tuple[float, float]], DesignMethod] = _WORKER.__dict__.setdefault("methods", OrderedDict())
     method = cache.pop(key, None)
     if method is None:
         if weights:
