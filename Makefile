@@ -27,7 +27,9 @@ studies: $(STAMP)
 	$(BIN)/python scripts/tilt_tradeoff.py results/tilt_hybrid_arm-tradeoff
 	$(BIN)/counterpoise study problems/yasir2019_holder.toml --vary 'tilt=1 deg:15 deg:8' --out results
 
+# type check first (docs/development.md: the settings are [tool.mypy] in pyproject.toml), then the suite
 test: $(STAMP)
+	$(BIN)/python -m mypy
 	$(BIN)/python -m pytest -q
 
 bench: $(STAMP)

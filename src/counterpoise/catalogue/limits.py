@@ -20,6 +20,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 LIMITS = ("initial_tension", "max_length", "max_load")
 LIMIT_TEXT = {
@@ -41,7 +42,7 @@ class Margins:
         return (self.slack >= -tolerance) & (self.length >= -tolerance) & (self.load >= -tolerance)
 
 
-def margins(d_min: np.ndarray, d_max: np.ndarray, rate, free_length, initial_tension, max_load, max_length) -> Margins:
+def margins(d_min: np.ndarray, d_max: np.ndarray, rate: ArrayLike, free_length: ArrayLike, initial_tension: ArrayLike, max_load: ArrayLike, max_length: ArrayLike) -> Margins:
     """Margins of parts (arrays of their data) for attachment distances in [d_min, d_max]."""
     k = np.asarray(rate, dtype=float)
     offset = np.asarray(initial_tension, dtype=float) / k  # F0/k: the zero-free-length point inside the spring
@@ -52,7 +53,7 @@ def margins(d_min: np.ndarray, d_max: np.ndarray, rate, free_length, initial_ten
     )
 
 
-def violation(m: Margins, rate, free_length, initial_tension, max_load, max_length) -> tuple[np.ndarray, np.ndarray]:
+def violation(m: Margins, rate: ArrayLike, free_length: ArrayLike, initial_tension: ArrayLike, max_load: ArrayLike, max_length: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """(worst relative violation ≥ 0, index into :data:`LIMITS` of that limit) per part.
 
     Each margin is divided by the part's own scale of that limit: F0/k for the slack (its

@@ -113,7 +113,7 @@ def read_catalogue(
     if not number:
         raise CatalogueError(label, "file", "the catalogue has no parts")
     check_plausible(label, values, mapping, header, index)
-    return Catalogue(name or Path(label).stem, label, **{k: tuple(v) for k, v in values.items()})
+    return Catalogue(name or Path(label).stem, label, currency="", **{k: tuple(v) for k, v in values.items()})
 
 
 def check_plausible(label: str, values: dict[str, list], mapping: ColumnMapping, header: list[str], index: dict[str, int]) -> None:

@@ -13,8 +13,9 @@ from __future__ import annotations
 import sys
 import time
 import warnings
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import TYPE_CHECKING, Annotated, Optional
 
 import typer
 from rich.console import Console
@@ -23,6 +24,9 @@ from rich.table import Table
 from .. import progress
 from .light import INTERNAL_ERROR, _short, coerce
 from ..errors import CounterpoiseError, ProblemFileError, clip
+
+if TYPE_CHECKING:
+    from ..model.problem import Problem
 
 app = typer.Typer(
     add_completion=False,
@@ -42,8 +46,8 @@ SetOpt = Annotated[
 ]
 
 
-def _overrides(items: list[str] | None) -> dict[str, str]:
-    out: dict[str, str] = {}
+def _overrides(items: list[str] | None) -> dict[str, object]:
+    out: dict[str, object] = {}
     for item in items or []:
         key, sep, value = item.partition("=")
         if not sep or not key.strip():
@@ -60,7 +64,7 @@ def _overrides(items: list[str] | None) -> dict[str, str]:
 _coerce = coerce  # one reading of --set values for both paths (.light)
 
 
-def _load_all(files: list[Path], overrides: dict[str, str]) -> list:
+def _load_all(files: list[Path], overrides: Mapping[str, object]) -> list[Problem]:
     from .run import load_all
 
     problems = load_all(files, overrides, _err_line)
@@ -284,7 +288,7 @@ def study(
 EXIT_SIGINT, EXIT_SIGTERM = 130, 143
 
 
-def _study_interrupted(problem, out: Path, exc: KeyboardInterrupt) -> None:  # type: ignore[no-untyped-def]
+def _study_interrupted(problem: Problem, out: Path, exc: KeyboardInterrupt) -> None:
     from ..studies.command import StudyTerminated
     from ..studies.study import study_folder, study_in_progress
 

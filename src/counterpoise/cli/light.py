@@ -272,9 +272,9 @@ def coerce(value: str) -> object:
     if value in ("true", "false"):
         return value == "true"
     if value[:1] in ("[", "{"):
-        try:
+        if sys.version_info >= (3, 11):
             import tomllib  # the standard library from Python 3.11
-        except ImportError:  # pragma: no cover
+        else:  # pragma: no cover
             import tomli as tomllib
         try:
             return tomllib.loads(f"value = {value}")["value"]
@@ -436,7 +436,7 @@ def rich_summary(rows: list[dict[str, Any]], console: Any = None, wide: bool = F
     keep = summary_columns(rows, wide)
     for j in keep:
         col, justify = SUMMARY_COLUMNS[j]
-        table.add_column(col, justify=justify, overflow="fold")  # type: ignore[arg-type]
+        table.add_column(col, justify=justify, overflow="fold")  # type: ignore[arg-type]  # SUMMARY_COLUMNS holds rich's justify names
     for r in rows:
         cells = summary_cells(r, keep)
         style = "green" if r["status"] == "optimal" else "red"

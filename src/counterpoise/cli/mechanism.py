@@ -105,9 +105,9 @@ def read_design(problem: Problem, folder: Path) -> Design:
         if setting in values:
             variables[name] = values[setting]
         else:
-            first = next(iter(values))
-            variables[name] = values[first]
-            shown_at = first
+            first_setting = next(iter(values))
+            variables[name] = values[first_setting]
+            shown_at = first_setting
     missing = [v.name for v in problem.variables if v.name not in variables]
     if missing:
         raise AtError(f"{where}: design.csv has no value of variable '{missing[0]}' (a design of another version of the file?)")
@@ -236,7 +236,7 @@ def frames_table(problem: Problem, at: Sequence[str] | None, as_csv: bool, conso
             table.add_column(col, justify="right" if col in ("x", "y", "z", "mass_kg", "force_N") else "left")
     for r in table_rows:
         table.add_row(*(v for i, v in enumerate(r) if HEADER[i] != "unit"))
-    console.print(table)  # type: ignore[attr-defined]
+    console.print(table)  # type: ignore[attr-defined]  # a rich Console, imported lazily
 
 
 def draw(problem: Problem, at: Sequence[str] | None, out: Path, design_dir: Path | None = None) -> Any:

@@ -7,7 +7,10 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from ..model.problem import Problem
 
 Err = Callable[[str], None]
 
@@ -29,7 +32,7 @@ def out_error(out: Path) -> str | None:
     return None
 
 
-def load_all(files: list[Path], overrides: Mapping[str, object], err: Err) -> list[Any] | None:
+def load_all(files: list[Path], overrides: Mapping[str, object], err: Err) -> list[Problem] | None:
     """Every file loaded and checked (closed loops assemble), or None after printing every
     error (the caller exits 2); a problem with nothing to balance gets a warning line."""
     from ..errors import ProblemFileError
@@ -40,7 +43,7 @@ def load_all(files: list[Path], overrides: Mapping[str, object], err: Err) -> li
     seen: dict[str, Path] = {}
     for path in files:
         try:
-            problem = load_problem(path, overrides)  # type: ignore[arg-type]
+            problem = load_problem(path, overrides)
             check_assembly(problem)  # closed loops: closes at home, assembles over the ranges (docs/loops.md)
         except ProblemFileError as exc:
             errors.append(str(exc))
@@ -63,7 +66,7 @@ def load_all(files: list[Path], overrides: Mapping[str, object], err: Err) -> li
 
 
 def solve_all(
-    problems: list[Any], out: Path, plot: bool, starts: int, err: Err, html: bool = True, check: str = "dense"
+    problems: list[Problem], out: Path, plot: bool, starts: int, err: Err, html: bool = True, check: str = "dense"
 ) -> tuple[list[dict[str, Any]], int]:
     """Design, verify and write every problem (``plot``: energy.png and mechanism.png in its
     folder before the folder appears; ``html``: report.html, the page of the folder, last);

@@ -96,7 +96,7 @@ class Designer:
         #: design constraints and force limits as rows after the sign constraints (None: none)
         self.rows: ConstraintRows | None = build_rows(f, extra) if problem.constraints else None
         self._extra = dict(extra or {})
-        nlp = {"x": f.z, "p": f.p, "f": f.objective, "g": ca.vertcat(self.conditions.equalities, f.nonnegative, *self._row_g())}
+        nlp: dict[str, Any] = {"x": f.z, "p": f.p, "f": f.objective, "g": ca.vertcat(self.conditions.equalities, f.nonnegative, *self._row_g())}  # CasADi SX (no stubs)
         self.backend = IpoptBackend(nlp, self.options, "design")
         self.backend_choice = backend
         self.nlp = nlp
@@ -160,7 +160,7 @@ class Designer:
         """
         other = for_geometry(self, parameters, lambda problem: Designer(problem, self._ipopt_options, self.backend_choice))
         if other is not self:  # closed loops: a new geometry needs its own manifold equalities
-            return other.solve(initial, parameters, bounds, certify)  # type: ignore[no-any-return]
+            return other.solve(initial, parameters, bounds, certify)
         if self._refined is not None:  # a verification round added configurations
             return self._refined.solve(initial, parameters, bounds, certify)
         d = self.formulation.design
@@ -186,7 +186,7 @@ class Designer:
         """Set the certificate gap of ``solution`` (solved with these ``parameters`` and ``bounds``)."""
         other = for_geometry(self, parameters, lambda problem: Designer(problem, self._ipopt_options, self.backend_choice))
         if other is not self:
-            return other.certify(solution, parameters, bounds)  # type: ignore[no-any-return]
+            return other.certify(solution, parameters, bounds)
         if self._refined is not None:
             return self._refined.certify(solution, parameters, bounds)
         p = self.formulation.parameters.values(parameters) if parameters else self.parameters

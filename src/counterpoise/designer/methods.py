@@ -44,8 +44,11 @@ Initial = Mapping[Slot, float]
 class DesignMethod(Protocol):
     """A way to design one problem; built once, solved many times."""
 
-    #: the problem whose design :meth:`solve` returns (an outer method may solve a derived one)
-    problem: Problem
+    @property
+    def problem(self) -> Problem:
+        """The problem whose design :meth:`solve` returns (an outer method may solve a
+        derived one). Read-only: the innermost methods answer their designer's."""
+        ...
 
     def solve(
         self, parameters: Parameters | None = None, bounds: BoundsOverride | None = None, initial: Initial | None = None, *, certify: bool = True
@@ -63,7 +66,10 @@ class SampledMethod(Protocol):
     payload sample): what an outer part search must search on, and the inner method of each
     sampled problem. :class:`counterpoise.payload.method.PayloadMethod` is one."""
 
-    problem: Problem
+    @property
+    def problem(self) -> Problem:
+        """The problem as given (before sampling)."""
+        ...
 
     def search_problem_with(self, extra: tuple[float, ...] = ()) -> Problem:
         """The sampled problem a part search sees, with ``extra`` samples (SI) added."""
@@ -81,11 +87,11 @@ class Core:
 
     @property
     def problem(self) -> Problem:
-        return self.designer.problem  # type: ignore[no-any-return]
+        return self.designer.problem
 
     @property
     def formulation(self) -> Formulation:
-        return self.designer.formulation  # type: ignore[no-any-return]
+        return self.designer.formulation
 
     def certify(self, solution: Solution, parameters: Parameters | None = None, bounds: BoundsOverride | None = None) -> Solution:
         return solution
@@ -103,10 +109,10 @@ class Plain(Core):
     def solve(
         self, parameters: Parameters | None = None, bounds: BoundsOverride | None = None, initial: Initial | None = None, *, certify: bool = True
     ) -> Solution:
-        return self.designer.solve(initial=initial, parameters=parameters, bounds=bounds, certify=certify)  # type: ignore[no-any-return]
+        return self.designer.solve(initial=initial, parameters=parameters, bounds=bounds, certify=certify)
 
     def certify(self, solution: Solution, parameters: Parameters | None = None, bounds: BoundsOverride | None = None) -> Solution:
-        return self.designer.certify(solution, parameters, bounds)  # type: ignore[no-any-return]
+        return self.designer.certify(solution, parameters, bounds)
 
 
 class Minimax(Core):
@@ -118,7 +124,7 @@ class Minimax(Core):
     def solve(
         self, parameters: Parameters | None = None, bounds: BoundsOverride | None = None, initial: Initial | None = None, *, certify: bool = True
     ) -> Solution:
-        return self.designer.solve(initial=initial, parameters=parameters, bounds=bounds)  # type: ignore[no-any-return]
+        return self.designer.solve(initial=initial, parameters=parameters, bounds=bounds)
 
 
 class MultiStart(Core):

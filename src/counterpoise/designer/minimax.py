@@ -110,7 +110,7 @@ class MinimaxDesigner:
         rng = np.random.default_rng(problem.settings.seed + 5)
         z0 = f.design.to_z(f.design.initial)
         t = ca.SX.sym("t")
-        rows, lower = [], []
+        rows: list[Any] = []  # CasADi SX expressions (casadi ships no type information)
         torque = {True: 0.0, False: 0.0}
         samples: dict[tuple[str, str], np.ndarray] = {}
         tangents: dict[tuple[str, str], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
@@ -199,7 +199,7 @@ class MinimaxDesigner:
     ) -> Solution:
         other = for_geometry(self, parameters, lambda problem: MinimaxDesigner(problem, self._ipopt_options, coordinates=self._only[0], springs=self._only[1]))
         if other is not self:  # closed loops: a new geometry is sampled on its own manifold
-            return other.solve(initial, parameters, bounds)  # type: ignore[no-any-return]
+            return other.solve(initial, parameters, bounds)
         if self._refined is not None:  # a verification round added configurations
             return self._refined.solve(initial, parameters, bounds)
         f = self.formulation

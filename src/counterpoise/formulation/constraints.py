@@ -192,7 +192,7 @@ def build_rows(formulation: Any, extra: Extra | None = None) -> ConstraintRows:
                 ubg.append(con.upper / s if con.upper is not None else np.inf)
                 groups.append(RowGroup(con, scenario.name, start, start + 1, s))
                 continue
-            spring = springs[call.args[0].id]  # type: ignore[union-attr]
+            spring = springs[call.args[0].id]  # type: ignore[union-attr]  # the loader checked the argument is a name
             key = (spring.name, scenario.name)
             if key not in samples:
                 q = sample(problem, spring, scenario.name, rng)
@@ -261,7 +261,7 @@ def _refine(problem: Problem, spring: ZeroFreeLengthSpring, quantity: str, side:
     steps of ± h along each coordinate, h halved when no step improves, from the dense
     sample's spacing down to 1e-12 of the range. Between dense points the extreme is then
     found to rounding, wherever it is smooth."""
-    coords = problem.subsystem_coordinates(spring.subsystem)  # type: ignore[arg-type]
+    coords = problem.subsystem_coordinates(spring.subsystem)  # type: ignore[arg-type]  # only springs in a subsystem have extremes
     lo = np.array([c.lower for c in coords])
     hi = np.array([c.upper for c in coords])
     n = len(coords)
@@ -310,7 +310,7 @@ def evaluate(problem: Problem, solution: Any, rows: ConstraintRows | None, multi
             configuration = None
             extreme_value = None
             if call is not None:
-                spring = springs[call.args[0].id]  # type: ignore[union-attr]
+                spring = springs[call.args[0].id]  # type: ignore[union-attr]  # the loader checked the argument is a name
                 quantity, side = SPRING_EXTREMES[call.func]
                 group = groups.get((con.name, scenario.name))
                 key = (spring.name, scenario.name)
@@ -363,7 +363,7 @@ def violations(problem: Problem, values: Sequence[ConstraintValue]) -> dict[tupl
         call = v.constraint.extreme()
         if call is None or v.active != "violated" or v.configuration is None:
             continue
-        spring = springs[call.args[0].id]  # type: ignore[union-attr]
+        spring = springs[call.args[0].id]  # type: ignore[union-attr]  # the loader checked the argument is a name
         if spring.subsystem is None:
             continue  # no coordinates: the rows already hold the one configuration there is
         names = [k.name for k in problem.subsystem_coordinates(spring.subsystem)]

@@ -110,7 +110,7 @@ class ParameterLayout:
             out += list(gravity) if gravity is not None else list(scenario.gravity.vector)
             for name in self.base_names:
                 value = (overrides or {}).get(name, scenario.parameters.get(name, base[name]))
-                out.append(float(value))  # type: ignore[arg-type]
+                out.append(float(value))  # type: ignore[arg-type]  # a base parameter has its SI value
         return np.array(out, dtype=float)
 
     def split(self, p: Any, scenario: int) -> tuple[list[Any], dict[str, Any]]:
@@ -127,4 +127,4 @@ class ParameterLayout:
         for c, scenario in enumerate(self.problem.scenarios):
             gravity, base = self.split(np.asarray(p, dtype=float), c)
             out[scenario.name] = (tuple(float(g) for g in gravity), {k: float(v) for k, v in base.items()})
-        return out  # type: ignore[return-value]
+        return out  # type: ignore[return-value]  # gravity is three floats

@@ -32,7 +32,7 @@ else:  # pragma: no cover
     import tomli as tomllib
 
 
-def load_problem(path: str | Path, overrides: Mapping[str, str] | None = None) -> Problem:
+def load_problem(path: str | Path, overrides: Mapping[str, object] | None = None) -> Problem:
     """Read, validate and resolve one problem file.
 
     ``overrides`` maps dotted keys to values applied to the TOML before validation, e.g.
@@ -49,7 +49,7 @@ def load_problem(path: str | Path, overrides: Mapping[str, str] | None = None) -
     return load_problem_text(text, label, overrides)
 
 
-def load_problem_text(text: str, label: str = "<string>", overrides: Mapping[str, str] | None = None) -> Problem:
+def load_problem_text(text: str, label: str = "<string>", overrides: Mapping[str, object] | None = None) -> Problem:
     """As :func:`load_problem`, from TOML text (``label`` names it in error messages)."""
     try:
         raw = tomllib.loads(text)
@@ -63,7 +63,7 @@ def load_problem_text(text: str, label: str = "<string>", overrides: Mapping[str
     return load_problem_data(raw, label, overrides)
 
 
-def load_problem_data(data: Mapping[str, Any], label: str = "<data>", overrides: Mapping[str, Any] | None = None) -> Problem:
+def load_problem_data(data: Mapping[str, Any], label: str = "<data>", overrides: Mapping[str, object] | None = None) -> Problem:
     """As :func:`load_problem`, from already parsed data (nested dicts, as TOML gives them)."""
     import copy
 

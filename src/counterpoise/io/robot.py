@@ -13,10 +13,15 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from collections.abc import Iterable, Sequence
+from typing import TYPE_CHECKING, Any, SupportsFloat
 
 from ..errors import InputError
 from ..model.expr import suggest
 from ..model.units import MAX_LENGTH_M
+
+if TYPE_CHECKING:
+    from lxml import etree
 
 Triple = tuple[float, float, float]
 Matrix = tuple[Triple, Triple, Triple]
@@ -105,8 +110,8 @@ def _check_link(path: Path, link: RobotLink) -> None:
             raise InputError(f"{path.name}: joint '{joint.name}' has limits that are not finite numbers: {_show(joint.limits)}")
 
 
-def _show(values: object) -> str:
-    return "(" + ", ".join(f"{float(v):g}" for v in values) + ")"  # type: ignore[attr-defined]
+def _show(values: Iterable[SupportsFloat]) -> str:
+    return "(" + ", ".join(f"{float(v):g}" for v in values) + ")"
 
 
 def _check_inertia(path: Path, link: str, inertia: object) -> None:
@@ -133,20 +138,21 @@ def rpy_from_matrix(r: Matrix) -> Triple:
     return (math.atan2(r[2][1], r[2][2]), pitch, math.atan2(r[1][0], r[0][0]))
 
 
-def _triple(values: object) -> Triple:
-    x, y, z = (float(v) for v in values)  # type: ignore[attr-defined]
+def _triple(values: Iterable[SupportsFloat]) -> Triple:
+    x, y, z = (float(v) for v in values)
     return (x, y, z)
 
 
-def _matrix(m: object) -> Matrix:
-    return (_triple(m[0][:3]), _triple(m[1][:3]), _triple(m[2][:3]))  # type: ignore[index]
+def _matrix(m: Sequence[Sequence[SupportsFloat]]) -> Matrix:
+    """The rotation part of a 4x4 (or 3x3) transform, rows first."""
+    return (_triple(m[0][:3]), _triple(m[1][:3]), _triple(m[2][:3]))
 
 
-def _is_xacro(root: object) -> bool:
+def _is_xacro(root: etree._Element) -> bool:
     """Whether a parsed XML tree is a xacro file (ROS macros) rather than plain URDF."""
     if XACRO_NAMESPACE in (getattr(root, "nsmap", None) or {}).values():
         return True
-    return any(isinstance(e.tag, str) and e.tag.startswith("{" + XACRO_NAMESPACE + "}") for e in root.iter())  # type: ignore[attr-defined]
+    return any(isinstance(e.tag, str) and e.tag.startswith("{" + XACRO_NAMESPACE + "}") for e in root.iter())
 
 
 def _xacro_hint(path: Path) -> str:
@@ -249,8 +255,8 @@ def _read_urdf(path: Path) -> RobotModel:
     return RobotModel(str(path), "urdf", tuple(out))
 
 
-def _quaternion_matrix(q: object) -> Matrix:
-    w, x, y, z = (float(v) for v in q)  # type: ignore[attr-defined]
+def _quaternion_matrix(q: Iterable[SupportsFloat]) -> Matrix:
+    w, x, y, z = (float(v) for v in q)
     n = math.sqrt(w * w + x * x + y * y + z * z)
     w, x, y, z = w / n, x / n, y / n, z / n
     return (
@@ -260,7 +266,7 @@ def _quaternion_matrix(q: object) -> Matrix:
     )
 
 
-def _compile_mjcf(path: Path) -> tuple[object, list[str]]:
+def _compile_mjcf(path: Path) -> tuple[Any, list[str]]:  # Any: mujoco.MjModel (mujoco ships no type information)
     """MuJoCo's model of ``path`` and the warnings its compiler gave (kept, not printed: the
     one-line contract). An MJCF whose mesh files are missing is compiled without those
     meshes when every body with such a mesh has an explicit ``<inertial>`` (the meshes then
@@ -279,7 +285,7 @@ def _compile_mjcf(path: Path) -> tuple[object, list[str]]:
             if spec is None:
                 raise InputError(f"cannot read the MJCF {path.name}: {text[:200]}{_mjcf_hint(text)}") from None
         try:
-            return spec.compile(), warnings  # type: ignore[attr-defined]
+            return spec.compile(), warnings
         except ValueError as exc:
             raise InputError(f"cannot read the MJCF {path.name}: {' '.join(str(exc).split())[:200]}") from None
     finally:
@@ -292,7 +298,7 @@ def _mjcf_hint(text: str) -> str:
     return ""
 
 
-def _without_missing_meshes(path: Path) -> object | None:
+def _without_missing_meshes(path: Path) -> Any:  # Any: mujoco.MjSpec or None (mujoco ships no type information)
     """The model's spec with every mesh whose file is missing removed, with the geoms that
     use it; None when there is no such mesh or a body that loses one has no explicit
     ``<inertial>`` (its mass would change)."""

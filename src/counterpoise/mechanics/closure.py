@@ -708,13 +708,13 @@ def geometry_parameters(problem: Problem, subsystem: str) -> tuple[str, ...]:
             while name is not None and name != GROUND:
                 f = problem.frame[name]
                 for t in f.transforms:
-                    for tree in ((t.angle, *t.axis) if hasattr(t, "angle") else t.vector):
+                    for tree in ((t.angle, *t.axis) if isinstance(t, Rotation) else t.vector):
                         used |= ex.names(tree)
                 name = f.parent
     derived = {p.name: p.expr for p in problem.parameters if not p.is_base}
     todo = [n for n in used if n in derived]
     while todo:
-        for n in ex.names(derived[todo.pop()]):  # type: ignore[arg-type]
+        for n in ex.names(derived[todo.pop()]):  # type: ignore[arg-type]  # a derived parameter has its expr
             if n not in used:
                 used.add(n)
                 if n in derived:

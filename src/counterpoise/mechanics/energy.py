@@ -49,7 +49,7 @@ class Mechanics:
         self.gravity = list(gravity)
         env: dict[str, Scalar] = {}
         for p in problem.parameters:
-            env[p.name] = base_parameters[p.name] if p.is_base else ex.evaluate(p.expr, env, functions)  # type: ignore[arg-type]
+            env[p.name] = base_parameters[p.name] if p.is_base else ex.evaluate(p.expr, env, functions)  # type: ignore[arg-type]  # a derived parameter has its expr
         env.update(variables)
         env.update(coordinates)
         self.env = env
@@ -188,7 +188,7 @@ class Mechanics:
         frame, i = cm.joint
         rot, origin = self.pose(frame, upto=i)
         t = self.problem.frame[frame].transforms[i]
-        axis = matvec(rot, self.axis(t))  # type: ignore[arg-type]
+        axis = matvec(rot, self.axis(t))  # type: ignore[arg-type]  # a counter-mass joint is a rotation
         rel = sub(self.position(cm.position), origin)
         along = dot(axis, rel)
         return add(dot(rel, rel), mul(-1.0, mul(along, along)))

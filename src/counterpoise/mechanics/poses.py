@@ -45,7 +45,7 @@ def mechanics(problem: Problem, coordinates: Mapping[str, float], variables: Map
 
 
 def _f(v: object) -> float:
-    return float(v)  # type: ignore[arg-type]
+    return float(v)  # type: ignore[arg-type]  # a placed point is three floats
 
 
 def place(problem: Problem, coordinates: Mapping[str, float], variables: Mapping[str, float], scenario: Scenario | None = None) -> list[Placed]:
@@ -55,13 +55,13 @@ def place(problem: Problem, coordinates: Mapping[str, float], variables: Mapping
     for f in problem.frames:
         rot, origin = mech.pose(f.name)
         out.append(
-            Placed("frame", f.name, f.name, tuple(_f(c) for c in origin), f.subsystem,  # type: ignore[arg-type]
+            Placed("frame", f.name, f.name, tuple(_f(c) for c in origin), f.subsystem,  # type: ignore[arg-type]  # a placed point is three floats
                    rotation=tuple(tuple(_f(c) for c in row) for row in rot), parent=f.parent)
         )
     for b in problem.bodies:
-        out.append(Placed("body", b.name, b.com.frame, tuple(_f(c) for c in mech.position(b.com)), b.subsystem, mass=_f(mech.value(b.mass))))  # type: ignore[arg-type]
+        out.append(Placed("body", b.name, b.com.frame, tuple(_f(c) for c in mech.position(b.com)), b.subsystem, mass=_f(mech.value(b.mass))))  # type: ignore[arg-type]  # a placed point is three floats
     for c in problem.counter_masses:
-        out.append(Placed("counter_mass", c.name, c.position.frame, tuple(_f(v) for v in mech.position(c.position)), c.subsystem, mass=_f(mech.value(c.mass))))  # type: ignore[arg-type]
+        out.append(Placed("counter_mass", c.name, c.position.frame, tuple(_f(v) for v in mech.position(c.position)), c.subsystem, mass=_f(mech.value(c.mass))))  # type: ignore[arg-type]  # a placed point is three floats
     for s in problem.springs:
         ends = [tuple(_f(v) for v in mech.position(p)) for p in s.ends]
         length = math.dist(ends[0], ends[1])
@@ -70,7 +70,7 @@ def place(problem: Problem, coordinates: Mapping[str, float], variables: Mapping
             stretch = length - _f(mech.value(s.direct.cable)) - _f(mech.value(s.direct.free_length))
             force = _f(mech.value(s.direct.initial_tension)) + _f(mech.value(s.stiffness)) * stretch
         for label, p, end in zip(("from", "to"), s.ends, ends):
-            out.append(Placed("spring", f"{s.name}.{label}", p.frame, end, s.subsystem, force=force))  # type: ignore[arg-type]
+            out.append(Placed("spring", f"{s.name}.{label}", p.frame, end, s.subsystem, force=force))  # type: ignore[arg-type]  # a placed point is three floats
     return out
 
 

@@ -97,8 +97,8 @@ def realise(
         forces = (k * distance_home, k * distance_min, k * distance_max)
         return Realisation(PULLEY, k, l0, f0, distance_home, distance_min, distance_max, distance_max, *lengths, *forces, distance_max + offset)
     lengths = (distance_home - cable, distance_min - cable, distance_max - cable)
-    forces = tuple(f0 + k * (length - l0) for length in lengths)
-    return Realisation(DIRECT, k, l0, f0, distance_home, distance_min, distance_max, cable, *lengths, *forces, NAN)  # type: ignore[arg-type]
+    force_home, force_min, force_max = (f0 + k * (length - l0) for length in lengths)
+    return Realisation(DIRECT, k, l0, f0, distance_home, distance_min, distance_max, cable, *lengths, force_home, force_min, force_max, NAN)
 
 
 def realise_spring(
@@ -122,7 +122,7 @@ def realise_spring(
         free_length = float(mech.value(spring.direct.free_length))
         initial_tension = float(mech.value(spring.direct.initial_tension))
         cable = float(mech.value(spring.direct.cable))
-    return replace(realise(rate, d, lo, hi, free_length, initial_tension, cable), ends=ends)  # type: ignore[arg-type]
+    return replace(realise(rate, d, lo, hi, free_length, initial_tension, cable), ends=ends)  # type: ignore[arg-type]  # a point is three floats
 
 
 def finite(value: float) -> float | None:

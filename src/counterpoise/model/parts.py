@@ -17,7 +17,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Any
+from typing import SupportsInt
+from collections.abc import Iterable
 
 import numpy as np
 
@@ -94,7 +95,7 @@ class Catalogue:
     def arrays(self) -> dict[str, np.ndarray]:
         return {n: self.array(n) for n in NUMERIC_FIELDS}
 
-    def subset(self, rows: Any) -> "Catalogue":
+    def subset(self, rows: Iterable[SupportsInt]) -> "Catalogue":
         """The catalogue restricted to ``rows`` (indices), in that order."""
         idx = [int(i) for i in rows]
         pick = {n: tuple(getattr(self, n)[i] for i in idx) for n in ("part_number", "material", *NUMERIC_FIELDS)}

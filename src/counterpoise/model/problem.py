@@ -94,7 +94,8 @@ class Gravity:
 
     @property
     def vector(self) -> tuple[float, float, float]:
-        return tuple(self.acceleration * c for c in self.direction)  # type: ignore[return-value]
+        x, y, z = self.direction
+        return (self.acceleration * x, self.acceleration * y, self.acceleration * z)
 
 
 @dataclass(frozen=True)

@@ -92,10 +92,10 @@ class PayloadDesign:
         scenario per working mode and payload, each with that payload's adjustments: what
         a check that must hold at every payload (a part's limits) is run on."""
         sampled = self._scheduled()
-        n_modes = len(modes(self.adjuster.source)) or 1  # type: ignore[union-attr]
+        n_modes = len(modes(self.adjuster.source)) or 1  # type: ignore[union-attr]  # a design with a schedule has its adjuster
         first = list(self.solution.scenario_parameters.values())[:n_modes]
         values: dict[Slot, float] = {slot: v for slot, v in self.solution.values.items() if slot.scenario is None}
-        by_mass = {s.payload: s for s in self.schedule.rows + self.schedule.between if s.feasible}  # type: ignore[union-attr]
+        by_mass = {s.payload: s for s in self.schedule.rows + self.schedule.between if s.feasible}  # type: ignore[union-attr]  # a design with a schedule has its adjuster
         scenario_parameters = {}
         for i, scenario in enumerate(sampled.problem.scenarios):
             mass = sampled.setting_mass[scenario.setting or ""]
@@ -107,7 +107,7 @@ class PayloadDesign:
 
     def mass_of(self, scenario: str) -> float | None:
         """The payload mass of a scenario of :meth:`schedule_solution` or of the design."""
-        for sampled in (self._scheduled(), sampled_problem(self.adjuster.source, self.samples)):  # type: ignore[union-attr]
+        for sampled in (self._scheduled(), sampled_problem(self.adjuster.source, self.samples)):  # type: ignore[union-attr]  # a design with a schedule has its adjuster
             if any(s.name == scenario for s in sampled.problem.scenarios):
                 return sampled.setting_mass[sampled.problem.setting(scenario) or ""]
         return None

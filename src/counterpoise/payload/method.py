@@ -22,17 +22,21 @@ from .design import PayloadDesign, design_payloads
 from .scenarios import payload_of, sampled_problem
 
 
+#: a set of payload samples: (scenario name, its parameters sorted), per scenario
+SampleKey = tuple[tuple[str, tuple[tuple[str, float], ...]], ...]
+
+
 class PayloadMethod:
     """Design for a payload range around ``core(sampled problem)``, built once per sample set."""
 
     def __init__(self, problem: Problem, core: Callable[[Problem], DesignMethod]) -> None:
         self.problem = problem
         self._core = core
-        self._built: dict[tuple[str, ...], DesignMethod] = {}
+        self._built: dict[SampleKey, DesignMethod] = {}
 
     def core(self, sampled: Problem) -> DesignMethod:
         """The inner method of a sampled problem (built once per set of samples)."""
-        key = tuple((s.name, tuple(sorted(s.parameters.items()))) for s in sampled.scenarios)  # the exact masses
+        key: SampleKey = tuple((s.name, tuple(sorted(s.parameters.items()))) for s in sampled.scenarios)  # the exact masses
         if key not in self._built:
             self._built[key] = self._core(sampled)
         return self._built[key]

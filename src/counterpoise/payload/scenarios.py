@@ -72,12 +72,12 @@ def sampled_problem(problem: Problem, masses: Iterable[float]) -> Sampled:
     return Sampled(replace(problem, scenarios=tuple(scenarios)), ordered, setting_mass)
 
 
-def design_bounds(sampled: Sampled) -> dict[Slot | str, tuple[float, float]]:
+def design_bounds(sampled: Sampled) -> dict[Slot, tuple[float, float]]:
     """Per-slot bounds of a design solve: an adjustment with a ``nominal`` is pinned to it at
     the nominal payload and kept within its travel of it at every other payload."""
     problem = sampled.problem
     payload = payload_of(problem)
-    out: dict[Slot | str, tuple[float, float]] = {}
+    out: dict[Slot, tuple[float, float]] = {}
     for v in problem.variables:
         if not v.adjustable or v.nominal is None:
             continue

@@ -95,7 +95,8 @@ class AdjustmentSolver:
         self.designer = self.method.designer
         self.samples = max(200, problem.settings.verify_samples // VERIFY_SHARE)
         self.parameters = dict(parameters or {})
-        self.bounds = dict(bounds or {}) or None
+        given: dict[Slot | str, tuple[float, float]] = {k: v for k, v in (bounds or {}).items()}
+        self.bounds = given or None
         self._last: dict[Slot, float] = {}
 
     def at(self, mass: float) -> Setting:

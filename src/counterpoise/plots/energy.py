@@ -9,6 +9,7 @@ scale.
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -20,6 +21,9 @@ from ..verify.residuals import residuals
 from ._mpl import pyplot, save
 
 if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+
+    from ..model.problem import Problem, Scenario
     from ..pipeline import DesignResult
 
 SAMPLES = 181
@@ -27,7 +31,9 @@ SAMPLES = 181
 UNBALANCED = "given bodies alone (unbalanced): gravity energy, left; gravity torque, right"
 
 
-def _energies(problem, subsystem: str, coords: dict, variables: dict, base: dict, gravity) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # type: ignore[no-untyped-def]
+def _energies(
+    problem: Problem, subsystem: str, coords: Mapping[str, np.ndarray], variables: Mapping[str, float], base: Mapping[str, float], gravity: Sequence[float]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(gravity energy of the bodies alone, of bodies and counter-masses, of the springs)."""
     mech = Mechanics(problem, base, variables, coords, gravity, NUMPY_FUNCTIONS)
     n = len(next(iter(coords.values())))
@@ -42,8 +48,8 @@ def _energies(problem, subsystem: str, coords: dict, variables: dict, base: dict
     spring = np.zeros(n)
     for s in problem.springs:
         if s.subsystem == subsystem:
-            a, b = mech.position(s.ends[0]), mech.position(s.ends[1])
-            d2 = sum((np.asarray(x) - np.asarray(y)) ** 2 for x, y in zip(a, b))
+            end_a, end_b = mech.position(s.ends[0]), mech.position(s.ends[1])
+            d2 = sum((np.asarray(x) - np.asarray(y)) ** 2 for x, y in zip(end_a, end_b))
             spring = spring + np.broadcast_to(0.5 * mech.value(s.stiffness) * d2, (n,))
     return bodies, grav.astype(float), spring.astype(float)
 
@@ -52,7 +58,7 @@ def _energies(problem, subsystem: str, coords: dict, variables: dict, base: dict
 ROUNDING = 1e-12
 
 
-def _floor_axis(ax, curves: list[np.ndarray], floor: float) -> None:  # type: ignore[no-untyped-def]
+def _floor_axis(ax: Axes, curves: list[np.ndarray], floor: float) -> None:
     """Keep the y axis at least ±``floor`` wide around its data, so that rounding noise of a
     flat curve (1e-15) is not magnified into zig-zags that fill the panel."""
     data = np.concatenate([np.ravel(c) for c in curves])
@@ -68,7 +74,7 @@ def _floor_axis(ax, curves: list[np.ndarray], floor: float) -> None:  # type: ig
     ax.set_ylim(centre - 1.1 * floor, centre + 1.1 * floor)
 
 
-def _balance_note(ax, residual: np.ndarray, reference: float, tolerance: float) -> None:  # type: ignore[no-untyped-def]
+def _balance_note(ax: Axes, residual: np.ndarray, reference: float, tolerance: float) -> None:
     """Say in the panel what a flat residual means."""
     worst = float(np.nanmax(np.abs(residual))) if residual.size else 0.0
     if not reference > 0 or not np.isfinite(worst):
@@ -82,7 +88,7 @@ def _balance_note(ax, residual: np.ndarray, reference: float, tolerance: float) 
     ax.text(0.02, 0.04, text, transform=ax.transAxes, fontsize=8, va="bottom", color="tab:green", bbox={"facecolor": "white", "alpha": 0.85, "edgecolor": "none", "pad": 1.5})
 
 
-def plotted_scenarios(problem) -> tuple:  # type: ignore[no-untyped-def]
+def plotted_scenarios(problem: Problem) -> tuple[Scenario, ...]:
     """The scenarios drawn: every one, except that on a tilting base each working mode is
     drawn once, at the middle of its tilt ranges (the other nodes differ only in the tilt)."""
     if not problem.tilts:
@@ -121,7 +127,7 @@ def energy_plot(result: "DesignResult", folder: str | Path) -> list[Path]:
                 coords = {n: points.q[:, i] for i, n in enumerate(c.names)}
                 tangent = (c, points.tangent)
             bodies, grav, spring = _energies(problem, sub.name, coords, variables, base, gravity)
-            x = coord.unit.from_si(q)
+            x = np.asarray(q, dtype=float) / coord.unit.to_si  # the display unit's from_si, on an array
             xlabel = f"{name} [{coord.unit.label}]"
             ax = axes[r, 0]
             ax.plot(x, bodies, label=UNBALANCED, color="tab:red", linestyle="--", linewidth=1)

@@ -612,11 +612,11 @@ def _draw(
     springs = {s.name: s for s in problem.springs}
     ends = [p for p in placed if p.kind == "spring"]
     amplitude = 0.025 * style["extent"]
-    for a, b in zip(ends[::2], ends[1::2]):
-        name = a.name.rsplit(".", 1)[0]
-        pa, pb = xy(a.position), xy(b.position)
+    for ea, eb in zip(ends[::2], ends[1::2]):
+        name = ea.name.rsplit(".", 1)[0]
+        pa, pb = xy(ea.position), xy(eb.position)
         chosen = name not in unset
-        color = cmap(norm(a.force)) if chosen else NO_PART
+        color = cmap(norm(ea.force)) if chosen else NO_PART
         line = _zigzag(pa, pb, amplitude=amplitude)
         ax.plot(line[:, 0], line[:, 1], color=color, linewidth=1.6, zorder=6)
         obs.segments.append((pa, pb))
@@ -627,7 +627,7 @@ def _draw(
             obs.points.append((pa, 5.0))
         else:
             pen.mark(pa, marker="o", markersize=3, color=color, zorder=6)
-        label("spring", 0.5 * (pa + pb), name, a.force if chosen else None, f" {_fmt_force(a.force)}" if chosen else ": part not chosen")
+        label("spring", 0.5 * (pa + pb), name, ea.force if chosen else None, f" {_fmt_force(ea.force)}" if chosen else ": part not chosen")
     requests.extend(merged.values())
 
 
@@ -671,8 +671,8 @@ def _place_labels(fig: Any, axes: list[Any], requests: list[_Request], obstacles
             ax.annotate("", r.anchor, xytext=ax.transData.inverted().transform(_nearest_on_box(box, p)), textcoords="data", annotation_clip=False, zorder=8,
                         arrowprops={"arrowstyle": "-", "color": r.color, "linewidth": 0.5, "shrinkA": 0, "shrinkB": 2, "alpha": 0.8})
         placed.append(box)
-        labels.append(Label(r.kind, tuple(r.names), tuple(r.values), text, r.view, (float(r.anchor[0]), float(r.anchor[1])), tuple(float(c) for c in box)))  # type: ignore[arg-type]
-    return labels, omitted, [tuple(float(c) for c in frames[ax]) for ax in axes]  # type: ignore[misc]
+        labels.append(Label(r.kind, tuple(r.names), tuple(r.values), text, r.view, (float(r.anchor[0]), float(r.anchor[1])), tuple(float(c) for c in box)))  # type: ignore[arg-type]  # a box is four floats
+    return labels, omitted, [tuple(float(c) for c in frames[ax]) for ax in axes]  # type: ignore[misc]  # a box is four floats
 
 
 def _text(r: _Request) -> str:

@@ -17,8 +17,8 @@ mount (cable length, installed length) comes from :mod:`counterpoise.mechanics.r
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from typing import Any
+from collections.abc import Iterable, Mapping
+from typing import Any, SupportsFloat
 
 import numpy as np
 
@@ -92,8 +92,9 @@ def home_mechanics(result: DesignResult, scenario: str | None = None) -> Mechani
     return Mechanics(problem, base, result.solution.variable_values(scenario), coordinates, gravity)
 
 
-def _floats(values: Any) -> tuple[float, float, float]:
-    return tuple(float(v) for v in values)  # type: ignore[return-value]
+def _floats(values: Iterable[SupportsFloat]) -> tuple[float, float, float]:
+    x, y, z = (float(v) for v in values)
+    return (x, y, z)
 
 
 def _point_row(mech: Mechanics, kind: str, name: str, point: Point, subsystem: str | None) -> Row:
@@ -144,7 +145,7 @@ def workspace_distances(result: DesignResult) -> dict[str, tuple[float, float]]:
         for s in problem.springs:
             if s.subsystem is not None and s.subsystem in q:
                 columns = q[s.subsystem]
-                coordinates = {c.name: columns[:, i] for i, c in enumerate(problem.subsystem_coordinates(s.subsystem))}
+                coordinates: dict[str, np.ndarray | float] = {c.name: columns[:, i] for i, c in enumerate(problem.subsystem_coordinates(s.subsystem))}
             else:  # fixed to ground at both ends: one configuration
                 coordinates = {c.name: c.home for c in problem.coordinates}
             mech = Mechanics(problem, base, variables, coordinates, gravity)

@@ -23,8 +23,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from typing import Any
 
+from ..model.parts import Catalogue
 from ..pipeline import DesignResult
 from ..springs.workspace import ALL
 from .rows import Row
@@ -132,13 +132,13 @@ def _part_rows(result: DesignResult) -> list[Row]:
                 "margin_slack_mm": u.margin_slack * mm,
                 "margin_length_mm": u.margin_length * mm,
                 "margin_load_N": u.margin_load,
-                **(_catalogue_data(cat, i, slot.rate_tolerance) if cat is not None and i is not None else {}),
+                **(_catalogue_data(cat, i, slot.rate_tolerance) if cat is not None and slot is not None and i is not None else {}),
             }
         )
     return rows
 
 
-def _catalogue_data(cat: Any, i: int, rate_tolerance: float) -> Row:
+def _catalogue_data(cat: Catalogue, i: int, rate_tolerance: float) -> Row:
     """What the catalogue says of its part ``i`` in the spec columns (blank when unknown)."""
     mm = 1e3
 

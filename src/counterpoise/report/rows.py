@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from ..formulation.constraints import ConstraintValue
 from ..pipeline import DesignResult
 from ..model.problem import Problem
 from ..verify.certificate import certificate_of
@@ -129,11 +130,11 @@ def constraint_rows(result: DesignResult) -> list[Row]:
     problem = result.problem
     rows: list[Row] = []
     values = list(result.solution.constraints)
-    by_name: dict[str, list[Any]] = {}
+    by_name: dict[str, list[ConstraintValue]] = {}
     for v in values:
         by_name.setdefault(v.name, []).append(v)
     # like report quantities: one row when every scenario agrees (value and mark), else one per scenario
-    shown = []
+    shown: list[tuple[ConstraintValue, str, float]] = []
     for group in by_name.values():
         first = group[0]
         same = all(v.active == first.active and (v.value == first.value or abs(v.value - first.value) <= 1e-12 * abs(first.value)) for v in group)

@@ -7,8 +7,8 @@ check of that payload in every working mode) and ``feasible``.
 
 from __future__ import annotations
 
-from typing import Any
 
+from ..model.problem import Variable
 from ..pipeline import DesignResult
 from .rows import Row
 
@@ -82,5 +82,5 @@ def payload_status_lines(result: DesignResult) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _adjustables(result: DesignResult) -> list[Any]:
+def _adjustables(result: DesignResult) -> list[Variable]:
     return [v for v in result.problem.variables if v.adjustable]

@@ -228,6 +228,8 @@ def part_bounds(ctx: Any, designer: Any, threshold: float, budget: float, rows: 
         value = np.maximum(value, 0.0) * (1 - ROUNDING)
         return np.where(c_lo <= c_hi, value, np.inf)
 
+    evaluated = 0  # (part, cell) bounds computed so far, against ``budget``
+
     def run(part: np.ndarray, centre: np.ndarray, level: np.ndarray, parent: np.ndarray) -> np.ndarray:
         """Each cell's bound; cells left when the time is up keep ``parent`` (their parent's, valid)."""
         key = np.round((centre - lower) / (half0 / 2.0 ** level[:, None]) if n_v else centre).astype(np.int64)
@@ -247,7 +249,6 @@ def part_bounds(ctx: Any, designer: Any, threshold: float, budget: float, rows: 
     part = np.repeat(rows, len(centres0))
     centre = np.tile(centres0, (len(rows), 1))
     level = np.zeros(len(part))
-    evaluated = 0
     bound = run(part, centre, level, np.zeros(len(part)))
     closed = np.full(n_parts, np.inf)  # least bound of each part's leaves at or above the threshold
     depth = 0

@@ -55,7 +55,7 @@ def spring_lengths(
     springs: Sequence[str],
     q: Mapping[str, np.ndarray],
     variables: Mapping[str, np.ndarray],
-    base: Mapping[str, np.ndarray],
+    base: Mapping[str, float | np.ndarray],
     gravity: Gravity3,
 ) -> dict[str, np.ndarray]:
     """Distance between the two ends of each spring: (n_designs, n_configurations) arrays.

@@ -68,7 +68,7 @@ class _Given:
 
     def solve(self, initial: Any = None, parameters: Mapping[str, float] | None = None, bounds: Any = None) -> Solution:
         merged = {**self.parameters, **(parameters or {})}
-        return self.designer.solve(initial=initial, parameters=merged, bounds=bounds or self.bounds)  # type: ignore[no-any-return]
+        return self.designer.solve(initial=initial, parameters=merged, bounds=bounds or self.bounds)
 
 
 class PartsMethod:
@@ -106,7 +106,7 @@ class PartsMethod:
             searched = self._search_problem(extra)
             start = initial
             if self.direct:
-                search = search_direct(searched, _Given(self._method_of(searched).designer, given, bounds))  # type: ignore[arg-type]
+                search = search_direct(searched, _Given(self._method_of(searched).designer, given, bounds))  # type: ignore[arg-type]  # _Given answers the designer calls search_direct makes
                 rows = dict(search.choice.parts) if search.choice else {s.name: 0 for s in self.problem.slots}
                 if start is None and search.choice is not None and len(search.groups) > 1:
                     start = search.choice.values  # the groups' designs, searched one by one, put together

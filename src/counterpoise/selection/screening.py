@@ -37,6 +37,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..mechanics import NUMPY_FUNCTIONS, Mechanics
 from ..mechanics.kinematics import dot, sub
@@ -113,6 +114,8 @@ def _structure(problem: Problem, slot: Any, exclude: frozenset[str], grid_only: 
             other |= (_names_of(problem, s.ends[0], frames) | _names_of(problem, s.ends[1], frames) | ex.names(s.stiffness)) & variables
     cables: dict[str, str] = {}
     for s in springs:
+        if s.direct is None:  # excluded above
+            continue
         names = ex.names(s.direct.cable) & variables
         if isinstance(s.direct.cable, ex.Name) and names:
             cables[s.name] = s.direct.cable.id
@@ -120,7 +123,7 @@ def _structure(problem: Problem, slot: Any, exclude: frozenset[str], grid_only: 
             return "screening needs each cable to be a variable of its own or fixed"
         for v in names:
             used[v] = used.get(v, 0) + 1
-    for s, v in cables.items():
+    for v in cables.values():
         if used[v] > 1 or v in other or any(v in g for g in geometry):
             return f"cable variable {v} also sets other lengths"
     grid = sorted((variables if grid_only is None else variables & grid_only) - set(cables.values()))
@@ -170,7 +173,7 @@ def energy_arrays(
     stacked = np.tile(q.astype(complex), (n_q, 1))
     for j in range(n_q):
         stacked[j * n : (j + 1) * n, j] += 1j * STEP
-    coords = {name: stacked[None, :, i] for i, name in enumerate(names)}
+    coords: dict[str, np.ndarray | float] = {name: stacked[None, :, i] for i, name in enumerate(names)}
     coords.update({c.name: c.home for c in problem.coordinates if c.name not in coords})
     var = {k: np.asarray(v, dtype=float)[:, None] for k, v in variables.items()}
     n_g = max((len(v) for v in variables.values()), default=1)
@@ -294,7 +297,7 @@ class _Context:
             self._rest = np.concatenate([g.reshape(1, -1) for g in rest], axis=1) / self.reference  # type: ignore[union-attr]
         parts = [energy_arrays(self.problem, self.subsystem, self.q, variables, b, g, springs, not self.rest_fixed, self.exclude, self.columns) for b, g in scenarios]
         if self.rest_fixed:
-            gflat = np.broadcast_to(self._rest, (n, self._rest.shape[1]))  # type: ignore[union-attr]
+            gflat = np.broadcast_to(self._rest, (n, self._rest.shape[1]))  # type: ignore[arg-type, union-attr]  # set above whenever rest_fixed
         else:
             flat = [np.broadcast_to(g.reshape(g.shape[0], -1), (n, g.shape[1] * g.shape[2])) for g, _ in parts]  # type: ignore[union-attr]
             gflat = (flat[0] if len(flat) == 1 else np.concatenate(flat, axis=1)) / self.reference
@@ -379,7 +382,9 @@ class _Context:
         return ratio, start
 
 
-def _two_offsets(s11, s22, s12, r1, r2, bounds) -> tuple[np.ndarray, np.ndarray]:
+def _two_offsets(
+    s11: np.ndarray, s22: np.ndarray, s12: np.ndarray, r1: np.ndarray, r2: np.ndarray, bounds: Sequence[tuple[ArrayLike, ArrayLike]]
+) -> tuple[np.ndarray, np.ndarray]:
     """Least-squares offsets of two springs, clipped into their intervals (the second
     re-solved for the clipped first)."""
     (lo1, hi1), (lo2, hi2) = bounds

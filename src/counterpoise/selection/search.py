@@ -40,6 +40,7 @@ from typing import Any
 import numpy as np
 
 from ..designer.designer import Designer
+from ..formulation.layout import Slot
 from ..model.parts import SpringSlot
 from ..model.problem import Problem
 from ..solvers.base import Status
@@ -166,7 +167,8 @@ class PartSearch:
             return "none", [], []
 
         def solve(intervals: Mapping[str, tuple[float, float]]) -> Any | None:
-            sol = self.designer.solve(initial=self.base.values, bounds={**intervals, **others}, certify=False)
+            bounds: dict[Slot | str, tuple[float, float]] = {k: v for part in (intervals, others) for k, v in part.items()}
+            sol = self.designer.solve(initial=self.base.values, bounds=bounds, certify=False)
             self.solves += 1
             return sol if sol.status is Status.OPTIMAL else None
 

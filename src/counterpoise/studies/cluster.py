@@ -65,7 +65,7 @@ class DaskRunner:
             if cluster is not None:
                 cluster.close()
 
-    def _client(self):  # type: ignore[no-untyped-def]
+    def _client(self) -> tuple[Any, Any]:  # Any: distributed's Client and LocalCluster (or None), imported here only
         try:
             from distributed import Client, LocalCluster
         except ImportError as exc:  # pragma: no cover - a dependency
@@ -96,7 +96,7 @@ class DaskRunner:
     def map_batches(self, task: StudyTask, batches: Sequence[Sequence[Point]]) -> Iterator[list[PointResult]]:
         owned = self._connection is None
         self.connect()
-        client = self._connection[0]  # type: ignore[index]
+        client = self._connection[0]  # type: ignore[index]  # connect() has set it
         try:
             client.run(_single_threaded)
             shared = client.scatter(task, broadcast=True)

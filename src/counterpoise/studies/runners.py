@@ -23,14 +23,20 @@ from concurrent.futures import ProcessPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 from ..model.problem import Problem
+
+if TYPE_CHECKING:
+    from ..designer.designer import Designer
+    from ..designer.methods import DesignMethod
+    from ..formulation.layout import Slot
 
 #: One study point: values (SI) by key. A bare name is a literal parameter of the file
 #: (``m_endo``); ``VAR.lower`` / ``VAR.upper`` a variable's bound; ``objective.mass_weight``
 #: and ``objective.inertia_weight`` the objective's weights (see :mod:`.spec`).
 Point = Mapping[str, float]
+T = TypeVar("T")
 
 #: statuses a point can end with, besides the design statuses (optimal, infeasible, failed)
 TIMEOUT = "timeout"
@@ -59,7 +65,7 @@ class StudyTask:
     backend: str = "auto"
     check: str = "auto"
 
-    def designer(self, problem: Problem | None = None) -> Any:
+    def designer(self, problem: Problem | None = None) -> Designer:
         from ..designer.designer import Designer
 
         options = dict(self.ipopt_options)
@@ -70,7 +76,7 @@ class StudyTask:
             designer.convex.options["time_limit"] = float(self.time_limit)
         return designer
 
-    def method(self, problem: Problem | None = None) -> Any:
+    def method(self, problem: Problem | None = None) -> DesignMethod:
         """The design method of ``problem`` (this task's by default), built once per worker.
 
         Where the innermost solve is the :class:`~counterpoise.designer.designer.Designer`
@@ -123,12 +129,12 @@ class PointTimeout(Exception):
     """Raised by the interval timer when a point runs past the study's time limit."""
 
 
-def _method_for(task: StudyTask, weights: Mapping[str, float]) -> Any:
+def _method_for(task: StudyTask, weights: Mapping[str, float]) -> DesignMethod:
     """The design method of this task (and objective weights, which are built into the NLP),
     kept per worker under the problem's content (:attr:`StudyTask.key`)."""
     problem = task.problem
     key = (task.key, (weights.get("mass_weight", problem.objective.mass_weight), weights.get("inertia_weight", problem.objective.inertia_weight)))
-    cache: OrderedDict[Any, Any] = _WORKER.__dict__.setdefault("methods", OrderedDict())
+    cache: OrderedDict[tuple[str, tuple[float, float]], DesignMethod] = _WORKER.__dict__.setdefault("methods", OrderedDict())
     method = cache.pop(key, None)
     if method is None:
         if weights:
@@ -144,24 +150,24 @@ def _method_for(task: StudyTask, weights: Mapping[str, float]) -> Any:
     return method
 
 
-def split_point(point: Point) -> tuple[dict[str, float], dict[str, tuple[str, float]], dict[str, float]]:
-    """(parameters, bounds {variable: (side, value)}, objective weights) of a point."""
+def split_point(point: Point) -> tuple[dict[str, float], dict[str, list[tuple[str, float]]], dict[str, float]]:
+    """(parameters, bounds {variable: [(side, value), ...]}, objective weights) of a point."""
     parameters: dict[str, float] = {}
-    bounds: dict[str, tuple[str, float]] = {}
+    bounds: dict[str, list[tuple[str, float]]] = {}
     weights: dict[str, float] = {}
     for key, value in point.items():
         if key.startswith("objective."):
             weights[key.removeprefix("objective.")] = float(value)
         elif key.endswith(".lower") or key.endswith(".upper"):
             name, _, side = key.rpartition(".")
-            bounds.setdefault(name, []).append((side, float(value)))  # type: ignore[arg-type]
+            bounds.setdefault(name, []).append((side, float(value)))
         else:
             parameters[key] = float(value)
-    return parameters, bounds, weights  # type: ignore[return-value]
+    return parameters, bounds, weights
 
 
-def _bounds(problem: Problem, sides: Mapping[str, Any]) -> dict[str, tuple[float, float]]:
-    out = {}
+def _bounds(problem: Problem, sides: Mapping[str, Sequence[tuple[str, float]]]) -> dict[Slot | str, tuple[float, float]]:
+    out: dict[Slot | str, tuple[float, float]] = {}
     for name, items in sides.items():
         v = problem.variable[name]
         lo, hi = v.lower, v.upper
@@ -242,7 +248,7 @@ def _time_limit(seconds: float | None) -> Iterator[None]:
 
     previous = signal.signal(signal.SIGALRM, _raise)
     # a little slack so that the solver's own limit (a clean status) normally fires first
-    signal.setitimer(signal.ITIMER_REAL, float(seconds) * 1.5 + 0.5)  # type: ignore[arg-type]
+    signal.setitimer(signal.ITIMER_REAL, float(seconds) * 1.5 + 0.5)  # type: ignore[arg-type]  # called only with a time limit
     try:
         yield
     finally:
@@ -365,7 +371,7 @@ def tune_allocator() -> bool:
     return all(mallopt(code, value) == 1 for code, value in MALLOC_SETTINGS.values())
 
 
-def batched(points: Sequence[Point], size: int) -> list[Sequence[Point]]:
+def batched(points: Sequence[T], size: int) -> list[Sequence[T]]:
     """Consecutive batches of at most ``size`` points."""
     if size < 1:
         raise ValueError("batch size must be at least 1")

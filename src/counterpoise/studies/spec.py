@@ -18,7 +18,9 @@ Every mistake raises a one-line :class:`~counterpoise.errors.ProblemFileError`
 from __future__ import annotations
 
 import itertools
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import NoReturn
 
 import numpy as np
 
@@ -75,7 +77,7 @@ class StudyPlan:
         return {"method": self.method, "samples": self.samples, "seed": self.seed, "vary": [v.as_dict() for v in self.varies]}
 
 
-def _resolve_key(problem: Problem, name: str, fail) -> tuple[str, str, DisplayUnit | None]:  # type: ignore[no-untyped-def]
+def _resolve_key(problem: Problem, name: str, fail: Callable[[str], NoReturn]) -> tuple[str, str, DisplayUnit | None]:
     """(point key, expected dimension, unit the file uses) of a --vary name."""
     bare = name.removeprefix("parameters.").removeprefix("variables.").removeprefix("objective.")
     parameters = {p.name: p for p in problem.parameters}
@@ -103,7 +105,7 @@ def parse_vary(problem: Problem, text: str, label: str) -> Vary:
     name, sep, rest = text.partition("=")
     name = name.strip()
 
-    def fail(message: str) -> None:
+    def fail(message: str) -> NoReturn:
         raise ProblemFileError(label, f"--vary {name or text}", message)
 
     if not sep or not name:
@@ -157,7 +159,7 @@ def plan_study(problem: Problem, texts: list[str], label: str, samples: int | No
         for v in varies:
             if v.count is None:
                 raise ProblemFileError(label, f"--vary {v.key}", "a grid needs N (NAME=START:STOP:N), or use --samples N --method lhs")
-        axes = [np.linspace(v.start, v.stop, v.count) for v in varies]  # type: ignore[arg-type]
+        axes = [np.linspace(v.start, v.stop, v.count) for v in varies]  # type: ignore[arg-type]  # every count is set: checked just above
         points = tuple({v.key: float(x) for v, x in zip(varies, combo)} for combo in itertools.product(*axes))
         return StudyPlan(varies, method, None, None, points)
     if samples is None:

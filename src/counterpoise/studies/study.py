@@ -24,7 +24,7 @@ import os
 import shutil
 import tempfile
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -140,7 +140,7 @@ def _number(text: str | None) -> bool:
         return False
 
 
-def row_is_done(row: dict[str, str | None], cols: list[str], expected: dict[str, str], variable_headers: list[str]) -> bool:
+def row_is_done(row: Mapping[str, str | None], cols: list[str], expected: dict[str, str], variable_headers: list[str]) -> bool:
     """Whether a ``study.csv`` row read back is a finished point of this plan: every column
     there (no torn line), a known status and a solve time, the varied values ``expected`` (as
     this plan writes them: a row of another study is not this point), and for an optimal
@@ -287,7 +287,7 @@ def _prepare(problem: Problem, plan: StudyPlan, folder: Path, resume: bool, labe
             for r in rows:
                 point = r.get("point") or ""
                 if point.isdigit() and int(point) < len(plan.points) and row_is_done(r, cols, _varied_texts(plan, int(point)), headers):
-                    done[int(point)] = {c: r[c] for c in cols}  # type: ignore[misc]
+                    done[int(point)] = {c: r[c] for c in cols}
         return work, done
     if (folder / "study.csv").exists() or (folder / "study.json").exists():
         shutil.rmtree(partial, ignore_errors=True)

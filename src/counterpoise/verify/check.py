@@ -53,7 +53,7 @@ def evaluators(solution: "Solution", samples: int | None = None, seed: int | Non
         for scenario in _checked_scenarios(problem):
             for sub in problem.subsystems:
                 if problem.subsystem_loops(sub.name):  # closed loops: on the configuration manifold
-                    found.append((scenario.name, sub.name, ManifoldResiduals(problem, sub.name, n, rng, scenario.name)))  # type: ignore[arg-type]
+                    found.append((scenario.name, sub.name, ManifoldResiduals(problem, sub.name, n, rng, scenario.name)))  # type: ignore[arg-type]  # ManifoldResiduals answers SubsystemResiduals' evaluate
                     continue
                 q = configurations(problem, sub.name, n, rng)
                 found.append((scenario.name, sub.name, SubsystemResiduals(problem, sub.name, q)))

@@ -67,14 +67,14 @@ class ManifoldResiduals:
     @property
     def conditioning(self) -> float:
         """Smallest σ_min/σ_max of ∂h/∂q_d over the checked configurations (1: far from singular)."""
-        return float(self._points.conditioning.min(initial=1.0))  # type: ignore[union-attr]
+        return float(self._points.conditioning.min(initial=1.0))  # type: ignore[union-attr]  # set in __init__
 
     def evaluate(self, variables: Mapping[str, float], base: Mapping[str, float], gravity: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
         """(residual, gravity torque of the bodies alone) along the manifold: (N, n_i) each."""
         self._solve(base)
-        r, t = self._residuals.evaluate(variables, base, gravity)  # type: ignore[union-attr]
+        r, t = self._residuals.evaluate(variables, base, gravity)  # type: ignore[union-attr]  # set in __init__
         c = self._closure
-        tangent = self._points.tangent  # type: ignore[union-attr]
+        tangent = self._points.tangent  # type: ignore[union-attr]  # set in __init__
 
         def along(g: np.ndarray) -> np.ndarray:
             g = np.asarray(g)

@@ -27,7 +27,8 @@ import numpy as np
 from ..mechanics import NUMPY_FUNCTIONS, Mechanics
 from ..mechanics.sampling import MAX_CORNERS, STEP, configurations  # noqa: F401 - re-exported
 from ..model import expr as ex
-from ..model.mechanism import GROUND, Point, Rotation
+from ..model.elements import CounterMass, ZeroFreeLengthSpring
+from ..model.mechanism import GROUND, Body, Point, Rotation
 from ..model.problem import Problem
 
 #: configurations evaluated at once (one coordinate perturbed at a time)
@@ -148,14 +149,15 @@ class SubsystemResiduals:
         self.q = q
         self.names = [c.name for c in problem.subsystem_coordinates(subsystem)]
         self.frames = frame_names(problem)
-        mine = [(b, True) for b in problem.bodies if b.subsystem == subsystem]
+        mine: list[tuple[Body | CounterMass | ZeroFreeLengthSpring, bool]] = [(b, True) for b in problem.bodies if b.subsystem == subsystem]
         mine += [(c, False) for c in problem.counter_masses if c.subsystem == subsystem]
         mine += [(s, False) for s in problem.springs if s.subsystem == subsystem]
         self.elements = [_Element(problem, e, is_body, self.frames) for e, is_body in mine]
         self.used_frames: list[str] = []  # the elements' frames and their ancestors, parents first
         for e in self.elements:
             for point in e.points:
-                chain, frame = [], point.frame
+                chain: list[str] = []
+                frame: str | None = point.frame
                 while frame is not None and frame != GROUND and frame not in self.used_frames and frame not in chain:
                     chain.append(frame)
                     frame = problem.frame[frame].parent
@@ -420,14 +422,14 @@ class BoxMaximum:
         (n, n) with column j for coordinate j. Only the best start of each coordinate climbs."""
         args = self._arguments(variables, base, gravity)
         k, n = starts.shape[0], starts.shape[1]
-        which = np.arange(n) if which is None else np.asarray(which, dtype=int)
-        columns = np.clip(np.concatenate([starts[i][which].T for i in range(k)], axis=1), self.lower[:, None], self.upper[:, None])
-        coordinate = np.tile(which, k)  # the coordinate each column climbs
+        chosen = np.arange(n) if which is None else np.asarray(which, dtype=int)
+        columns = np.clip(np.concatenate([starts[i][chosen].T for i in range(k)], axis=1), self.lower[:, None], self.upper[:, None])
+        coordinate = np.tile(chosen, k)  # the coordinate each column climbs
         with np.errstate(all="ignore"):
             values, reached = self._climb(columns, coordinate, args)
         best = np.full(n, np.nan)
         where = np.full((n, n), np.nan)
-        for j in which:
+        for j in chosen:
             mine = np.flatnonzero((coordinate == j) & np.isfinite(values))
             if mine.size:
                 i = mine[np.argmax(values[mine])]
@@ -446,7 +448,7 @@ class BoxMaximum:
         torque = np.asarray(self._mapped("torque", self._torque, m)(columns, *args)).reshape(-1, m)
         return torque[coordinate, np.arange(m)]
 
-    def _climb(self, columns: np.ndarray, coordinate: np.ndarray, args: tuple[np.ndarray, ...]) -> np.ndarray:
+    def _climb(self, columns: np.ndarray, coordinate: np.ndarray, args: tuple[np.ndarray, ...]) -> tuple[np.ndarray, np.ndarray]:
         """Projected Newton ascent of |torque c_i| from column i, all columns at once (one
         CasADi call per step: the trial point's derivatives serve the next step)."""
         lo, hi = self.lower, self.upper

@@ -196,7 +196,7 @@ def _check_extremes(ctx: Context, tree: ex.Expr, raw: str, key: str, has_lower: 
     given = {"lower": has_lower, "upper": has_upper}
     other = "lower" if side == "upper" else "upper"
     if given[other]:
-        spring = call.args[0].id  # type: ignore[union-attr]
+        spring = call.args[0].id  # type: ignore[union-attr]  # the parser checked the argument is a name
         raise ctx.fail(
             f"{key.rsplit('.', 1)[0]}.{other}",
             f"'{raw}' may only have {'an upper' if side == 'upper' else 'a lower'} bound: {call.func}({spring}) {'≤' if side == 'upper' else '≥'} a bound holds at every "

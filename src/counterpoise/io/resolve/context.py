@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Callable, Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping, Set as AbstractSet
 from contextlib import contextmanager
 from typing import Any
 
@@ -335,14 +335,16 @@ class Context:
 
     def axis(self, value: Any, key: str) -> tuple[ex.Expr, ex.Expr, ex.Expr]:
         if isinstance(value, str):
-            return tuple(ex.Num(c) for c in AXES[value])  # type: ignore[return-value]
+            x, y, z = AXES[value]
+            return (ex.Num(x), ex.Num(y), ex.Num(z))
         # an axis may depend on parameters and variables (a tilt), not on coordinates
         vec = self.vector(value, key, DIMENSIONLESS, "an axis component", self.design_names())
         norm = math.sqrt(sum(self.finite(c, value, key) ** 2 for c in vec))
         if norm == 0:
             raise self.fail(key, "the rotation axis must not be the zero vector")
-        if all(isinstance(c, ex.Num) for c in vec):
-            return tuple(ex.Num(c.value / norm) for c in vec)  # type: ignore[union-attr,return-value]
+        a, b, c = vec
+        if isinstance(a, ex.Num) and isinstance(b, ex.Num) and isinstance(c, ex.Num):
+            return (ex.Num(a.value / norm), ex.Num(b.value / norm), ex.Num(c.value / norm))
         return vec
 
     def point(self, frame: str, position: Iterable[Any], key: str, frames: Mapping[str, Frame], frame_key: str) -> Point:
@@ -446,7 +448,7 @@ def example_unit(dimension: str) -> str:
     return {LENGTH: "mm", MASS: "g", STIFFNESS: "N/mm"}.get(dimension, "mm")
 
 
-def topological(nodes: Mapping[str, Any], deps: Callable[[str], set[str]], section: str, label: str, key_suffix: str = "") -> list[str]:
+def topological(nodes: Mapping[str, object], deps: Callable[[str], AbstractSet[str]], section: str, label: str, key_suffix: str = "") -> list[str]:
     """Order ``nodes`` so that dependencies come first; a cycle is a ProblemFileError."""
     order: list[str] = []
     state: dict[str, int] = {}

@@ -57,7 +57,7 @@ def _frame_names(frame: str, frames: Mapping[str, Frame]) -> set[str]:
     while name is not None and name != GROUND:
         f = frames[name]
         for t in f.transforms:
-            trees = (t.angle, *t.axis) if hasattr(t, "angle") else t.vector
+            trees = (t.angle, *t.axis) if isinstance(t, Rotation) else t.vector
             for tree in trees:
                 used |= ex.names(tree)
         name = f.parent
@@ -78,11 +78,11 @@ def loops(ctx: Context, frames: Mapping[str, Frame], coordinates: tuple[Coordina
             _check_position(ctx, point, end.point, f"{key}.{side}.point")
             points.append(point)
         a, b = points
-        subs = {ctx.subsystem_of(p.frame, frames) for p in points} - {None}
+        subs = {n for n in (ctx.subsystem_of(p.frame, frames) for p in points) if n is not None}
         if not subs:
             raise ctx.fail(key, f"frames '{a.frame}' and '{b.frame}' are both fixed to ground: a loop must pass through moving frames")
         if len(subs) > 1:
-            raise ctx.fail(key, f"joins subsystems {' and '.join(sorted(subs))}; a loop must close within one subsystem")  # type: ignore[arg-type]
+            raise ctx.fail(key, f"joins subsystems {' and '.join(sorted(subs))}; a loop must close within one subsystem")
         if a.frame == b.frame:
             raise ctx.fail(f"{key}.b.frame", f"both ends are in frame '{a.frame}': the loop is not open at this joint")
         geometry = set().union(*(ex.names(c) for p in points for c in p.position)) | _frame_names(a.frame, frames) | _frame_names(b.frame, frames)

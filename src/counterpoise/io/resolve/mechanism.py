@@ -95,7 +95,7 @@ def frames(ctx: Context, given: tuple[Frame, ...] = ()) -> tuple[Frame, ...]:
     ctx.check()  # every unknown parent or orientation frame, one line each
     order = topological(
         {n: None for n in specs},
-        lambda n: {specs[n].parent, specs[n].orientation} & set(specs),
+        lambda n: {p for p in (specs[n].parent, specs[n].orientation) if p is not None} & specs.keys(),
         "frames",
         ctx.label,
         key_suffix="parent",
@@ -126,8 +126,8 @@ def frames(ctx: Context, given: tuple[Frame, ...] = ()) -> tuple[Frame, ...]:
                 transforms.append(Translation(vec))
         if f.orientation is not None:
             turns = reorientation(f.parent, transforms, f.orientation, frames)
-            for t in turns:
-                used |= ex.names(t.angle)
+            for turn in turns:
+                used |= ex.names(turn.angle)
             transforms += turns
             keys += [f"{key}.orientation"] * len(turns)
         subsystems = {coordinate_subsystem[n] for n in used if n in coordinate_subsystem}
@@ -260,9 +260,9 @@ def springs(ctx: Context, frames: Mapping[str, Frame]) -> tuple[ZeroFreeLengthSp
             ctx.nonnegative(k, s.stiffness, f"{key}.stiffness", STIFFNESS, "a stiffness")
         a = ctx.point(s.from_.frame, s.from_.point, f"{key}.from.point", frames, f"{key}.from.frame")
         b = ctx.point(s.to.frame, s.to.point, f"{key}.to.point", frames, f"{key}.to.frame")
-        subs = {ctx.subsystem_of(a.frame, frames), ctx.subsystem_of(b.frame, frames)} - {None}
+        subs = {n for n in (ctx.subsystem_of(a.frame, frames), ctx.subsystem_of(b.frame, frames)) if n is not None}
         if len(subs) > 1:
-            raise ctx.fail(key, f"connects subsystems {' and '.join(sorted(subs))}; subsystems must move independently")  # type: ignore[arg-type]
+            raise ctx.fail(key, f"connects subsystems {' and '.join(sorted(subs))}; subsystems must move independently")
         options = design_options(ctx, s, key)
         out.append(ZeroFreeLengthSpring(name, k, (a, b), next(iter(subs), None), s.description, s.slot, direct_mount(ctx, s, key), options))
     return tuple(out)
@@ -328,4 +328,4 @@ def direct_mount(ctx: Context, s: Any, key: str) -> DirectMount | None:
     if "cable" in given:
         cable = ctx.expression(given["cable"], f"{key}.cable", ctx.design_names())
         ctx.nonnegative(cable, given["cable"], f"{key}.cable", LENGTH, "a length")
-    return DirectMount(values["free_length"], values["initial_tension"], cable, values["max_length"])  # type: ignore[arg-type]
+    return DirectMount(values["free_length"], values["initial_tension"], cable, values["max_length"])  # type: ignore[arg-type]  # the required values were checked above

@@ -70,7 +70,7 @@ def bodies(ctx: Context, frames: Mapping[str, Frame]) -> tuple[tuple[Body, ...],
         subsystem = ctx.subsystem_of(spec.frame, frames)
         lo, hi, nominal, unit = ctx.payload_masses[name]
         out_bodies.append(Body(name, ex.Name(name), point, subsystem, f"payload '{name}'"))
-        out_payloads.append(Payload(name, point, lo, hi, nominal, unit, subsystem, spec.description))  # type: ignore[arg-type]
+        out_payloads.append(Payload(name, point, lo, hi, nominal, unit, subsystem, spec.description))
     return tuple(out_bodies), tuple(out_payloads)
 
 

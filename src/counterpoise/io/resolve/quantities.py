@@ -211,8 +211,8 @@ def tilts(ctx: Context, g: Any) -> tuple[Tilt, ...]:
                 raise ctx.fail(f"{key}.axis", "must be a non-zero vector of finite numbers")
             ends = [ctx.literal(r, f"{key}.range") for r in t.range]
             if all(q.unit.symbol == "" and q.dimension == "" for q in ends) and any(q.si != 0 for q in ends):
-                lo, hi = (f"{q.si:g}" for q in ends)
-                raise ctx.fail(f"{key}.range", f"bare numbers used as an angle: write ['{lo} deg', '{hi} deg'] or give the unit rad")
+                lo_text, hi_text = (f"{q.si:g}" for q in ends)
+                raise ctx.fail(f"{key}.range", f"bare numbers used as an angle: write ['{lo_text} deg', '{hi_text} deg'] or give the unit rad")
             if any(q.dimension != "" for q in ends):
                 raise ctx.fail(f"{key}.range", "a tilt is an angle: write it like '15 deg'")
             lo, hi = (q.si for q in ends)
@@ -258,10 +258,10 @@ def check_scenario_values(ctx: Context, values: Mapping[str, float], key: str) -
             ctx.symbol_value[name] = value
         for p in ctx.derived_parameters:
             with np.errstate(all="ignore"):
-                value = complex(ex.evaluate(p.expr, ctx.symbol_value, numpy_functions()))  # type: ignore[arg-type]
-            if value.imag != 0 or not math.isfinite(value.real):
+                z = complex(ex.evaluate(p.expr, ctx.symbol_value, numpy_functions()))  # type: ignore[arg-type]  # a derived parameter has its expr
+            if z.imag != 0 or not math.isfinite(z.real):
                 raise ctx.fail(key, f"parameter '{p.name}' is not a finite number in this scenario")
-            ctx.symbol_value[p.name] = value.real
+            ctx.symbol_value[p.name] = z.real
         for what_key, tree, raw, what in ctx.signed:
             try:
                 value = ctx.finite(tree, raw, key)

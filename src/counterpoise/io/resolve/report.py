@@ -56,10 +56,10 @@ def report_call(ctx: Context, call: ex.Call, raw: str, key: str, subsystems: set
     if not arity[0] <= len(call.args) <= arity[1] or not all(isinstance(a, ex.Name) for a in call.args):
         usage = "total_mass(subsystem)" if call.func == "total_mass" else "com_distance(subsystem[, frame])"
         raise ctx.fail(key, f"'{raw}': use {usage} with names")
-    sub = call.args[0].id  # type: ignore[union-attr]
+    sub = call.args[0].id  # type: ignore[union-attr]  # checked above: every argument is a name
     if sub not in subsystems:
         raise ctx.fail(key, f"unknown subsystem '{sub}' in '{raw}'{suggest(sub, subsystems)}")
     if len(call.args) == 2:
-        fr = call.args[1].id  # type: ignore[union-attr]
+        fr = call.args[1].id  # type: ignore[union-attr]  # checked above: every argument is a name
         if fr != GROUND and fr not in frames:
             raise ctx.fail(key, f"unknown frame '{fr}' in '{raw}'{suggest(fr, list(frames) + [GROUND])}")

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 from ...errors import InputError
 from ...model import expr as ex
 from ...model.mechanism import GROUND, Body, Coordinate, Frame, Point, Rotation, Subsystem, Transform, Translation
-from ...model.units import LENGTH, canonical_dimension, dimension_name
+from ...model.units import LENGTH, DisplayUnit, canonical_dimension, dimension_name
 from ..schema import RobotSpec
 from .context import RESERVED, Context, suggest
 
@@ -58,8 +58,9 @@ def read(ctx: Context) -> RobotModel | None:
             if name not in joints:
                 what = "a fixed joint: it does not move" if name in fixed else f"unknown joint '{name}' in {path.name}{suggest(name, list(joints))}"
                 raise ctx.fail(key, what)
-            if joints[name].mimic is not None:
-                raise ctx.fail(key, f"joint '{name}' follows joint '{joints[name].mimic[0]}' (mimic): list that joint instead")
+            mimic = joints[name].mimic
+            if mimic is not None:
+                raise ctx.fail(key, f"joint '{name}' follows joint '{mimic[0]}' (mimic): list that joint instead")
     for name in spec.locked:
         if name in spec.joints:
             raise ctx.fail(f"robot.locked.{name}", f"joint '{name}' is listed both as moving (robot.joints) and as locked")
@@ -116,15 +117,15 @@ def _check_dimension(ctx: Context, joint: RobotJoint, dimension: str, key: str, 
         raise ctx.fail(key, f"expected {what}, got {dimension_name(dimension)} ('{raw}')")
 
 
-def _within(ctx: Context, joint: RobotJoint, values: list[float], unit: object, key: str, what: str) -> None:
+def _within(ctx: Context, joint: RobotJoint, values: list[float], unit: DisplayUnit, key: str, what: str) -> None:
     if joint.limits is None:
         return
     lo, hi = joint.limits
     if any(v < lo - LIMIT_SLACK or v > hi + LIMIT_SLACK for v in values):
         # enough digits that a limit of ±3.14159 rad does not read as the ±180 deg it misses
-        show = [f"{unit.from_si(v):.10g} {unit.symbol}".strip() for v in (lo, hi)]  # type: ignore[attr-defined]
+        show = [f"{unit.from_si(v):.10g} {unit.symbol}".strip() for v in (lo, hi)]
         worst = max(max(lo - v, v - hi) for v in values)
-        beyond = f"{unit.from_si(worst) if unit.symbol != '' else worst:.3g} {unit.symbol}".strip()  # type: ignore[attr-defined]
+        beyond = f"{unit.from_si(worst) if unit.symbol != '' else worst:.3g} {unit.symbol}".strip()
         raise ctx.fail(key, f"{what} goes beyond the joint's limits [{show[0]}, {show[1]}] in the model (by {beyond})")
 
 
@@ -167,10 +168,10 @@ def _values(ctx: Context, model: RobotModel, spec: RobotSpec) -> dict[str, ex.Ex
     out: dict[str, ex.Expr] = {name: ex.Name(name) for name in spec.joints}
     for name, raw in spec.locked.items():
         key = f"robot.locked.{name}"
-        value = ctx.literal(raw, key)
-        _check_dimension(ctx, joints[name], value.dimension, key, raw)
-        _within(ctx, joints[name], [value.si], value.unit, key, f"locked value '{raw}'")
-        out[name] = ex.Num(value.si)
+        locked = ctx.literal(raw, key)
+        _check_dimension(ctx, joints[name], locked.dimension, key, raw)
+        _within(ctx, joints[name], [locked.si], locked.unit, key, f"locked value '{raw}'")
+        out[name] = ex.Num(locked.si)
 
     def value(name: str, seen: tuple[str, ...]) -> ex.Expr:
         if name in out:
@@ -218,12 +219,12 @@ def _motion(joint: RobotJoint, value: ex.Expr) -> list[Transform]:
     norm = math.sqrt(sum(c * c for c in joint.axis))
     axis = tuple(ex.Num(c / norm) for c in joint.axis)
     if joint.kind == "prismatic":
-        return [Translation(tuple(ex.BinOp("*", a, value) if a.value else ex.Num(0.0) for a in axis))]  # type: ignore[arg-type]
-    motion: list[Transform] = [Rotation(axis, value)]  # type: ignore[arg-type]
+        return [Translation(tuple(ex.BinOp("*", a, value) if a.value else ex.Num(0.0) for a in axis))]  # type: ignore[arg-type]  # an axis is three components
+    motion: list[Transform] = [Rotation(axis, value)]  # type: ignore[arg-type]  # an axis is three components
     if any(joint.anchor):
         there = tuple(ex.Num(c) for c in joint.anchor)
         back = tuple(ex.Num(-c) for c in joint.anchor)
-        motion = [Translation(there), *motion, Translation(back)]  # type: ignore[arg-type]
+        motion = [Translation(there), *motion, Translation(back)]  # type: ignore[arg-type]  # there and back are three components
     return motion
 
 
@@ -240,7 +241,7 @@ def frames(ctx: Context, model: RobotModel | None) -> tuple[Frame, ...]:
         keys: list[str] = []
         origin_key = f"robot.{model.format}"
         if any(link.xyz):
-            transforms.append(Translation(tuple(ex.Num(c) for c in link.xyz)))  # type: ignore[arg-type]
+            transforms.append(Translation(tuple(ex.Num(c) for c in link.xyz)))  # type: ignore[arg-type]  # a vector of the model is three floats
             keys.append(origin_key)
         rotations = _rotations(link.rotation)
         transforms += rotations
@@ -265,6 +266,6 @@ def bodies(ctx: Context, model: RobotModel | None, frames: dict[str, Frame]) -> 
     out = []
     for link in model.links:
         if link.mass > 0:
-            com = Point(link.name, tuple(ex.Num(c) for c in link.com))  # type: ignore[arg-type]
+            com = Point(link.name, tuple(ex.Num(c) for c in link.com))  # type: ignore[arg-type]  # a vector of the model is three floats
             out.append(Body(link.name, ex.Num(link.mass), com, frames[link.name].subsystem, f"link of {Path(model.path).name}"))
     return tuple(out)

@@ -31,7 +31,7 @@ from ...model.functions import NUMPY_FUNCTIONS
 from ...model.mechanism import GROUND, Body, Frame, Point, Rotation
 from ...model.problem import ReportQuantity
 from ...model.substitution import SubstitutedMass, Substitution, substitution_gap, substitution_matrix
-from ...model.units import LENGTH, display_unit
+from ...model.units import LENGTH, DisplayUnit, display_unit
 from .context import RESERVED, Context, suggest
 
 #: A substitution exists when the least-squares residual of A μ = [1, c] is below this (relative).
@@ -91,7 +91,7 @@ def substitutions(
         masses = []
         for j, (pname, point) in enumerate(masses_points):
             mass = _linear_combination(matrix[j], moments)
-            masses.append(SubstitutedMass(pname, mass, point, tuple(float(v) for v in points[j])))  # type: ignore[arg-type]
+            masses.append(SubstitutedMass(pname, mass, point, tuple(float(v) for v in points[j])))  # type: ignore[arg-type]  # a row of points is three floats
             new_bodies.append(Body(pname, mass, point, ctx.subsystem_of(point.frame, frames), f"substituted from body '{body_name}'"))
             reports.append(ReportQuantity(pname, mass, unit, f"mass substituted from body '{body_name}' at {point.frame}"))
         replaced[body_name] = new_bodies
@@ -170,7 +170,7 @@ def _names_of(point: Point, frames: Mapping[str, Frame]) -> set[str]:
     out: set[str] = set()
     for c in point.position:
         out |= ex.names(c)
-    frame = point.frame
+    frame: str | None = point.frame
     while frame != GROUND and frame is not None:
         f = frames[frame]
         for t in f.transforms:
@@ -187,8 +187,9 @@ def _check_scenarios(ctx: Context, fixed_by: Mapping[str, str]) -> None:
     stack = list(fixed_by.items())
     while stack:  # a derived parameter fixes the literal parameters it is built on
         name, body = stack.pop()
-        if name in derived and derived[name].expr is not None:
-            stack.extend((n, body) for n in ex.names(derived[name].expr) if n not in roots)
+        expr = derived[name].expr if name in derived else None
+        if expr is not None:
+            stack.extend((n, body) for n in ex.names(expr) if n not in roots)
         roots[name] = body
     for sname, sc in ctx.spec.scenarios.items():
         for pname in sc.parameters:
@@ -211,7 +212,7 @@ def _linear_combination(coefficients: np.ndarray, terms: list[ex.Expr]) -> ex.Ex
     return out if out is not None else ex.Num(0.0)
 
 
-def _mass_unit(ctx: Context, body: str):
+def _mass_unit(ctx: Context, body: str) -> DisplayUnit:
     """The display unit of a body's mass: the unit written in the file, else kg."""
     key = f"bodies.{body}.mass"
     if key in ctx.literal_unit:
