@@ -51,7 +51,7 @@ import numpy as np
 from ..errors import ProblemFileError
 from ..model.loops import PRISMATIC_JOINT, REVOLUTE_JOINT, SPHERICAL_JOINT
 from ..model.units import MAX_LENGTH_M
-from ..model.mechanism import GROUND
+from ..model.mechanism import GROUND, Rotation
 from ..model.problem import Problem
 from .energy import Mechanics
 from .kinematics import matvec, sub

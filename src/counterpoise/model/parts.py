@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
-from typing import SupportsInt
+from typing import Any, SupportsInt
 from collections.abc import Iterable
 
 import numpy as np
@@ -100,7 +100,7 @@ class Catalogue:
         idx = [int(i) for i in rows]
         pick = {n: tuple(getattr(self, n)[i] for i in idx) for n in ("part_number", "material", *NUMERIC_FIELDS)}
         extra = {n: tuple(getattr(self, n)[i] for i in idx) for n in ("count", "base_part") if getattr(self, n)}
-        return Catalogue(self.name, self.path, currency=self.currency, **pick, **extra)  # type: ignore[arg-type]
+        return Catalogue(self.name, self.path, currency=self.currency, **pick, **extra)
 
 
 @dataclass(frozen=True)

@@ -272,14 +272,14 @@ class RobustMethod:
             self._tuner = Designer(built)
         base = dict(parameters or {})
         out = []
-        for sign in corners:
-            overrides = {**base, **{d.parameter: s * d.half_width for d, s in zip(self.deviations, sign)}}
+        for corner in corners:
+            overrides = {**base, **{d.parameter: s * d.half_width for d, s in zip(self.deviations, corner)}}
             solution = self._tuner.solve(parameters=overrides, bounds=held, certify=False)
             after = float(verify(solution).residual_ratio)
-            shifted = rows.r0 + rows.S0 @ np.array(sign, dtype=float) if rows.S0.shape[1] else rows.r0
+            shifted = rows.r0 + rows.S0 @ np.array(corner, dtype=float) if rows.S0.shape[1] else rows.r0
             before = float(np.max(np.abs(shifted) / rows.reference))
             values = solution.variable_values(self.problem.scenarios[0].name)
-            out.append(Corner(corner_name("", sign), sign, corner_text(self.deviations, sign), before, after, tuple((t, values[t]) for t in spec.tune)))
+            out.append(Corner(corner_name("", corner), corner, corner_text(self.deviations, corner), before, after, tuple((t, values[t]) for t in spec.tune)))
         tuning_range = {t: (min(c.settings[i][1] for c in out), max(c.settings[i][1] for c in out)) for i, t in enumerate(spec.tune)}
         tolerance = self.problem.settings.verify_tolerance
         failed = [c for c in out if not c.after <= tolerance]

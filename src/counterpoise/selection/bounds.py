@@ -170,7 +170,7 @@ def part_bounds(ctx: Any, designer: Any, threshold: float, budget: float, rows: 
     from .screening import energy_arrays
 
     g, _ = energy_arrays(ctx.problem, ctx.subsystem, q, {k: np.array([v]) for k, v in ctx.home.items()}, ctx.base, ctx.gravity, ctx.springs, True, ctx.exclude, ctx.columns)
-    G = g.reshape(-1) / ctx.reference  # (N n_q,)
+    G = g.reshape(-1) / ctx.reference  # type: ignore[union-attr]  # (N n_q,): energy_arrays gives G with rest=True
     norm_U = np.linalg.norm(U, axis=-1)  # (n_v, N)
     norm_dU = np.linalg.norm(dU, axis=-1)  # (n_v, N, n_q)
     p = ctx.parts

@@ -370,18 +370,18 @@ def _combine(groups: list[DirectGroup], results: list[SearchResult], t0: float) 
     if failed:
         message = "; ".join(r.message for r in results if r.choice is None) + f" (group(s) {', '.join(failed)})"
         return SearchResult(None, counts, names, methods, [m for r in results for m in r.nearest], solves, time.perf_counter() - t0, message, evidence=tuple(lines))
-    best = [r.choice for r in results]
+    best = [r.choice for r in results if r.choice is not None]  # every group found one (above)
     choice = Choice(
-        {k: v for c in best for k, v in c.parts.items()},  # type: ignore[union-attr]
-        {k: v for c in best for k, v in c.rates.items()},  # type: ignore[union-attr]
-        max(c.objective for c in best),  # type: ignore[union-attr]
-        sum(c.price for c in best),  # type: ignore[union-attr]
-        robust=max(c.robust for c in best),  # type: ignore[union-attr]
+        {k: v for c in best for k, v in c.parts.items()},
+        {k: v for c in best for k, v in c.rates.items()},
+        max(c.objective for c in best),
+        sum(c.price for c in best),
+        robust=max(c.robust for c in best),
     )
     values: dict[Slot, float] = {}
     for g, c in zip(groups, best):
         # the variables shared by every scenario (a payload range's design has scenarios of its own)
-        values.update({k: v for k, v in (c.values or {}).items() if k.variable in g.variables and k.scenario is None})  # type: ignore[union-attr]
+        values.update({k: v for k, v in (c.values or {}).items() if k.variable in g.variables and k.scenario is None})
     choice.values = values
     bounds = [r.lower_bound_ratio for r in results if not math.isnan(r.lower_bound_ratio)]
     lower = max(bounds) if bounds else math.nan  # the worst ratio is at least each group's

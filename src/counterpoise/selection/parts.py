@@ -157,15 +157,15 @@ def report(
     corners: tuple[Corner, ...] = ()
     if solution.status is Status.OPTIMAL:
         tq = sample_configurations(problem, min(problem.settings.verify_samples, 4000), problem.settings.seed + 13)
-        values = {}
+        per_design: dict[str, Any] = {}
         for scenario in problem.scenarios:
-            gravity, base = solution.scenario_parameters[scenario.name]
-            values[scenario.name] = (solution.variable_values(scenario.name), base, gravity)
+            gravity, parameters = solution.scenario_parameters[scenario.name]
+            per_design[scenario.name] = (solution.variable_values(scenario.name), parameters, gravity)
         tension = {u.spring: u.initial_tension for u in uses}
         offsets = {s.name: cable[s.name] + rows_free_length(slots, rows, s) for s in problem.springs if s.slot is not None and s.direct is not None}
         rate_tol = {u.spring: slots[u.slot].rate_tolerance for u in uses}
         tension_tol = {u.spring: slots[u.slot].initial_tension_tolerance for u in uses}
-        tolerance = tolerance_band(problem, values, tension, rate_tol, tension_tol, tq, offsets)
+        tolerance = tolerance_band(problem, per_design, tension, rate_tol, tension_tol, tq, offsets)
         corners = adjust_corners(problem, designer, solution, rows)
     return PartsReport(search, dict(rows), tuple(uses), tuple(bill.values()), tolerance, corners, tuple(by_scenario))
 

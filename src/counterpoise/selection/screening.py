@@ -420,7 +420,6 @@ def screen(
     if isinstance(structure, str):
         return Screen(False, structure)
     slot_name, springs, cables, grid_names, geometry, other = structure
-    slot = chosen
     if len(springs) > 2:
         return Screen(False, "screening covers one or two springs per slot")
     subsystem = springs[0].subsystem
@@ -454,8 +453,8 @@ def screen(
     columns = None
     if coordinates is not None and (set(names) - coordinates or mine):
         columns = np.array([i for i, c in enumerate(names) if c in coordinates], dtype=int)
-    ctx = _Context(problem, springs, q, base, gravity, home, cables, boxes, _part_arrays(slot), reference, subsystem, grid_names, not other, columns, frozenset(mine), others)
-    n_parts = len(slot.catalogue)
+    ctx = _Context(problem, springs, q, base, gravity, home, cables, boxes, _part_arrays(chosen), reference, subsystem, grid_names, not other, columns, frozenset(mine), others)
+    n_parts = len(chosen.catalogue)
     if len(springs) == 1:
         return _screen_one(ctx, n_parts)
     own = [sorted(g - set(cables.values())) for g in geometry]

@@ -258,7 +258,7 @@ class SubsystemCertificate:
         if self._revolute:
             c = np.fft.fftn(c, axes=self._revolute) / self._scale
         for j in self._prismatic:
-            c = np.moveaxis(np.tensordot(self.axes[j].inverse, c, axes=([1], [j])), 0, j)
+            c = np.moveaxis(np.tensordot(self.axes[j].inverse, c, axes=([1], [j])), 0, j)  # type: ignore[arg-type]  # a prismatic axis has its inverse
         return c
 
 
@@ -356,7 +356,7 @@ def certificate(problem: Problem) -> Certificate | None:
     """The problem's :class:`Certificate`, built once per problem; None when not certifiable."""
     entry = _cache.get(id(problem))
     if entry is not None and entry[0]() is problem:
-        return entry[1]  # type: ignore[no-any-return]
+        return entry[1]
     try:
         found: Certificate | None = Certificate(problem)
     except NotCertifiable:

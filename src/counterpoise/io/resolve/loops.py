@@ -15,7 +15,7 @@ from typing import Any
 
 from ...model import expr as ex
 from ...model.loops import PRISMATIC_JOINT, REVOLUTE_JOINT, Loop
-from ...model.mechanism import GROUND, Coordinate, Frame, Point
+from ...model.mechanism import GROUND, Coordinate, Frame, Point, Rotation
 from ...model.problem import Problem
 from ...model.units import LENGTH, MAX_LENGTH_M, canonical_dimension, dimension_name
 from .context import Context
@@ -101,7 +101,7 @@ def loops(ctx: Context, frames: Mapping[str, Frame], coordinates: tuple[Coordina
                 raise ctx.fail(f"{key}.axis_b", f"only a revolute joint has axis_b ({why})")
             axis_b = ctx.axis(lp.axis_b, f"{key}.axis_b")
         sub = next(iter(subs))
-        out.append(Loop(name, lp.joint, a, b, axis, sub, lp.description, axis_b))  # type: ignore[arg-type]
+        out.append(Loop(name, lp.joint, a, b, axis, sub, lp.description, axis_b))
     closed = {loop.subsystem for loop in out}
     for c in coordinates:
         if c.dependent and c.subsystem not in closed:
