@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
+from conftest import run_cli
 from counterpoise.cli.app import app
 from test_catalogue import HEADER
 from test_catalogue import PENDULUM as SLOT_PENDULUM
@@ -135,3 +136,40 @@ def test_schedule_options_on_a_payload_range(kinds):
     assert "lies outside the declared range 0 kg to 1 kg" in outside.stdout
     _one_line_error(_invoke("schedule", path, "--payload", "0.5 m"), "--payload: expected a mass")
     _one_line_error(_invoke("schedule", path, "--payload", "0.5 kg", "--set", "novalue"), "--set")
+
+
+def _design_files(folder: Path) -> dict[str, str]:
+    """Every CSV of a solve's reports but the timings: summary.csv without its time columns."""
+    texts = {}
+    for path in sorted(folder.rglob("*.csv")):
+        rows = list(csv.reader(path.open(encoding="utf-8")))
+        if path.name == "summary.csv":
+            timed = [j for j, name in enumerate(rows[0]) if name.endswith("_s")]
+            rows = [[c for j, c in enumerate(row) if j not in timed] for row in rows]
+        texts[str(path.relative_to(folder))] = repr(rows)
+    return texts
+
+
+def test_solve_jobs_gives_the_designs_and_summary_of_one_process(kinds, tmp_path):
+    """``solve --jobs 2`` (a process pool, the light path and the app): the same report files
+    as one process but for the timings, and one summary table with the problems in the
+    files' order; a problem that fails keeps its line and exit status."""
+    files = [str(kinds[k]) for k in ("payload", "plain", "lp", "modes")]
+    serial = run_cli("solve", *files, "--out", str(tmp_path / "serial"), "--set", FAST)
+    pooled = run_cli("solve", *files, "--out", str(tmp_path / "pooled"), "--set", FAST, "--jobs", "2")
+    assert serial.returncode == pooled.returncode == 0, (serial.stderr, pooled.stderr)
+    assert _design_files(tmp_path / "pooled") == _design_files(tmp_path / "serial")
+    names = [line.split("│")[1].strip() for line in pooled.stdout.splitlines() if line.startswith("│")]
+    assert names == ["pendulum_payload_lever", "plain", "lp", "two_tools"], pooled.stdout
+    # the app's path, and an infeasible problem among them: exit 1, its message after the table
+    app = _invoke("solve", files[1], files[2], "--out", str(tmp_path / "app"), "--set", "variables.M.upper=0.01 kg", "--jobs", "2")
+    assert app.exit_code == 1, (app.stdout, app.stderr)
+    assert "plain: " in app.stdout and "infeasible" in app.stdout, app.stdout
+
+
+@pytest.mark.parametrize("value", ["0", "-1"])
+def test_solve_jobs_must_be_a_positive_count(kinds, tmp_path, value):
+    out = tmp_path / "out"
+    result = run_cli("solve", str(kinds["plain"]), "--out", str(out), "--jobs", value)
+    assert result.returncode == 2 and "--jobs" in result.stderr and len(result.stderr.strip().splitlines()) == 1, result.stderr
+    assert not out.exists()

@@ -140,6 +140,7 @@ def solve(
         str, typer.Option("--report", help="html: also write report.html, one self-contained page of the design (docs/build.md); csv: the CSV files only.")
     ] = "html",
     wide: Annotated[bool, typer.Option("--wide", help="Show every column of the summary (inertia, objective, configurations, solve time).")] = False,
+    jobs: Annotated[int, typer.Option("--jobs", help="Worker processes solving the problems (1 = in this process); one summary, in the files' order.")] = 1,
 ) -> None:
     """Solve problem files and write their reports."""
     from .light import REPORTS
@@ -148,12 +149,15 @@ def solve(
     if starts < 1:
         err_console.print(f"--starts: must be at least 1, got {starts}", markup=False)
         raise typer.Exit(2)
+    if jobs < 1:
+        err_console.print(f"--jobs: must be at least 1, got {jobs}", markup=False)
+        raise typer.Exit(2)
     if report not in REPORTS:
         err_console.print(f"--report: expected one of {', '.join(REPORTS)}, got '{report}'", markup=False)
         raise typer.Exit(2)
     problems = _load_all(files, _overrides(set_))
     _check_out(out)
-    rows, worst = solve_all(problems, out, plot, starts, _err_line, html=report == "html")
+    rows, worst = solve_all(problems, out, plot, starts, _err_line, html=report == "html", jobs=jobs)
     _print_summary(rows, wide)
     raise typer.Exit(worst)
 

@@ -5,7 +5,7 @@ and ``counterpoise solve``. The standard library only at import.
   ``tests/test_speed.py`` checks that :data:`COMMANDS` lists exactly the commands of the
   typer app (:mod:`.app`), with the same one-line help: a command added there must be
   added here too.
-- ``counterpoise solve FILE... [--out DIR] [--set KEY=VALUE]... [--plot] [--starts N] [--report html|csv]``
+- ``counterpoise solve FILE... [--out DIR] [--set KEY=VALUE]... [--plot] [--starts N] [--report html|csv] [--jobs N]``
   is parsed and run here (:func:`solve`), with the same output, messages and exit status
   as the typer app's ``solve``: importing typer and rich costs 0.1–0.15 s, a quarter of
   a whole solve. Anything this path does not fully understand is handed to the typer app
@@ -75,7 +75,7 @@ def top_level_help() -> str:
 # -- solve ---------------------------------------------------------------------------------
 
 #: The app's ``solve`` options served here: name -> whether it takes a value.
-SOLVE_OPTIONS: dict[str, bool] = {"--out": True, "--set": True, "--starts": True, "--plot": False, "--report": True, "--wide": False}
+SOLVE_OPTIONS: dict[str, bool] = {"--out": True, "--set": True, "--starts": True, "--plot": False, "--report": True, "--wide": False, "--jobs": True}
 
 #: ``solve --report``: ``html`` (the default) writes report.html beside the CSV files, ``csv`` only those
 REPORTS = ("html", "csv")
@@ -121,7 +121,7 @@ class SolveArgs:
     """The arguments of one ``solve`` call (a plain class: ``dataclasses`` costs ~10 ms
     to import, which ``--help`` would pay)."""
 
-    __slots__ = ("files", "out", "sets", "plot", "starts", "debug", "report", "wide")
+    __slots__ = ("files", "out", "sets", "plot", "starts", "debug", "report", "wide", "jobs")
 
     def __init__(
         self,
@@ -133,8 +133,10 @@ class SolveArgs:
         debug: bool = False,
         report: str = "html",
         wide: bool = False,
+        jobs: int = 1,
     ) -> None:
         self.files, self.out, self.sets, self.plot, self.starts, self.debug, self.report, self.wide = files, out, sets, plot, starts, debug, report, wide
+        self.jobs = jobs
 
     def __eq__(self, other: object) -> bool:
         return isinstance(other, SolveArgs) and all(getattr(self, k) == getattr(other, k) for k in self.__slots__)
@@ -186,7 +188,7 @@ def parse_solve(args: list[str]) -> SolveArgs | None:
             value = rest[i]
             i += 1
         values[name].append(value)
-    if not files or len(values["--out"]) > 1 or len(values["--starts"]) > 1 or len(values["--report"]) > 1:
+    if not files or any(len(values[name]) > 1 for name in ("--out", "--starts", "--report", "--jobs")):
         return None
     report = values["--report"][0] if values["--report"] else "html"
     if report not in REPORTS:
@@ -194,10 +196,13 @@ def parse_solve(args: list[str]) -> SolveArgs | None:
     starts = values["--starts"][0] if values["--starts"] else "1"
     if not _INT.fullmatch(starts) or int(starts) < 1:
         return None
+    jobs = values["--jobs"][0] if values["--jobs"] else "1"
+    if not _INT.fullmatch(jobs) or int(jobs) < 1:
+        return None
     out = values["--out"][0] if values["--out"] else "results"
     if not out:
         return None
-    return SolveArgs(tuple(files), out, tuple(values["--set"]), "--plot" in flags, int(starts), debug, report, "--wide" in flags)
+    return SolveArgs(tuple(files), out, tuple(values["--set"]), "--plot" in flags, int(starts), debug, report, "--wide" in flags, int(jobs))
 
 
 def solve(args: list[str], pause_gc: bool = False) -> int | None:
@@ -299,7 +304,7 @@ def _run(a: SolveArgs, paused_gc: bool = False) -> int:
 
         gc.freeze()
         gc.enable()
-    rows, worst = solve_all(problems, Path(a.out), a.plot, a.starts, _err, html=a.report == "html")
+    rows, worst = solve_all(problems, Path(a.out), a.plot, a.starts, _err, html=a.report == "html", jobs=a.jobs)
     print_summary(rows, a.wide)
     return worst
 
