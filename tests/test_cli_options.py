@@ -16,41 +16,10 @@ from typer.testing import CliRunner
 
 from conftest import run_cli
 from counterpoise.cli.app import app
+from builders import pendulum_toml, slot_pendulum_toml
 from test_catalogue import HEADER
-from test_catalogue import PENDULUM as SLOT_PENDULUM
 from test_direct_springs import ARM
 from test_methods import PAYLOAD_PENDULUM, TWO_TOOLS
-
-PLAIN = """
-[problem]
-name = "{name}"
-[gravity]
-acceleration = "9.81 m/s^2"
-direction = [0, -1, 0]
-[parameters]
-m = "0.8 kg"
-r = "0.3 m"
-{fixed}
-[subsystems.arm]
-coordinates.q = {{ range = ["-180 deg", "180 deg"] }}
-[frames.link]
-transforms = [{{ rotate = "z", angle = "q" }}]
-[bodies.tip]
-frame = "link"
-mass = "m"
-com = ["r", 0, 0]
-[variables.M]
-lower = "0 kg"
-upper = "100 kg"
-{free}
-[counter_masses.cm]
-frame = "link"
-mass = "M"
-position = ["-b", 0, 0]
-[objective]
-mass_weight = 1
-inertia_weight = "25 1/m^2"
-"""
 
 FAST = "settings.verify_samples=2000"
 
@@ -58,10 +27,10 @@ FAST = "settings.verify_samples=2000"
 def _kinds(tmp_path: Path) -> dict[str, Path]:
     (tmp_path / "parts.csv").write_text(HEADER + "\nGOOD,200,0.05,1,50,0.3,0.01,0.001,x\n", encoding="utf-8")
     texts = {
-        "plain": PLAIN.format(name="plain", fixed="", free='[variables.b]\nlower = "0.02 m"\nupper = "1 m"'),
-        "lp": PLAIN.format(name="lp", fixed='b = "0.2 m"', free=""),
+        "plain": pendulum_toml(0.8, 0.3, (0.02, 1.0), 25.0, name="plain"),
+        "lp": pendulum_toml(0.8, 0.3, 0.2, 25.0, name="lp"),
         "minimax": ARM.format(spring='stiffness = "k"\nfree_length = "50 mm"\ninitial_tension = "2 N"\nmax_length = "0.6 m"', extra="", stiffness_parameter='k = "200 N/m"'),
-        "slots": SLOT_PENDULUM.format(mass=repr(2.0 / (9.81 * 0.2)), catalogue="parts.csv", rate_tol="10 %", tension_tol="20 %"),
+        "slots": slot_pendulum_toml("pendulum_catalogue", 2.0 / (9.81 * 0.2)),
         "payload": PAYLOAD_PENDULUM,
         "modes": TWO_TOOLS.replace('m_tool = "5 kg"', 'm_tool = "1.5 kg"'),
     }

@@ -26,6 +26,7 @@ import pytest
 
 from conftest import run_cli
 
+from builders import counter_mass_toml, one_link_toml
 from conftest import PROBLEMS, solved, value
 
 CLI = Path(sys.executable).with_name("counterpoise")
@@ -138,27 +139,10 @@ class TestEssombaVariablePayload:
 # The schedule between its grid points, and a payload the adjustment follows non-linearly
 # --------------------------------------------------------------------------------------
 
-PENDULUM = """
-[problem]
-name = "pendulum_payload"
-[gravity]
-acceleration = "9.81 m/s^2"
-direction = [0, -1, 0]
-[parameters]
-m = "1 kg"
-r = "0.3 m"
-[subsystems.arm]
-coordinates.q = { range = ["-180 deg", "180 deg"] }
-[frames.link]
-transforms = [{ rotate = "z", angle = "q" }]
-[bodies.tip]
-frame = "link"
-mass = "m"
-com = ["r", 0, 0]
-[payloads.tool]
-frame = "link"
-position = ["r", 0, 0]
-range = ["0 kg", "1 kg"]
+PENDULUM = one_link_toml(
+    "pendulum_payload",
+    'm = "1 kg"\nr = "0.3 m"',
+    """
 [variables.M]
 lower = "0 kg"
 upper = "20 kg"
@@ -167,11 +151,9 @@ description = "the square of the counter-mass lever: u(p) = ((m + p) r / M)^2, n
 lower = "0.0025 m^2"
 upper = "0.09 m^2"
 adjustable = true
-[counter_masses.cm]
-frame = "link"
-mass = "M"
-position = ["-sqrt(u)", 0, 0]
-"""
+""" + counter_mass_toml('["-sqrt(u)", 0, 0]'),
+    payload=("0 kg", "1 kg"),
+)
 
 
 def test_nonlinear_adjustment_is_solved_densely_and_gets_no_formula():
