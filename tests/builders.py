@@ -1,8 +1,10 @@
 """Small mechanisms built in code for the tests (no paper numbers here).
 
 They use the project's Python API (:class:`counterpoise.ProblemBuilder`), the same
-validation as a problem file; :func:`pendulum_toml` keeps one TOML text for the tests
-that are about the file format itself.
+validation as a problem file. Tests about the file format itself write problem-file text:
+they build it here (:func:`toml_head`, :func:`one_link_toml`, :func:`counter_mass_toml`,
+:func:`pendulum_toml`, :func:`slot_pendulum_toml`) and write out only the tables that are
+theirs, so that one mechanism is not copied from test file to test file.
 """
 
 from __future__ import annotations

@@ -7,6 +7,7 @@ from pathlib import Path
 import pytest
 
 from builders import counter_mass_toml, one_link_toml
+from conftest import solved
 from counterpoise.designer.methods import DesignMethod, Minimax, MultiStart, Plain
 from counterpoise.errors import ProblemFileError
 from counterpoise.formulation.layout import Slot
@@ -128,7 +129,7 @@ def test_woo2019_hybrid_catalogue_part_holds_over_the_payload_range(tmp_path):
 
     from counterpoise.report.files import report_texts
 
-    result = design(load_problem(ROOT / "problems" / "woo2019_hybrid_catalogue.toml"))
+    result = solved("woo2019_hybrid_catalogue")  # shared with test_report_html
     assert result.status is Status.OPTIMAL, result.message
     assert result.payload.schedule.feasible and result.payload.checked == pytest.approx((0.0, 0.122))
     assert result.parts.fits
