@@ -92,10 +92,7 @@ def test_cli_validate_ok():
 
 
 def test_cli_bad_set_syntax_exit_2(tmp_path):
-    run = subprocess.run(
-        [CLI, "solve", str(PROBLEMS / "yasir2019_counter_mass.toml"), "--out", str(tmp_path), "--set", "novalue"],
-        capture_output=True, text=True,
-    )
+    run = run_cli("solve", str(PROBLEMS / "yasir2019_counter_mass.toml"), "--out", str(tmp_path), "--set", "novalue")
     assert run.returncode == 2
     assert run.stderr.strip() == "--set novalue: expected KEY=VALUE"
     assert not any(tmp_path.iterdir())
