@@ -150,6 +150,25 @@ def counter_mass_toml(position: str, name: str = "cm", frame: str = "link", mass
     return f'[counter_masses.{name}]\nframe = "{frame}"\nmass = "{mass}"\nposition = {position}\n'
 
 
+def payload_pendulum_toml(
+    name: str, lever: str, lower: str, upper: str, position: str, description: str = "", mass_upper: str = "20 kg", r: str = "0.3 m"
+) -> str:
+    """m = 1 kg at ``r`` on one link with a payload range of 0 to 1 kg at the same point, and a
+    counter-mass M (0 to ``mass_upper``) at ``position`` behind the joint, whose lever
+    variable ``lever`` (in [``lower``, ``upper``]) is set per payload (adjustable)."""
+    described = f'description = "{description}"\n' if description else ""
+    rest = f"""
+[variables.M]
+lower = "0 kg"
+upper = "{mass_upper}"
+[variables.{lever}]
+{described}lower = "{lower}"
+upper = "{upper}"
+adjustable = true
+""" + counter_mass_toml(position)
+    return one_link_toml(name, f'm = "1 kg"\nr = "{r}"', rest, payload=("0 kg", "1 kg"))
+
+
 def slot_pendulum_toml(
     name: str,
     mass: float,

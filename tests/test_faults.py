@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from builders import counter_mass_toml, one_link_toml
+from builders import payload_pendulum_toml
 from conftest import PROBLEMS, ROOT
 from counterpoise.errors import ProblemFileError
 
@@ -321,20 +321,7 @@ def test_set_reads_an_array_as_toml_and_an_entry_by_its_index(capsys):
 
 #: a lever balanced by a counter-mass M (shared) on an adjustable lever b, payload 0-1 kg at
 #: r = 300 mm on top of the 1 kg tip: M b = (1 kg + p) r, least M with b <= b.upper
-LEVER = one_link_toml(
-    "lever_payload",
-    'm = "1 kg"\nr = "300 mm"',
-    """
-[variables.M]
-lower = "0 kg"
-upper = "3 kg"
-[variables.b]
-lower = "100 mm"
-upper = "250 mm"
-adjustable = true
-""" + counter_mass_toml('["-b", 0, 0]'),
-    payload=("0 kg", "1 kg"),
-)
+LEVER = payload_pendulum_toml("lever_payload", "b", "100 mm", "250 mm", '["-b", 0, 0]', mass_upper="3 kg", r="300 mm")
 
 
 def test_a_study_of_an_adjustments_bound_reaches_the_payload_schedule(tmp_path):

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from builders import counter_mass_toml, one_link_toml
+from builders import counter_mass_toml, one_link_toml, payload_pendulum_toml
 from conftest import solved
 from counterpoise.designer.methods import DesignMethod, Minimax, MultiStart, Plain
 from counterpoise.errors import ProblemFileError
@@ -17,20 +17,8 @@ from counterpoise.solvers.base import Status
 
 ROOT = Path(__file__).resolve().parent.parent
 
-PAYLOAD_PENDULUM = one_link_toml(
-    "pendulum_payload_lever",
-    'm = "1 kg"\nr = "0.3 m"',
-    """
-[variables.M]
-lower = "0 kg"
-upper = "20 kg"
-[variables.b]
-description = "the counter-mass lever, set per payload: b(p) = (m + p) r / M"
-lower = "0.05 m"
-upper = "0.3 m"
-adjustable = true
-""" + counter_mass_toml('["-b", 0, 0]'),
-    payload=("0 kg", "1 kg"),
+PAYLOAD_PENDULUM = payload_pendulum_toml(
+    "pendulum_payload_lever", "b", "0.05 m", "0.3 m", '["-b", 0, 0]', description="the counter-mass lever, set per payload: b(p) = (m + p) r / M"
 )
 
 

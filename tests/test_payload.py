@@ -26,7 +26,7 @@ import pytest
 
 from conftest import run_cli
 
-from builders import counter_mass_toml, one_link_toml
+from builders import payload_pendulum_toml
 from conftest import PROBLEMS, solved, value
 
 CLI = Path(sys.executable).with_name("counterpoise")
@@ -139,20 +139,9 @@ class TestEssombaVariablePayload:
 # The schedule between its grid points, and a payload the adjustment follows non-linearly
 # --------------------------------------------------------------------------------------
 
-PENDULUM = one_link_toml(
-    "pendulum_payload",
-    'm = "1 kg"\nr = "0.3 m"',
-    """
-[variables.M]
-lower = "0 kg"
-upper = "20 kg"
-[variables.u]
-description = "the square of the counter-mass lever: u(p) = ((m + p) r / M)^2, not linear in p"
-lower = "0.0025 m^2"
-upper = "0.09 m^2"
-adjustable = true
-""" + counter_mass_toml('["-sqrt(u)", 0, 0]'),
-    payload=("0 kg", "1 kg"),
+PENDULUM = payload_pendulum_toml(
+    "pendulum_payload", "u", "0.0025 m^2", "0.09 m^2", '["-sqrt(u)", 0, 0]',
+    description="the square of the counter-mass lever: u(p) = ((m + p) r / M)^2, not linear in p",
 )
 
 
