@@ -4,6 +4,8 @@ PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
+# worker processes of `make demo`'s solve (the problems are independent)
+JOBS   ?= 2
 
 .PHONY: demo studies test bench clean
 
@@ -15,7 +17,7 @@ $(STAMP): pyproject.toml
 	@touch $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/counterpoise solve problems/*.toml --out results --plot
+	$(BIN)/counterpoise solve problems/*.toml --out results --plot --jobs $(JOBS)
 
 # the committed studies in results/: the Pareto front of the free-extensions leg, a
 # 1000-point payload sweep of the hybrid (docs/studies.md), the tilting-base trade-off

@@ -1,8 +1,10 @@
 """Small mechanisms built in code for the tests (no paper numbers here).
 
 They use the project's Python API (:class:`counterpoise.ProblemBuilder`), the same
-validation as a problem file; :func:`pendulum_toml` keeps one TOML text for the tests
-that are about the file format itself.
+validation as a problem file. Tests about the file format itself write problem-file text:
+they build it here (:func:`toml_head`, :func:`one_link_toml`, :func:`counter_mass_toml`,
+:func:`pendulum_toml`, :func:`slot_pendulum_toml`) and write out only the tables that are
+theirs, so that one mechanism is not copied from test file to test file.
 """
 
 from __future__ import annotations
@@ -97,67 +99,138 @@ def pendulum(m: float, r: float, b_range: tuple[float, float], w: float, mass_up
     return b.objective(mass_weight=1, inertia_weight=f"{w} 1/m^2")
 
 
-def pendulum_toml(m: float, r: float, b_range: tuple[float, float], w: float, mass_upper: float = 100.0) -> str:
-    """The same pendulum as problem-file text, for tests of the file format itself."""
-    lo, hi = b_range
+def toml_head(name: str, parameters: str) -> str:
+    """The first tables of every test problem file: [problem] ``name``, [gravity] 9.81 m/s²
+    along −y, and [parameters] with the TOML lines ``parameters``."""
     return f"""
 [problem]
-name = "pendulum"
+name = "{name}"
 [gravity]
 acceleration = "{G} m/s^2"
 direction = [0, -1, 0]
 [parameters]
-m = "{m} kg"
-r = "{r} m"
-[subsystems.arm]
-coordinates.q = {{ range = ["-180 deg", "180 deg"] }}
-[frames.link]
-transforms = [{{ rotate = "z", angle = "q" }}]
-[bodies.tip]
-frame = "link"
-mass = "m"
-com = ["r", 0, 0]
+{parameters.strip()}
+"""
+
+
+def one_link_toml(
+    name: str,
+    parameters: str,
+    rest: str,
+    *,
+    coordinate: str = "q",
+    joint_range: tuple[str, str] = ("-180 deg", "180 deg"),
+    frame: str = "link",
+    body: str = "tip",
+    mass: str = "m",
+    com: str = '["r", 0, 0]',
+    payload: tuple[str, str] | None = None,
+) -> str:
+    """Problem-file text of the tests' one-link mechanism: ``frame`` turns about z at the
+    ground by ``coordinate`` (subsystem ``arm``, in ``joint_range``) and carries ``body``
+    (``mass`` at ``com``), under g = 9.81 m/s² along −y. ``parameters``: the lines of
+    [parameters]; ``payload``: a payload range [payloads.tool] at ``com``; ``rest``: the
+    other tables (variables, counter-masses, springs, scenarios, objective) as TOML text."""
+    text = toml_head(name, parameters) + f"""[subsystems.arm]
+coordinates.{coordinate} = {{ range = ["{joint_range[0]}", "{joint_range[1]}"] }}
+[frames.{frame}]
+transforms = [{{ rotate = "z", angle = "{coordinate}" }}]
+[bodies.{body}]
+frame = "{frame}"
+mass = "{mass}"
+com = {com}
+"""
+    if payload is not None:
+        text += f'[payloads.tool]\nframe = "{frame}"\nposition = {com}\nrange = ["{payload[0]}", "{payload[1]}"]\n'
+    return text + rest.lstrip("\n")
+
+
+def counter_mass_toml(position: str, name: str = "cm", frame: str = "link", mass: str = "M") -> str:
+    """A [counter_masses.<name>] table: ``mass`` at ``position`` (a TOML array) in ``frame``."""
+    return f'[counter_masses.{name}]\nframe = "{frame}"\nmass = "{mass}"\nposition = {position}\n'
+
+
+def payload_pendulum_toml(
+    name: str, lever: str, lower: str, upper: str, position: str, description: str = "", mass_upper: str = "20 kg", r: str = "0.3 m"
+) -> str:
+    """m = 1 kg at ``r`` on one link with a payload range of 0 to 1 kg at the same point, and a
+    counter-mass M (0 to ``mass_upper``) at ``position`` behind the joint, whose lever
+    variable ``lever`` (in [``lower``, ``upper``]) is set per payload (adjustable)."""
+    described = f'description = "{description}"\n' if description else ""
+    rest = f"""
+[variables.M]
+lower = "0 kg"
+upper = "{mass_upper}"
+[variables.{lever}]
+{described}lower = "{lower}"
+upper = "{upper}"
+adjustable = true
+""" + counter_mass_toml(position)
+    return one_link_toml(name, f'm = "1 kg"\nr = "{r}"', rest, payload=("0 kg", "1 kg"))
+
+
+def slot_pendulum_toml(
+    name: str,
+    mass: float,
+    r: float = 0.2,
+    b: float = 0.1,
+    catalogue: str = "parts.csv",
+    rate_tolerance: str = "10 %",
+    tension_tolerance: str = "20 %",
+    h_upper: str = "0.3 m",
+    joint_range: tuple[float, float] = (-60.0, 60.0),
+) -> str:
+    """A pendulum (mass ``mass`` kg at ``r`` m on a link at angle theta) with a catalogue
+    spring (slot ``s`` of catalogue ``catalogue``) from (0, h) on the ground to ``b`` m
+    along the link, h free in [0.02 m, ``h_upper``]: V = m g r sin(theta) − k b h sin(theta),
+    balanced when k b h = m g r."""
+    rest = f"""
+[catalogues.parts]
+file = "{catalogue}"
+[slots.s]
+catalogue = "parts"
+rate_tolerance = "{rate_tolerance}"
+initial_tension_tolerance = "{tension_tolerance}"
+[variables.h]
+lower = "0.02 m"
+upper = "{h_upper}"
+initial = "0.15 m"
+[springs.s]
+slot = "s"
+from = {{ frame = "ground", point = [0, "h", 0] }}
+to = {{ frame = "link", point = ["b", 0, 0] }}
+"""
+    lo, hi = joint_range
+    parameters = f'm = "{mass} kg"\nr = "{r} m"\nb = "{b} m"'
+    return one_link_toml(name, parameters, rest, coordinate="theta", joint_range=(f"{lo} deg", f"{hi} deg"), body="link")
+
+
+def pendulum_toml(m: float, r: float, b_range: tuple[float, float] | float, w: float, mass_upper: float = 100.0, name: str = "pendulum") -> str:
+    """The same pendulum as :func:`pendulum`, as problem-file text, for tests of the file
+    format itself. A number for ``b_range``: the lever b is that fixed parameter (m), not a
+    variable (the design is then linear in M: an LP)."""
+    if isinstance(b_range, tuple):
+        parameters, lever = f'm = "{m} kg"\nr = "{r} m"', f'[variables.b]\nlower = "{b_range[0]} m"\nupper = "{b_range[1]} m"\n'
+    else:
+        parameters, lever = f'm = "{m} kg"\nr = "{r} m"\nb = "{b_range} m"', ""
+    rest = f"""
 [variables.M]
 lower = "0 kg"
 upper = "{mass_upper} kg"
-[variables.b]
-lower = "{lo} m"
-upper = "{hi} m"
-[counter_masses.cm]
-frame = "link"
-mass = "M"
-position = ["-b", 0, 0]
-[objective]
+{lever}{counter_mass_toml('["-b", 0, 0]')}[objective]
 mass_weight = 1
 inertia_weight = "{w} 1/m^2"
 """
+    return one_link_toml(name, parameters, rest)
 
 
 #: A counter-mass whose x position scales with its own mass: its x-moment is quadratic in M,
 #: its y-moment linear, so two independent balance conditions for one variable (the
 #: over-determined path of the designer: balanced only at M = M0).
-OVERDETERMINED_TOML = """
-[problem]
-name = "overdetermined"
-[gravity]
-acceleration = "9.81 m/s^2"
-direction = [0, -1, 0]
-[parameters]
-M0 = "1 kg"
-d0 = "0.1 m"
-[subsystems.arm]
-coordinates.q = { range = ["-180 deg", "180 deg"] }
-[frames.link]
-transforms = [{ rotate = "z", angle = "q" }]
-[bodies.tip]
-frame = "link"
-mass = "1 kg"
-com = ["0.1 m", "0.1 m", 0]
-[variables.M]
-lower = "0.2 kg"
-upper = "3 kg"
-[counter_masses.cm]
-frame = "link"
-mass = "M"
-position = ["-d0 * M / M0", "-d0", 0]
-"""
+OVERDETERMINED_TOML = one_link_toml(
+    "overdetermined",
+    'M0 = "1 kg"\nd0 = "0.1 m"',
+    '[variables.M]\nlower = "0.2 kg"\nupper = "3 kg"\n' + counter_mass_toml('["-d0 * M / M0", "-d0", 0]'),
+    mass="1 kg",
+    com='["0.1 m", "0.1 m", 0]',
+)

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from builders import counter_mass_toml, one_link_toml, slot_pendulum_toml
 from counterpoise import design, load_problem
 from counterpoise.catalogue import CatalogueError, mapping_from, read_catalogue
 from counterpoise.catalogue.limits import margins
@@ -104,53 +105,9 @@ def test_unknown_preset_and_field():
 # A pendulum with catalogue springs: the tolerance report by hand
 # --------------------------------------------------------------------------------------
 
-PENDULUM = """
-[problem]
-name = "pendulum_catalogue"
-
-[gravity]
-acceleration = "9.81 m/s^2"
-direction = [0, -1, 0]
-
-[parameters]
-m = "{mass} kg"
-r = "0.2 m"
-b = "0.1 m"
-
-[catalogues.parts]
-file = "{catalogue}"
-
-[slots.s]
-catalogue = "parts"
-rate_tolerance = "{rate_tol}"
-initial_tension_tolerance = "{tension_tol}"
-
-[variables.h]
-lower = "0.02 m"
-upper = "0.3 m"
-initial = "0.15 m"
-
-[subsystems.arm]
-coordinates.theta = {{ range = ["-60 deg", "60 deg"] }}
-
-[frames.link]
-transforms = [{{ rotate = "z", angle = "theta" }}]
-
-[bodies.link]
-frame = "link"
-mass = "m"
-com = ["r", 0, 0]
-
-[springs.s]
-slot = "s"
-from = {{ frame = "ground", point = [0, "h", 0] }}
-to = {{ frame = "link", point = ["b", 0, 0] }}
-"""
-
-
 def pendulum(tmp_path: Path, rows: list[str], mass: float, rate_tol: str = "10 %", tension_tol: str = "20 %", extra: str = ""):
     catalogue = write(tmp_path / "parts.csv", HEADER + "\n" + "\n".join(rows) + "\n")
-    text = PENDULUM.format(mass=repr(mass), catalogue=catalogue.name, rate_tol=rate_tol, tension_tol=tension_tol) + extra
+    text = slot_pendulum_toml("pendulum_catalogue", mass, catalogue=catalogue.name, rate_tolerance=rate_tol, tension_tolerance=tension_tol) + extra
     return load_problem(write(tmp_path / "pendulum.toml", text))
 
 
@@ -227,28 +184,16 @@ def test_rate_outside_the_balanceable_window_is_pruned_before_solving(tmp_path):
 # Search: brute force agrees; slots that interact go through branch and bound
 # --------------------------------------------------------------------------------------
 
-TWO_SPRINGS = """
-[problem]
-name = "two_slots"
-
-[gravity]
-acceleration = "9.81 m/s^2"
-direction = [0, -1, 0]
-
-[parameters]
-m = "3 kg"
-r = "0.3 m"
-h = "0.1 m"
-c = "0.1 m"
-
+TWO_SPRINGS = one_link_toml(
+    "two_slots",
+    'm = "3 kg"\nr = "0.3 m"\nh = "0.1 m"\nc = "0.1 m"',
+    """
 [catalogues.parts]
 file = "parts.csv"
-
 [slots.first]
 catalogue = "parts"
 [slots.second]
 catalogue = "parts"
-
 [variables.b1]
 lower = "0.01 m"
 upper = "0.1 m"
@@ -260,24 +205,7 @@ initial = "0.05 m"
 [variables.M]
 lower = "0 kg"
 upper = "50 kg"
-
-[subsystems.arm]
-coordinates.theta = { range = ["-50 deg", "50 deg"] }
-
-[frames.link]
-transforms = [{ rotate = "z", angle = "theta" }]
-
-[bodies.link]
-frame = "link"
-mass = "m"
-com = ["r", 0, 0]
-
-[counter_masses.M]
-frame = "link"
-mass = "M"
-position = ["-c", 0, 0]
-
-[springs.one]
+""" + counter_mass_toml('["-c", 0, 0]', name="M") + """[springs.one]
 slot = "first"
 from = { frame = "ground", point = [0, "h", 0] }
 to = { frame = "link", point = ["b1", 0, 0] }
@@ -285,10 +213,13 @@ to = { frame = "link", point = ["b1", 0, 0] }
 slot = "second"
 from = { frame = "ground", point = [0, "-h", 0] }
 to = { frame = "link", point = ["-b2", 0, 0] }
-
 [objective]
 mass_weight = 1
-"""
+""",
+    coordinate="theta",
+    joint_range=("-50 deg", "50 deg"),
+    body="link",
+)
 
 
 def two_slot_problem(tmp_path: Path, overrides: dict | None = None):
@@ -362,13 +293,11 @@ def test_independent_slots_are_searched_separately():
 
 def test_cli_checks_catalogues(tmp_path):
     """`counterpoise catalogue`: ok line per good file; one error line and exit 2 for a bad row."""
-    import subprocess
-    import sys
+    from conftest import run_cli
 
-    cli = Path(sys.executable).with_name("counterpoise")
     bad = write(tmp_path / "bad.csv", f"{HEADER}\nP-1,500,0.05,1,40,0.12,0.01,0.001,x\nP-2,-5,0.05,1,40,0.12,0.01,0.001,x\n")
-    proc = subprocess.run([str(cli), "catalogue", "shipped"], capture_output=True, text=True, timeout=120)
+    proc = run_cli("catalogue", "shipped")
     assert proc.returncode == 0 and "572 parts" in proc.stdout, proc.stderr
-    proc = subprocess.run([str(cli), "catalogue", str(bad)], capture_output=True, text=True, timeout=120)
+    proc = run_cli("catalogue", str(bad))
     assert proc.returncode == 2
     assert proc.stderr.strip() == f"{bad}: row 2 (line 3), column rate_N_per_m: the rate must be positive, got -5 N/m"

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import solved
 from counterpoise import design, load_problem
 from counterpoise.catalogue.limits import margins
 from counterpoise.report.files import report_texts
@@ -20,19 +21,20 @@ from counterpoise.solvers.base import Status
 PROBLEMS = Path(__file__).resolve().parent.parent / "problems"
 
 
+# the designs are conftest.solved's: shared with the other tests of these files (drawing, page, build sheet)
 @pytest.fixture(scope="module")
 def orientation():
-    return design(load_problem(PROBLEMS / "essomba2021_orientation_catalogue.toml"))
+    return solved("essomba2021_orientation_catalogue")
 
 
 @pytest.fixture(scope="module")
 def position():
-    return design(load_problem(PROBLEMS / "essomba2021_position_catalogue.toml"))
+    return solved("essomba2021_position_catalogue")
 
 
 @pytest.fixture(scope="module")
 def hybrid():
-    return design(load_problem(PROBLEMS / "yasir2019_hybrid_catalogue.toml"))
+    return solved("yasir2019_hybrid_catalogue")
 
 
 def values_mm(result):

@@ -14,42 +14,12 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
+from conftest import run_cli
 from counterpoise.cli.app import app
+from builders import pendulum_toml, slot_pendulum_toml
 from test_catalogue import HEADER
-from test_catalogue import PENDULUM as SLOT_PENDULUM
 from test_direct_springs import ARM
 from test_methods import PAYLOAD_PENDULUM, TWO_TOOLS
-
-PLAIN = """
-[problem]
-name = "{name}"
-[gravity]
-acceleration = "9.81 m/s^2"
-direction = [0, -1, 0]
-[parameters]
-m = "0.8 kg"
-r = "0.3 m"
-{fixed}
-[subsystems.arm]
-coordinates.q = {{ range = ["-180 deg", "180 deg"] }}
-[frames.link]
-transforms = [{{ rotate = "z", angle = "q" }}]
-[bodies.tip]
-frame = "link"
-mass = "m"
-com = ["r", 0, 0]
-[variables.M]
-lower = "0 kg"
-upper = "100 kg"
-{free}
-[counter_masses.cm]
-frame = "link"
-mass = "M"
-position = ["-b", 0, 0]
-[objective]
-mass_weight = 1
-inertia_weight = "25 1/m^2"
-"""
 
 FAST = "settings.verify_samples=2000"
 
@@ -57,10 +27,10 @@ FAST = "settings.verify_samples=2000"
 def _kinds(tmp_path: Path) -> dict[str, Path]:
     (tmp_path / "parts.csv").write_text(HEADER + "\nGOOD,200,0.05,1,50,0.3,0.01,0.001,x\n", encoding="utf-8")
     texts = {
-        "plain": PLAIN.format(name="plain", fixed="", free='[variables.b]\nlower = "0.02 m"\nupper = "1 m"'),
-        "lp": PLAIN.format(name="lp", fixed='b = "0.2 m"', free=""),
+        "plain": pendulum_toml(0.8, 0.3, (0.02, 1.0), 25.0, name="plain"),
+        "lp": pendulum_toml(0.8, 0.3, 0.2, 25.0, name="lp"),
         "minimax": ARM.format(spring='stiffness = "k"\nfree_length = "50 mm"\ninitial_tension = "2 N"\nmax_length = "0.6 m"', extra="", stiffness_parameter='k = "200 N/m"'),
-        "slots": SLOT_PENDULUM.format(mass=repr(2.0 / (9.81 * 0.2)), catalogue="parts.csv", rate_tol="10 %", tension_tol="20 %"),
+        "slots": slot_pendulum_toml("pendulum_catalogue", 2.0 / (9.81 * 0.2)),
         "payload": PAYLOAD_PENDULUM,
         "modes": TWO_TOOLS.replace('m_tool = "5 kg"', 'm_tool = "1.5 kg"'),
     }
@@ -135,3 +105,40 @@ def test_schedule_options_on_a_payload_range(kinds):
     assert "lies outside the declared range 0 kg to 1 kg" in outside.stdout
     _one_line_error(_invoke("schedule", path, "--payload", "0.5 m"), "--payload: expected a mass")
     _one_line_error(_invoke("schedule", path, "--payload", "0.5 kg", "--set", "novalue"), "--set")
+
+
+def _design_files(folder: Path) -> dict[str, str]:
+    """Every CSV of a solve's reports but the timings: summary.csv without its time columns."""
+    texts = {}
+    for path in sorted(folder.rglob("*.csv")):
+        rows = list(csv.reader(path.open(encoding="utf-8")))
+        if path.name == "summary.csv":
+            timed = [j for j, name in enumerate(rows[0]) if name.endswith("_s")]
+            rows = [[c for j, c in enumerate(row) if j not in timed] for row in rows]
+        texts[str(path.relative_to(folder))] = repr(rows)
+    return texts
+
+
+def test_solve_jobs_gives_the_designs_and_summary_of_one_process(kinds, tmp_path):
+    """``solve --jobs 2`` (a process pool, the light path and the app): the same report files
+    as one process but for the timings, and one summary table with the problems in the
+    files' order; a problem that fails keeps its line and exit status."""
+    files = [str(kinds[k]) for k in ("payload", "plain", "lp", "modes")]
+    serial = run_cli("solve", *files, "--out", str(tmp_path / "serial"), "--set", FAST)
+    pooled = run_cli("solve", *files, "--out", str(tmp_path / "pooled"), "--set", FAST, "--jobs", "2")
+    assert serial.returncode == pooled.returncode == 0, (serial.stderr, pooled.stderr)
+    assert _design_files(tmp_path / "pooled") == _design_files(tmp_path / "serial")
+    names = [line.split("│")[1].strip() for line in pooled.stdout.splitlines() if line.startswith("│")]
+    assert names == ["pendulum_payload_lever", "plain", "lp", "two_tools"], pooled.stdout
+    # the app's path, and an infeasible problem among them: exit 1, its message after the table
+    app = _invoke("solve", files[1], files[2], "--out", str(tmp_path / "app"), "--set", "variables.M.upper=0.01 kg", "--jobs", "2")
+    assert app.exit_code == 1, (app.stdout, app.stderr)
+    assert "plain: " in app.stdout and "infeasible" in app.stdout, app.stdout
+
+
+@pytest.mark.parametrize("value", ["0", "-1"])
+def test_solve_jobs_must_be_a_positive_count(kinds, tmp_path, value):
+    out = tmp_path / "out"
+    result = run_cli("solve", str(kinds["plain"]), "--out", str(out), "--jobs", value)
+    assert result.returncode == 2 and "--jobs" in result.stderr and len(result.stderr.strip().splitlines()) == 1, result.stderr
+    assert not out.exists()

@@ -32,6 +32,7 @@ from counterpoise.mechanics.poses import mechanics
 from counterpoise.formulation.constraints import spring_force_length
 from counterpoise.solvers.base import Status
 
+from builders import counter_mass_toml, one_link_toml
 from conftest import PROBLEMS
 
 G = 9.81
@@ -150,40 +151,26 @@ def test_nonlinear_constraint_moves_an_lp_to_the_nlp():
     assert _mass(result) == pytest.approx((1 * G * 0.2 - 0.75) / (G * 0.25), rel=1e-6)
 
 
-SPRING_LP_TOML = """
-[problem]
-name = "spring_lp"
-[gravity]
-acceleration = "9.81 m/s^2"
-direction = [0, -1, 0]
-[parameters]
-m = "1 kg"
-r = "0.2 m"
-b = "0.25 m"
+SPRING_LP_TOML = one_link_toml(
+    "spring_lp",
+    'm = "1 kg"\nr = "0.2 m"\nb = "0.25 m"',
+    """
 [variables.M]
 lower = "0 kg"
 upper = "10 kg"
 [variables.k]
 lower = "0 N/m"
 upper = "100 N/m"
-[subsystems.arm]
-coordinates.phi = { range = ["-90 deg", "90 deg"] }
-[frames.link]
-transforms = [{ rotate = "z", angle = "phi" }]
-[bodies.link]
-frame = "link"
-mass = "m"
-com = ["r", 0, 0]
-[counter_masses.cm]
-frame = "link"
-mass = "M"
-position = ["-b", 0, 0]
-[springs.s]
+""" + counter_mass_toml('["-b", 0, 0]') + """[springs.s]
 stiffness = "k"
 max_force = "15 N"
 from = { frame = "ground", point = [0, "0.1 m", 0] }
 to = { frame = "link", point = ["0.1 m", 0, 0] }
-"""
+""",
+    coordinate="phi",
+    joint_range=("-90 deg", "90 deg"),
+    body="link",
+)
 
 
 def test_design_csv_and_status_name_the_binding_limit(tmp_path, capsys):
@@ -297,15 +284,10 @@ def test_shipped_problem_with_an_active_constraint():
     assert min(extensions) < 0.5  # at least one extension pulled in from its bound
 
 
-DIRECT = """
-[problem]
-name = "direct_arm"
-[gravity]
-acceleration = "9.81 m/s^2"
-direction = [0, -1, 0]
-[parameters]
-m = "1 kg"
-r = "0.2 m"
+DIRECT = one_link_toml(
+    "direct_arm",
+    'm = "1 kg"\nr = "0.2 m"',
+    """
 [variables.k]
 lower = "0 N/m"
 upper = "2000 N/m"
@@ -318,14 +300,6 @@ initial = "0.2 m"
 lower = "0.01 m"
 upper = "0.3 m"
 initial = "0.1 m"
-[subsystems.arm]
-coordinates.phi = { range = ["-45 deg", "55 deg"] }
-[frames.link]
-transforms = [{ rotate = "z", angle = "phi" }]
-[bodies.link]
-frame = "link"
-mass = "m"
-com = ["r", 0, 0]
 [springs.s]
 stiffness = "k"
 mount = "direct"
@@ -336,7 +310,11 @@ to = { frame = "link", point = ["b", 0, 0] }
 [constraints.strong_at_home]
 expression = "force_home(s)"
 lower = "30 N"
-"""
+""",
+    coordinate="phi",
+    joint_range=("-45 deg", "55 deg"),
+    body="link",
+)
 
 
 def test_minimax_conflicting_constraints_are_named(tmp_path):

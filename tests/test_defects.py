@@ -17,7 +17,7 @@ import pytest
 
 from conftest import run_cli
 
-from builders import OVERDETERMINED_TOML, pendulum, pendulum_toml
+from builders import OVERDETERMINED_TOML, counter_mass_toml, pendulum, pendulum_toml, toml_head
 from counterpoise.designer import Designer
 from counterpoise.errors import ProblemFileError, SolverError
 from counterpoise.formulation import Slot
@@ -192,15 +192,7 @@ def test_zero_gravity_torque_coordinate_has_a_finite_ratio(tmp_path):
         assert math.isfinite(float(row["residual_ratio"])) and float(row["residual_ratio"]) <= 1e-9, row
 
 
-SLIDER = """
-[problem]
-name = "slider"
-[gravity]
-acceleration = "9.81 m/s^2"
-direction = [0, -1, 0]
-[parameters]
-m = "1 kg"
-[subsystems.s]
+SLIDER = toml_head("slider", 'm = "1 kg"') + """[subsystems.s]
 coordinates.y = { range = ["0 mm", "100 mm"] }
 [frames.carriage]
 transforms = [{ translate = [0, "y", 0] }]
@@ -211,11 +203,7 @@ com = [0, 0, 0]
 [variables.M]
 lower = "0 kg"
 upper = "10 kg"
-[counter_masses.M]
-frame = "carriage"
-mass = "M"
-position = [0, 0, 0]
-"""
+""" + counter_mass_toml("[0, 0, 0]", name="M", frame="carriage")
 
 
 def test_slider_infeasibility_speaks_of_force_in_newtons(tmp_path):

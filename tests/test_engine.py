@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from builders import OVERDETERMINED_TOML, Chain, Link, pendulum, pendulum_toml
+from builders import OVERDETERMINED_TOML, Chain, Link, counter_mass_toml, one_link_toml, pendulum, pendulum_toml
 from counterpoise.pipeline import design
 from counterpoise.io.loader import load_problem_text
 from counterpoise.designer import Designer
@@ -169,23 +169,10 @@ def test_backends_agree():
 class TestScenarios:
     """One shared counter-mass, a lever re-set for each payload (adjustable variable)."""
 
-    TEXT = """
-[problem]
-name = "adjustable"
-[gravity]
-acceleration = "9.81 m/s^2"
-direction = [0, -1, 0]
-[parameters]
-m_tool = "1 kg"
-r = "0.4 m"
-[subsystems.arm]
-coordinates.q = { range = ["-90 deg", "90 deg"] }
-[frames.link]
-transforms = [{ rotate = "z", angle = "q" }]
-[bodies.tool]
-frame = "link"
-mass = "m_tool"
-com = ["r", 0, 0]
+    TEXT = one_link_toml(
+        "adjustable",
+        'm_tool = "1 kg"\nr = "0.4 m"',
+        """
 [variables.M]
 lower = "0 kg"
 upper = "50 kg"
@@ -194,11 +181,7 @@ lower = "0.05 m"
 upper = "0.25 m"
 adjustable = true
 description = "counterweight lever, set for each payload"
-[counter_masses.cw]
-frame = "link"
-mass = "M"
-position = ["-L", 0, 0]
-[scenarios.light]
+""" + counter_mass_toml('["-L", 0, 0]', name="cw") + """[scenarios.light]
 parameters = { m_tool = "0.5 kg" }
 [scenarios.heavy]
 parameters = { m_tool = "1.5 kg" }
@@ -206,7 +189,11 @@ parameters = { m_tool = "1.5 kg" }
 description = "the arm mounted on a wall: gravity along -x of the base"
 gravity = { acceleration = "9.81 m/s^2", direction = [-1, 0, 0] }
 parameters = { m_tool = "1.0 kg" }
-"""
+""",
+        joint_range=("-90 deg", "90 deg"),
+        body="tool",
+        mass="m_tool",
+    )
 
     def test_shared_mass_adjustable_lever(self):
         result = solve_text(self.TEXT)
@@ -242,14 +229,11 @@ class TestInfeasible:
         assert result.verification.residual_ratio == pytest.approx(1 - 0.1 / 0.3, rel=1e-6)
 
     def test_cli_exit_status_1_and_reports_written(self, tmp_path):
-        import subprocess
-        import sys
-        from pathlib import Path
+        from conftest import run_cli
 
         path = tmp_path / "tight.toml"
         path.write_text(pendulum_toml(1.0, 0.3, (0.05, 0.1), 0.0, mass_upper=1.0))
-        exe = Path(sys.executable).with_name("counterpoise")
-        run = subprocess.run([exe, "solve", str(path), "--out", str(tmp_path / "out")], capture_output=True, text=True)
+        run = run_cli("solve", str(path), "--out", str(tmp_path / "out"))
         assert run.returncode == 1
         summary = (tmp_path / "out" / "pendulum" / "summary.csv").read_text()
         assert ",infeasible," in summary

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from builders import payload_pendulum_toml
 from conftest import PROBLEMS, ROOT
 from counterpoise.errors import ProblemFileError
 
@@ -320,39 +321,7 @@ def test_set_reads_an_array_as_toml_and_an_entry_by_its_index(capsys):
 
 #: a lever balanced by a counter-mass M (shared) on an adjustable lever b, payload 0-1 kg at
 #: r = 300 mm on top of the 1 kg tip: M b = (1 kg + p) r, least M with b <= b.upper
-LEVER = """
-[problem]
-name = "lever_payload"
-[gravity]
-acceleration = "9.81 m/s^2"
-direction = [0, -1, 0]
-[parameters]
-m = "1 kg"
-r = "300 mm"
-[subsystems.arm]
-coordinates.q = { range = ["-180 deg", "180 deg"] }
-[frames.link]
-transforms = [{ rotate = "z", angle = "q" }]
-[bodies.tip]
-frame = "link"
-mass = "m"
-com = ["r", 0, 0]
-[payloads.tool]
-frame = "link"
-position = ["r", 0, 0]
-range = ["0 kg", "1 kg"]
-[variables.M]
-lower = "0 kg"
-upper = "3 kg"
-[variables.b]
-lower = "100 mm"
-upper = "250 mm"
-adjustable = true
-[counter_masses.cm]
-frame = "link"
-mass = "M"
-position = ["-b", 0, 0]
-"""
+LEVER = payload_pendulum_toml("lever_payload", "b", "100 mm", "250 mm", '["-b", 0, 0]', mass_upper="3 kg", r="300 mm")
 
 
 def test_a_study_of_an_adjustments_bound_reaches_the_payload_schedule(tmp_path):

@@ -6,6 +6,8 @@ from pathlib import Path
 
 import pytest
 
+from builders import counter_mass_toml, one_link_toml, payload_pendulum_toml
+from conftest import solved
 from counterpoise.designer.methods import DesignMethod, Minimax, MultiStart, Plain
 from counterpoise.errors import ProblemFileError
 from counterpoise.formulation.layout import Slot
@@ -15,40 +17,9 @@ from counterpoise.solvers.base import Status
 
 ROOT = Path(__file__).resolve().parent.parent
 
-PAYLOAD_PENDULUM = """
-[problem]
-name = "pendulum_payload_lever"
-[gravity]
-acceleration = "9.81 m/s^2"
-direction = [0, -1, 0]
-[parameters]
-m = "1 kg"
-r = "0.3 m"
-[subsystems.arm]
-coordinates.q = { range = ["-180 deg", "180 deg"] }
-[frames.link]
-transforms = [{ rotate = "z", angle = "q" }]
-[bodies.tip]
-frame = "link"
-mass = "m"
-com = ["r", 0, 0]
-[payloads.tool]
-frame = "link"
-position = ["r", 0, 0]
-range = ["0 kg", "1 kg"]
-[variables.M]
-lower = "0 kg"
-upper = "20 kg"
-[variables.b]
-description = "the counter-mass lever, set per payload: b(p) = (m + p) r / M"
-lower = "0.05 m"
-upper = "0.3 m"
-adjustable = true
-[counter_masses.cm]
-frame = "link"
-mass = "M"
-position = ["-b", 0, 0]
-"""
+PAYLOAD_PENDULUM = payload_pendulum_toml(
+    "pendulum_payload_lever", "b", "0.05 m", "0.3 m", '["-b", 0, 0]', description="the counter-mass lever, set per payload: b(p) = (m + p) r / M"
+)
 
 
 def payload_pendulum():
@@ -146,7 +117,7 @@ def test_woo2019_hybrid_catalogue_part_holds_over_the_payload_range(tmp_path):
 
     from counterpoise.report.files import report_texts
 
-    result = design(load_problem(ROOT / "problems" / "woo2019_hybrid_catalogue.toml"))
+    result = solved("woo2019_hybrid_catalogue")  # shared with test_report_html
     assert result.status is Status.OPTIMAL, result.message
     assert result.payload.schedule.feasible and result.payload.checked == pytest.approx((0.0, 0.122))
     assert result.parts.fits
@@ -164,26 +135,10 @@ def test_woo2019_hybrid_catalogue_part_holds_over_the_payload_range(tmp_path):
     assert float(summary["margin_load_N"]) == min(float(r["margin_load_N"]) for r in springs)
 
 
-TWO_TOOLS = """
-[problem]
-name = "two_tools"
-[gravity]
-acceleration = "9.81 m/s^2"
-direction = [0, -1, 0]
-[parameters]
-m_tool = "1 kg"
-r = "0.2 m"
-b = "0.1 m"
-e = "0.1 m"
-k = "1000 N/m"
-[subsystems.arm]
-coordinates.q = { range = ["-90 deg", "90 deg"] }
-[frames.link]
-transforms = [{ rotate = "z", angle = "q" }]
-[bodies.tool]
-frame = "link"
-mass = "m_tool"
-com = ["r", 0, 0]
+TWO_TOOLS = one_link_toml(
+    "two_tools",
+    'm_tool = "1 kg"\nr = "0.2 m"\nb = "0.1 m"\ne = "0.1 m"\nk = "1000 N/m"',
+    """
 [variables.M]
 lower = "0 kg"
 upper = "0.5 kg"
@@ -194,11 +149,7 @@ upper = "60 mm"
 initial = "30 mm"
 adjustable = true
 description = "spring base height, set per tool"
-[counter_masses.cm]
-frame = "link"
-mass = "M"
-position = ["-b", 0, 0]
-[springs.s]
+""" + counter_mass_toml('["-b", 0, 0]') + """[springs.s]
 stiffness = "k"
 from = { frame = "ground", point = [0, "a", 0] }
 to = { frame = "link", point = ["e", 0, 0] }
@@ -208,7 +159,11 @@ parameters = { m_tool = "1 kg" }
 parameters = { m_tool = "5 kg" }
 [objective]
 mass_weight = 1
-"""
+""",
+    joint_range=("-90 deg", "90 deg"),
+    body="tool",
+    mass="m_tool",
+)
 
 
 def test_infeasible_modes_polish_the_modes_that_can_be_met():

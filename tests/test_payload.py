@@ -26,6 +26,7 @@ import pytest
 
 from conftest import run_cli
 
+from builders import payload_pendulum_toml
 from conftest import PROBLEMS, solved, value
 
 CLI = Path(sys.executable).with_name("counterpoise")
@@ -138,40 +139,10 @@ class TestEssombaVariablePayload:
 # The schedule between its grid points, and a payload the adjustment follows non-linearly
 # --------------------------------------------------------------------------------------
 
-PENDULUM = """
-[problem]
-name = "pendulum_payload"
-[gravity]
-acceleration = "9.81 m/s^2"
-direction = [0, -1, 0]
-[parameters]
-m = "1 kg"
-r = "0.3 m"
-[subsystems.arm]
-coordinates.q = { range = ["-180 deg", "180 deg"] }
-[frames.link]
-transforms = [{ rotate = "z", angle = "q" }]
-[bodies.tip]
-frame = "link"
-mass = "m"
-com = ["r", 0, 0]
-[payloads.tool]
-frame = "link"
-position = ["r", 0, 0]
-range = ["0 kg", "1 kg"]
-[variables.M]
-lower = "0 kg"
-upper = "20 kg"
-[variables.u]
-description = "the square of the counter-mass lever: u(p) = ((m + p) r / M)^2, not linear in p"
-lower = "0.0025 m^2"
-upper = "0.09 m^2"
-adjustable = true
-[counter_masses.cm]
-frame = "link"
-mass = "M"
-position = ["-sqrt(u)", 0, 0]
-"""
+PENDULUM = payload_pendulum_toml(
+    "pendulum_payload", "u", "0.0025 m^2", "0.09 m^2", '["-sqrt(u)", 0, 0]',
+    description="the square of the counter-mass lever: u(p) = ((m + p) r / M)^2, not linear in p",
+)
 
 
 def test_nonlinear_adjustment_is_solved_densely_and_gets_no_formula():

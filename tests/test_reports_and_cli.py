@@ -9,7 +9,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from conftest import PROBLEMS, solved
+from conftest import PROBLEMS, run_cli, solved
 from counterpoise.report import DESIGN_COLUMNS, SUMMARY_COLUMNS, write_reports
 
 CLI = Path(sys.executable).with_name("counterpoise")
@@ -69,6 +69,8 @@ def test_atomic_write_keeps_old_file_when_writing_fails(tmp_path, monkeypatch):
 
 
 def test_cli_solve_exit_0_and_summary(tmp_path):
+    """A real process (the console script, its start-up and exit status); the other
+    command-line tests here run the entry point in process (``run_cli``)."""
     run = subprocess.run(
         [CLI, "solve", str(PROBLEMS / "yasir2019_counter_mass.toml"), "--out", str(tmp_path)],
         capture_output=True, text=True,
@@ -79,26 +81,20 @@ def test_cli_solve_exit_0_and_summary(tmp_path):
 
 
 def test_cli_set_override_changes_the_design(tmp_path):
-    run = subprocess.run(
-        [CLI, "solve", str(PROBLEMS / "yasir2019_counter_mass.toml"), "--out", str(tmp_path), "--set", "parameters.m_c=800 g"],
-        capture_output=True, text=True,
-    )
+    run = run_cli("solve", str(PROBLEMS / "yasir2019_counter_mass.toml"), "--out", str(tmp_path), "--set", "parameters.m_c=800 g")
     assert run.returncode == 0, run.stderr
     design = pd.read_csv(tmp_path / "yasir2019_counter_mass" / "design.csv").set_index("name")
     assert design.loc["M_c", "value"] == pytest.approx(800.0)  # M_c = m_c r_c / b_c with r_c = b_c
 
 
 def test_cli_validate_ok():
-    run = subprocess.run([CLI, "validate", *sorted(map(str, PROBLEMS.glob("*.toml")))], capture_output=True, text=True)
+    run = run_cli("validate", *sorted(map(str, PROBLEMS.glob("*.toml"))))
     assert run.returncode == 0, run.stderr
     assert run.stdout.count("ok  ") == len(list(PROBLEMS.glob("*.toml")))
 
 
 def test_cli_bad_set_syntax_exit_2(tmp_path):
-    run = subprocess.run(
-        [CLI, "solve", str(PROBLEMS / "yasir2019_counter_mass.toml"), "--out", str(tmp_path), "--set", "novalue"],
-        capture_output=True, text=True,
-    )
+    run = run_cli("solve", str(PROBLEMS / "yasir2019_counter_mass.toml"), "--out", str(tmp_path), "--set", "novalue")
     assert run.returncode == 2
     assert run.stderr.strip() == "--set novalue: expected KEY=VALUE"
     assert not any(tmp_path.iterdir())
@@ -108,10 +104,7 @@ def test_cli_two_files_with_one_problem_name_exit_2(tmp_path):
     copy = tmp_path / "copy.toml"
     copy.write_text((PROBLEMS / "yasir2019_counter_mass.toml").read_text())
     out = tmp_path / "out"
-    run = subprocess.run(
-        [CLI, "solve", str(PROBLEMS / "yasir2019_counter_mass.toml"), str(copy), "--out", str(out)],
-        capture_output=True, text=True,
-    )
+    run = run_cli("solve", str(PROBLEMS / "yasir2019_counter_mass.toml"), str(copy), "--out", str(out))
     assert run.returncode == 2
     assert run.stderr.strip().startswith(f"{copy}: problem.name: 'yasir2019_counter_mass' is also the name of")
     assert not out.exists()

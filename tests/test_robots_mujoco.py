@@ -15,8 +15,6 @@ import csv
 import io
 import math
 import re
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +22,7 @@ import pytest
 
 mujoco = pytest.importorskip("mujoco")
 
+from conftest import run_cli  # noqa: E402
 from counterpoise.model import expr as ex  # noqa: E402
 from counterpoise.model.functions import NUMPY_FUNCTIONS  # noqa: E402
 from counterpoise.io.loader import load_problem, load_problem_text  # noqa: E402
@@ -32,7 +31,6 @@ from counterpoise.pipeline import design  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 PROBLEMS = ROOT / "problems"
-CLI = Path(sys.executable).with_name("counterpoise")
 GRID = 30
 TORQUE_RATIO = 1e-8
 POSITION_TOL = 1e-9
@@ -178,10 +176,7 @@ def test_ur5_frames_match_mujoco_at_random_configurations():
 def test_frames_command_prints_mujoco_positions():
     """The CLI table (CSV, in the file's mm) against MuJoCo at one configuration."""
     path = PROBLEMS / "ur5_shoulder_elbow.toml"
-    proc = subprocess.run(
-        [str(CLI), "frames", str(path), "--at", "shoulder_lift_joint=-40 deg", "--at", "elbow_joint=75 deg", "--csv"],
-        capture_output=True, text=True, timeout=120,
-    )
+    proc = run_cli("frames", str(path), "--at", "shoulder_lift_joint=-40 deg", "--at", "elbow_joint=75 deg", "--csv")
     assert proc.returncode == 0, proc.stderr
     rows = {(r["kind"], r["name"]): r for r in csv.DictReader(io.StringIO(proc.stdout))}
     model = mujoco_from_urdf(PROBLEMS / "robots" / "ur5.urdf")

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from builders import one_link_toml, slot_pendulum_toml
 from counterpoise import load_problem
 from counterpoise.designer.minimax import MinimaxDesigner
 from counterpoise.selection import PartSearch
@@ -19,102 +20,48 @@ from counterpoise.selection.screening import best_offset
 
 HEADER = "part_number,rate_N_per_m,free_length_m,initial_tension_N,max_load_N,max_length_m,outer_diameter_m,wire_diameter_m,material"
 
-PENDULUM = """
-[problem]
-name = "pendulum_screening"
-
-[gravity]
-acceleration = "9.81 m/s^2"
-direction = [0, -1, 0]
-
-[parameters]
-m = "{mass} kg"
-r = "{r} m"
-b = "{b} m"
-
-[catalogues.parts]
-file = "parts.csv"
-
-[slots.s]
-catalogue = "parts"
-rate_tolerance = "10 %"
-initial_tension_tolerance = "20 %"
-
-[variables.h]
-lower = "0.02 m"
-upper = "0.4 m"
-initial = "0.15 m"
-
-[subsystems.arm]
-coordinates.theta = {{ range = ["{lo} deg", "{hi} deg"] }}
-
-[frames.link]
-transforms = [{{ rotate = "z", angle = "theta" }}]
-
-[bodies.link]
-frame = "link"
-mass = "m"
-com = ["r", 0, 0]
-
-[springs.s]
-slot = "s"
-from = {{ frame = "ground", point = [0, "h", 0] }}
-to = {{ frame = "link", point = ["b", 0, 0] }}
-"""
-
-ARM = """
-[problem]
-name = "arm_direct_screening"
-
-[gravity]
-acceleration = "9.81 m/s^2"
-direction = [0, -1, 0]
-
-[parameters]
-m = "{mass} kg"
-L = "{length} m"
-
-[variables.r]
+def _geometry(n: str = "") -> str:
+    """The free geometry of a directly attached spring: its arm end r along the arm, its
+    ground end (x, y) and its cable c (variables r<n>, x<n>, y<n>, c<n>)."""
+    return f"""
+[variables.r{n}]
 lower = "15 mm"
 upper = "90 mm"
 initial = "50 mm"
-[variables.x]
+[variables.x{n}]
 lower = "-130 mm"
 upper = "130 mm"
 initial = "0 mm"
-[variables.y]
+[variables.y{n}]
 lower = "110 mm"
 upper = "270 mm"
 initial = "200 mm"
-[variables.c]
+[variables.c{n}]
 lower = "0 mm"
 upper = "300 mm"
 initial = "0 mm"
+"""
 
-[subsystems.arm]
-coordinates.phi = {{ range = ["{lo} deg", "{hi} deg"] }}
 
-[frames.arm]
-transforms = [{{ rotate = "z", angle = "phi" }}]
-
-[bodies.arm]
-frame = "arm"
-mass = "m"
-com = ["L", 0, 0]
-
-[catalogues.parts]
-file = "parts.csv"
-
-[slots.s]
-catalogue = "parts"
-
-[springs.s1]
+def _spring(name: str, n: str = "") -> str:
+    """Spring ``name`` of slot s, attached directly on the geometry ``n`` of :func:`_geometry`."""
+    return f"""
+[springs.{name}]
 slot = "s"
 mount = "direct"
-cable = "c"
-from = {{ frame = "ground", point = ["x", "y", 0] }}
-to = {{ frame = "arm", point = ["r", 0, 0] }}
+cable = "c{n}"
+from = {{ frame = "ground", point = ["x{n}", "y{n}", 0] }}
+to = {{ frame = "arm", point = ["r{n}", 0, 0] }}
 """
+
+
+def arm_toml(mass: float, length: float, lo: float, hi: float, two: bool = False) -> str:
+    """An arm (mass ``mass`` kg at ``length`` m, phi in [lo, hi] deg) with one
+    directly attached spring s1 from parts.csv, or (``two``) a second one, s2, on its own geometry."""
+    rest = '[catalogues.parts]\nfile = "parts.csv"\n[slots.s]\ncatalogue = "parts"\n' + _geometry()
+    rest += (_geometry("2") + _spring("s2", "2") + _spring("s1")) if two else _spring("s1")
+    return one_link_toml("arm_direct_screening", f'm = "{mass} kg"\nL = "{length} m"', rest, coordinate="phi",
+                         joint_range=(f"{lo} deg", f"{hi} deg"), frame="arm", body="arm", com='["L", 0, 0]')
 
 
 def catalogue(path: Path, rng: np.random.Generator, n: int, rate: tuple[float, float], free_length: tuple[float, float], stroke: tuple[float, float]) -> None:
@@ -135,7 +82,8 @@ def test_rate_screening_agrees_with_enumeration(tmp_path, seed):
     (forced by max_enumeration = 1) picks the part the enumeration of every rate picks."""
     rng = np.random.default_rng(seed)
     catalogue(tmp_path / "parts.csv", rng, 40, (100.0, 3000.0), (0.02, 0.08), (0.05, 0.4))
-    text = PENDULUM.format(mass=rng.uniform(0.5, 3.0), r=rng.uniform(0.1, 0.3), b=rng.uniform(0.05, 0.15), lo=-rng.uniform(30, 80), hi=rng.uniform(30, 80))
+    mass, r, b = rng.uniform(0.5, 3.0), rng.uniform(0.1, 0.3), rng.uniform(0.05, 0.15)
+    text = slot_pendulum_toml("pendulum_screening", mass, r, b, h_upper="0.4 m", joint_range=(-rng.uniform(30, 80), rng.uniform(30, 80)))
     (tmp_path / "p.toml").write_text(text, encoding="utf-8")
     exhaustive = PartSearch(load_problem(tmp_path / "p.toml")).run()
     screened = PartSearch(load_problem(tmp_path / "p.toml", {"selection.max_enumeration": 1})).run()
@@ -156,7 +104,7 @@ def test_direct_screening_finds_the_brute_force_best(tmp_path, seed):
     grid design)."""
     rng = np.random.default_rng(10 + seed)
     catalogue(tmp_path / "parts.csv", rng, 10, (200.0, 3000.0), (0.02, 0.06), (0.05, 0.2))
-    text = ARM.format(mass=rng.uniform(0.3, 1.0), length=rng.uniform(0.2, 0.4), lo=-rng.uniform(20, 50), hi=rng.uniform(20, 50))
+    text = arm_toml(rng.uniform(0.3, 1.0), rng.uniform(0.2, 0.4), -rng.uniform(20, 50), rng.uniform(20, 50))
     (tmp_path / "a.toml").write_text(text, encoding="utf-8")
     problem = load_problem(tmp_path / "a.toml")
     designer = MinimaxDesigner(problem)
@@ -191,42 +139,12 @@ def test_reduced_echelon_rows_are_circuits_in_original_columns():
     assert math.isclose(abs(rows[0][0]), 1.0)
 
 
-TWO = ARM.replace(
-    """[springs.s1]""",
-    """[variables.r2]
-lower = "15 mm"
-upper = "90 mm"
-initial = "50 mm"
-[variables.x2]
-lower = "-130 mm"
-upper = "130 mm"
-initial = "0 mm"
-[variables.y2]
-lower = "110 mm"
-upper = "270 mm"
-initial = "200 mm"
-[variables.c2]
-lower = "0 mm"
-upper = "300 mm"
-initial = "0 mm"
-
-[springs.s2]
-slot = "s"
-mount = "direct"
-cable = "c2"
-from = {{ frame = "ground", point = ["x2", "y2", 0] }}
-to = {{ frame = "arm", point = ["r2", 0, 0] }}
-
-[springs.s1]""",
-)
-
-
 def test_direct_pair_screening_finds_the_brute_force_best(tmp_path):
     """Two springs of one part, each with its own geometry: the pair screening (unordered
     pairs of grid geometries, then a compass search) and designing every part agree."""
     rng = np.random.default_rng(21)
     catalogue(tmp_path / "parts.csv", rng, 8, (100.0, 1500.0), (0.02, 0.06), (0.05, 0.2))
-    (tmp_path / "two.toml").write_text(TWO.format(mass=0.8, length=0.3, lo=-40, hi=45), encoding="utf-8")
+    (tmp_path / "two.toml").write_text(arm_toml(0.8, 0.3, -40, 45, two=True), encoding="utf-8")
     problem = load_problem(tmp_path / "two.toml")
     designer = MinimaxDesigner(problem)
     brute = _enumerate(problem, designer, lambda done, total: None, 0.0, "test")
@@ -245,7 +163,7 @@ def test_search_evidence_reaches_status_and_summary(tmp_path):
 
     rng = np.random.default_rng(4)
     catalogue(tmp_path / "parts.csv", rng, 20, (100.0, 3000.0), (0.02, 0.08), (0.05, 0.4))
-    (tmp_path / "p.toml").write_text(PENDULUM.format(mass=1.0, r=0.2, b=0.1, lo=-60, hi=60), encoding="utf-8")
+    (tmp_path / "p.toml").write_text(slot_pendulum_toml("pendulum_screening", 1.0, 0.2, 0.1, h_upper="0.4 m"), encoding="utf-8")
     result = design(load_problem(tmp_path / "p.toml"))
     text = parts_status(result)
     assert "group s: enumeration; every rate in the window solved" in text
@@ -268,7 +186,7 @@ def test_direct_part_bounds_are_below_every_design(tmp_path, seed):
     catalogue(tmp_path / "parts.csv", rng, 10, (200.0, 3000.0), (0.02, 0.06), (0.05, 0.2))
     with open(tmp_path / "parts.csv", "a", encoding="utf-8") as fh:  # far too stiff
         fh.write("STIFF,60000,0.04,5,2000,0.07,0.01,0.001,x\n")
-    text = ARM.format(mass=rng.uniform(0.3, 1.0), length=rng.uniform(0.2, 0.4), lo=-rng.uniform(20, 50), hi=rng.uniform(20, 50))
+    text = arm_toml(rng.uniform(0.3, 1.0), rng.uniform(0.2, 0.4), -rng.uniform(20, 50), rng.uniform(20, 50))
     (tmp_path / "a.toml").write_text(text, encoding="utf-8")
     problem = load_problem(tmp_path / "a.toml")
     designer = MinimaxDesigner(problem)
@@ -294,7 +212,7 @@ def test_direct_slot_through_design(tmp_path):
 
     rng = np.random.default_rng(12)
     catalogue(tmp_path / "parts.csv", rng, 8, (200.0, 3000.0), (0.02, 0.06), (0.05, 0.2))
-    (tmp_path / "a.toml").write_text(ARM.format(mass=0.6, length=0.3, lo=-40, hi=40), encoding="utf-8")
+    (tmp_path / "a.toml").write_text(arm_toml(0.6, 0.3, -40, 40), encoding="utf-8")
     result = design(load_problem(tmp_path / "a.toml"))
     assert result.parts is not None and result.parts.search.methods == ["screening"]
     assert any(line.startswith("bound: ") for line in result.parts.search.evidence)

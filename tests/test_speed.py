@@ -249,6 +249,8 @@ def test_light_csc_matrix_is_scipys_and_clarabel_accepts_both():
         ["solve", "a.toml", "--help"],
         ["solve", "a.toml", "--starts", "0"],
         ["solve", "a.toml", "--starts", "two"],
+        ["solve", "a.toml", "--jobs", "0"],
+        ["solve", "a.toml", "--jobs", "2", "--jobs", "3"],
         ["solve", "a.toml", "--out", "x", "--out", "y"],
         ["solve", "a.toml", "--out"],
         ["solve", "a.toml", "--out", "--plot"],
@@ -270,6 +272,7 @@ def test_light_solve_parses_as_the_app():
     got = parse_solve(["solve", "a.toml", "--set=x=1", "--debug", "--out=o", "--set", "y=2 mm", "b.toml", "--plot", "--starts", "3", "--", "--c.toml"])
     assert got == SolveArgs(("a.toml", "b.toml", "--c.toml"), "o", ("x=1", "y=2 mm"), True, 3, True)
     assert parse_solve(["solve", "a.toml"]) == SolveArgs(("a.toml",))
+    assert parse_solve(["solve", "a.toml", "--jobs=2"]) == SolveArgs(("a.toml",), jobs=2)
 
 
 def _rows():

@@ -27,8 +27,8 @@ from .light import COMMANDS, top_level_help, wants_top_level_help
 
 __all__ = ["COMMANDS", "main"]
 
-#: Commands after which the process may end without interpreter teardown (they start no
-#: worker processes or threads and write every file before returning).
+#: Commands after which the process may end without interpreter teardown (they write every
+#: file before returning, and ``solve --jobs`` has shut its worker pool down by then).
 FAST_EXIT = frozenset({"solve", "validate"})
 
 

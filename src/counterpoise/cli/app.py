@@ -148,6 +148,7 @@ def solve(
         str,
         typer.Option("--check", help="dense: the dense random check (default); auto: the exact certificate where the residual is a trigonometric polynomial and it proves balance, else dense (docs/studies.md)."),
     ] = "dense",
+    jobs: Annotated[int, typer.Option("--jobs", help="Worker processes solving the problems (1 = in this process); one summary, in the files' order.")] = 1,
 ) -> None:
     """Solve problem files and write their reports."""
     from .light import CHECK_MODES, REPORTS
@@ -155,6 +156,9 @@ def solve(
 
     if starts < 1:
         err_console.print(f"--starts: must be at least 1, got {starts}", markup=False)
+        raise typer.Exit(2)
+    if jobs < 1:
+        err_console.print(f"--jobs: must be at least 1, got {jobs}", markup=False)
         raise typer.Exit(2)
     if report not in REPORTS:
         err_console.print(f"--report: expected one of {', '.join(REPORTS)}, got '{report}'", markup=False)
@@ -164,7 +168,7 @@ def solve(
         raise typer.Exit(2)
     problems = _load_all(files, _overrides(set_))
     _check_out(out)
-    rows, worst = solve_all(problems, out, plot, starts, _err_line, html=report == "html", check=check)
+    rows, worst = solve_all(problems, out, plot, starts, _err_line, html=report == "html", jobs=jobs, check=check)
     _print_summary(rows, wide)
     raise typer.Exit(worst)
 

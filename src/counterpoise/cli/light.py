@@ -5,7 +5,7 @@ and ``counterpoise solve``. The standard library only at import.
   ``tests/test_speed.py`` checks that :data:`COMMANDS` lists exactly the commands of the
   typer app (:mod:`.app`), with the same one-line help: a command added there must be
   added here too.
-- ``counterpoise solve FILE... [--out DIR] [--set KEY=VALUE]... [--plot] [--starts N] [--report html|csv] [--check dense|auto]``
+- ``counterpoise solve FILE... [--out DIR] [--set KEY=VALUE]... [--plot] [--starts N] [--report html|csv] [--check dense|auto] [--jobs N]``
   is parsed and run here (:func:`solve`), with the same output, messages and exit status
   as the typer app's ``solve``: importing typer and rich costs 0.1–0.15 s, a quarter of
   a whole solve. Anything this path does not fully understand is handed to the typer app
@@ -75,7 +75,7 @@ def top_level_help() -> str:
 # -- solve ---------------------------------------------------------------------------------
 
 #: The app's ``solve`` options served here: name -> whether it takes a value.
-SOLVE_OPTIONS: dict[str, bool] = {"--out": True, "--set": True, "--starts": True, "--plot": False, "--report": True, "--wide": False, "--check": True}
+SOLVE_OPTIONS: dict[str, bool] = {"--out": True, "--set": True, "--starts": True, "--plot": False, "--report": True, "--wide": False, "--check": True, "--jobs": True}
 
 #: ``solve --report``: ``html`` (the default) writes report.html beside the CSV files, ``csv`` only those
 REPORTS = ("html", "csv")
@@ -125,7 +125,7 @@ class SolveArgs:
     """The arguments of one ``solve`` call (a plain class: ``dataclasses`` costs ~10 ms
     to import, which ``--help`` would pay)."""
 
-    __slots__ = ("files", "out", "sets", "plot", "starts", "debug", "report", "wide", "check")
+    __slots__ = ("files", "out", "sets", "plot", "starts", "debug", "report", "wide", "check", "jobs")
 
     def __init__(
         self,
@@ -138,9 +138,10 @@ class SolveArgs:
         report: str = "html",
         wide: bool = False,
         check: str = "dense",
+        jobs: int = 1,
     ) -> None:
         self.files, self.out, self.sets, self.plot, self.starts, self.debug, self.report, self.wide = files, out, sets, plot, starts, debug, report, wide
-        self.check = check
+        self.check, self.jobs = check, jobs
 
     def __eq__(self, other: object) -> bool:
         return isinstance(other, SolveArgs) and all(getattr(self, k) == getattr(other, k) for k in self.__slots__)
@@ -192,7 +193,7 @@ def parse_solve(args: list[str]) -> SolveArgs | None:
             value = rest[i]
             i += 1
         values[name].append(value)
-    if not files or len(values["--out"]) > 1 or len(values["--starts"]) > 1 or len(values["--report"]) > 1 or len(values["--check"]) > 1:
+    if not files or any(len(values[name]) > 1 for name in ("--out", "--starts", "--report", "--check", "--jobs")):
         return None
     check = values["--check"][0] if values["--check"] else "dense"
     if check not in CHECK_MODES:
@@ -203,10 +204,13 @@ def parse_solve(args: list[str]) -> SolveArgs | None:
     starts = values["--starts"][0] if values["--starts"] else "1"
     if not _INT.fullmatch(starts) or int(starts) < 1:
         return None
+    jobs = values["--jobs"][0] if values["--jobs"] else "1"
+    if not _INT.fullmatch(jobs) or int(jobs) < 1:
+        return None
     out = values["--out"][0] if values["--out"] else "results"
     if not out:
         return None
-    return SolveArgs(tuple(files), out, tuple(values["--set"]), "--plot" in flags, int(starts), debug, report, "--wide" in flags, check)
+    return SolveArgs(tuple(files), out, tuple(values["--set"]), "--plot" in flags, int(starts), debug, report, "--wide" in flags, check, int(jobs))
 
 
 def solve(args: list[str], pause_gc: bool = False) -> int | None:
@@ -308,7 +312,7 @@ def _run(a: SolveArgs, paused_gc: bool = False) -> int:
 
         gc.freeze()
         gc.enable()
-    rows, worst = solve_all(problems, Path(a.out), a.plot, a.starts, _err, html=a.report == "html", check=a.check)
+    rows, worst = solve_all(problems, Path(a.out), a.plot, a.starts, _err, html=a.report == "html", jobs=a.jobs, check=a.check)
     print_summary(rows, a.wide)
     return worst
 

@@ -5,7 +5,7 @@ goes through the caller's ``err`` (one line each)."""
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -66,50 +66,90 @@ def load_all(files: list[Path], overrides: Mapping[str, object], err: Err) -> li
 
 
 def solve_all(
-    problems: list[Problem], out: Path, plot: bool, starts: int, err: Err, html: bool = True, check: str = "dense"
+    problems: list[Problem], out: Path, plot: bool, starts: int, err: Err, html: bool = True, jobs: int = 1, check: str = "dense"
 ) -> tuple[list[dict[str, Any]], int]:
     """Design, verify and write every problem (``plot``: energy.png and mechanism.png in its
     folder before the folder appears; ``html``: report.html, the page of the folder, last);
     the summary rows and the worst exit status. ``check``: ``dense`` or ``auto`` (the exact
-    certificate where it applies, :func:`counterpoise.verify.check.check`)."""
+    certificate where it applies, :func:`counterpoise.verify.check.check`).
+
+    ``jobs`` > 1 (``solve --jobs N``): the problems are solved on a local pool of that many
+    worker processes (at most one per problem; :func:`counterpoise.studies.runners.process_pool`),
+    each writing its own report folder. Their error lines and summary rows come back in the
+    order of ``problems``, as in one process, and each design is the same as in one process.
+    """
+    if jobs > 1 and len(problems) > 1:
+        outcomes: Iterable[tuple[dict[str, Any] | None, int]] = _pooled(problems, out, plot, starts, err, html, min(jobs, len(problems)), check)
+    else:
+        outcomes = (solve_one(problem, out, plot, starts, err, html, check) for problem in problems)
+    rows, worst = [], 0
+    for row, status in outcomes:
+        worst = max(worst, status)
+        if row is not None:
+            rows.append(row)
+    return rows, worst
+
+
+def solve_one(problem: Problem, out: Path, plot: bool, starts: int, err: Err, html: bool = True, check: str = "dense") -> tuple[dict[str, Any] | None, int]:
+    """Design, verify and write one problem (as :func:`solve_all`): its summary row (None
+    when there is no design to report) and its exit status."""
     from ..errors import CounterpoiseError, ProblemFileError
     from ..pipeline import design
     from ..report.files import write_reports
     from ..report.rows import summary_row
 
-    rows, worst = [], 0
-    for problem in problems:
-        t0 = time.perf_counter()
-        try:
-            result = design(problem, starts=starts, check=check)
-        except ProblemFileError as exc:  # an input limit met while designing (a part search too large): exit 2
-            err(str(exc))
-            worst = max(worst, 2)
-            continue
-        except CounterpoiseError as exc:
-            err(f"{problem.path}: {exc}")
-            worst = max(worst, 1)
-            continue
-        try:
-            extra = None
-            if plot:
-                from ..plots import energy_plot
-                from ..plots.mechanism import design_mechanism_plot
+    t0 = time.perf_counter()
+    try:
+        result = design(problem, starts=starts, check=check)
+    except ProblemFileError as exc:  # an input limit met while designing (a part search too large): exit 2
+        err(str(exc))
+        return None, 2
+    except CounterpoiseError as exc:
+        err(f"{problem.path}: {exc}")
+        return None, 1
+    try:
+        extra = None
+        if plot:
+            from ..plots import energy_plot
+            from ..plots.mechanism import design_mechanism_plot
 
-                def extra(folder: Path, result: Any = result) -> None:
-                    energy_plot(result, folder)
-                    design_mechanism_plot(result, folder)
+            def extra(folder: Path, result: Any = result) -> None:
+                energy_plot(result, folder)
+                design_mechanism_plot(result, folder)
 
-            folder = write_reports(result, out, extra, html=html)
-        except OSError as exc:
-            err(f"{problem.path}: cannot write reports to {out}: {exc.strerror or exc}")
-            worst = max(worst, 1)
-            continue
-        row = summary_row(result)
-        row["wall_s"] = time.perf_counter() - t0
-        row["folder"] = str(folder)
-        row["message"] = result.message
-        rows.append(row)
-        if not result.optimal:
-            worst = max(worst, 1)
-    return rows, worst
+        folder = write_reports(result, out, extra, html=html)
+    except OSError as exc:
+        err(f"{problem.path}: cannot write reports to {out}: {exc.strerror or exc}")
+        return None, 1
+    row = summary_row(result)
+    row["wall_s"] = time.perf_counter() - t0
+    row["folder"] = str(folder)
+    row["message"] = result.message
+    return row, 0 if result.optimal else 1
+
+
+def _solve_in_worker(problem: Problem, out: Path, plot: bool, starts: int, html: bool, check: str = "dense") -> tuple[dict[str, Any] | None, int, list[str]]:
+    """:func:`solve_one` in a pool worker: its error lines are sent back with its row."""
+    lines: list[str] = []
+    row, status = solve_one(problem, out, plot, starts, lines.append, html, check)
+    return row, status, lines
+
+
+def _pooled(
+    problems: list[Problem], out: Path, plot: bool, starts: int, err: Err, html: bool, jobs: int, check: str = "dense"
+) -> Iterator[tuple[dict[str, Any] | None, int]]:
+    """:func:`solve_one` of every problem on a pool of ``jobs`` processes, in order."""
+    from ..studies.runners import process_pool, stop_pool
+
+    pool = process_pool(jobs)
+    finished = False
+    try:
+        futures = [pool.submit(_solve_in_worker, problem, out, plot, starts, html, check) for problem in problems]
+        for future in futures:
+            row, status, lines = future.result()
+            for line in lines:
+                err(line)
+            yield row, status
+        finished = True
+    finally:  # interrupted or failed: the workers end now, none outlives the command
+        stop_pool(pool, finished)

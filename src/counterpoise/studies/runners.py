@@ -283,7 +283,7 @@ class ProcessRunner:
         self.jobs = jobs or os.cpu_count() or 1
 
     def map_batches(self, task: StudyTask, batches: Sequence[Sequence[Point]]) -> Iterator[list[PointResult]]:
-        pool = ProcessPoolExecutor(max_workers=self.jobs, initializer=_pool_worker)
+        pool = process_pool(self.jobs)
         finished = False
         try:
             futures = [pool.submit(solve_batch, task, batch) for batch in batches]
@@ -291,11 +291,21 @@ class ProcessRunner:
                 yield future.result()
             finished = True
         finally:
-            # interrupted (Ctrl-C, SIGTERM, a failure): drop the batches not started and end
-            # the running ones now; no worker outlives the study
-            if not finished:
-                _terminate_workers(pool)
-            pool.shutdown(wait=True, cancel_futures=not finished)
+            stop_pool(pool, finished)
+
+
+def process_pool(jobs: int) -> ProcessPoolExecutor:
+    """A local pool of ``jobs`` worker processes set up by :func:`_pool_worker` (one BLAS
+    thread, Ctrl-C left to the parent, ended with the parent); end it with :func:`stop_pool`."""
+    return ProcessPoolExecutor(max_workers=jobs, initializer=_pool_worker)
+
+
+def stop_pool(pool: ProcessPoolExecutor, finished: bool) -> None:
+    """Shut ``pool`` down. Not ``finished`` (Ctrl-C, SIGTERM, a failure): the tasks not
+    started are dropped and the running ones ended now; no worker outlives its parent's work."""
+    if not finished:
+        _terminate_workers(pool)
+    pool.shutdown(wait=True, cancel_futures=not finished)
 
 
 def _terminate_workers(pool: ProcessPoolExecutor) -> None:
