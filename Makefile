@@ -16,8 +16,11 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m compileall -q src   # an editable install compiles nothing: ~0.1 s per CLI run otherwise
 	@touch $(STAMP)
 
+# exit 1 from solve means "some design is not optimal": two examples are infeasible on purpose
+# (tilt_spring_arm: springs cannot follow a tilting base; yasir2019_holder: the paper's design
+# of the whole holder), and their reports say why; any other status stops make
 demo: $(STAMP)
-	$(BIN)/counterpoise solve problems/*.toml --out results --plot --jobs $(JOBS)
+	$(BIN)/counterpoise solve problems/*.toml --out results --plot --jobs $(JOBS) || [ $$? -eq 1 ]
 
 # the committed studies in results/: the Pareto front of the free-extensions leg, a
 # 1000-point payload sweep of the hybrid (docs/studies.md), the tilting-base trade-off
