@@ -175,7 +175,7 @@ class Closure:
             gap = sub(mech.position(loop.a), mech.position(loop.b))
             ra, _ = mech.pose(loop.a.frame)
             if loop.joint == PRISMATIC_JOINT:
-                u = matvec(ra, mech.vector(loop.axis))  # type: ignore[arg-type]
+                u = matvec(ra, mech.vector(loop.axis))  # type: ignore[arg-type]  # a prismatic or revolute loop joint always has its axis
                 gap = [gap[1] * u[2] - gap[2] * u[1], gap[2] * u[0] - gap[0] * u[2], gap[0] * u[1] - gap[1] * u[0]]
             rows += [np.broadcast_to(g, (n_conf,)) / self.size for g in gap]
             target = self.targets.get(loop.name)
@@ -183,7 +183,7 @@ class Closure:
                 continue
             rb, _ = mech.pose(loop.b.frame)
             if loop.joint == REVOLUTE_JOINT:
-                rows += [np.broadcast_to(v, (n_conf,)) for v in sub(matvec(ra, mech.vector(loop.axis)), matvec(rb, list(target)))]  # type: ignore[arg-type]
+                rows += [np.broadcast_to(v, (n_conf,)) for v in sub(matvec(ra, mech.vector(loop.axis)), matvec(rb, list(target)))]  # type: ignore[arg-type]  # a prismatic loop joint always has its axis
             else:
                 for col in range(3):
                     rows += [np.broadcast_to(v, (n_conf,)) for v in sub([ra[r][col] for r in range(3)], matvec(rb, list(target[:, col])))]
@@ -200,7 +200,7 @@ class Closure:
             ra = _matrix(mech.pose(loop.a.frame)[0])
             rb = _matrix(mech.pose(loop.b.frame)[0])
             if loop.joint == REVOLUTE_JOINT:
-                out[loop.name] = rb.T @ ra @ _column(mech.vector(loop.axis))  # type: ignore[arg-type]
+                out[loop.name] = rb.T @ ra @ _column(mech.vector(loop.axis))  # type: ignore[arg-type]  # a prismatic or revolute loop joint always has its axis
             else:
                 out[loop.name] = rb.T @ ra
         return out
@@ -326,7 +326,7 @@ class Closure:
         loop = next(lp for lp in self.loops if lp.name == name)
         if loop.joint != REVOLUTE_JOINT:
             return None
-        return _column(self._mechanics(self.given[None, :]).vector(loop.axis))  # type: ignore[arg-type]
+        return _column(self._mechanics(self.given[None, :]).vector(loop.axis))  # type: ignore[arg-type]  # a prismatic or revolute loop joint always has its axis
 
     def home_text(self, q: np.ndarray | None = None) -> str:
         """'home theta2 = 0 deg' (the independent coordinates' homes, in their units)."""

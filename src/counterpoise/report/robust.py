@@ -13,14 +13,20 @@ the setting of each tune variable (its display unit) and the ratios before and a
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from ..pipeline import DesignResult
 from .rows import Row
+
+if TYPE_CHECKING:
+    from ..robust.method import RobustReport
 
 TOLERANCE_COLUMNS = ["design", "case", "deviation", "residual_ratio", "adjusted_residual_ratio", "adjustment"]
 
 
-def _report(result: DesignResult) -> object | None:
-    return getattr(result.solution, "robust", None)
+def _report(result: DesignResult) -> "RobustReport | None":
+    report: RobustReport | None = getattr(result.solution, "robust", None)
+    return report
 
 
 def tolerance_rows(result: DesignResult) -> list[Row]:
@@ -28,15 +34,15 @@ def tolerance_rows(result: DesignResult) -> list[Row]:
     if report is None:
         return []
     rows: list[Row] = []
-    for design, band in report.bands.items():  # type: ignore[attr-defined]
+    for design, band in report.bands.items():
         rows.append({"design": design, "case": "nominal", "deviation": "", "residual_ratio": band["residual"]})
         rows.append({"design": design, "case": "band", "deviation": _box(report), "residual_ratio": band["all"]})
         for kind, value in band.items():
             if kind not in ("residual", "all"):
                 rows.append({"design": design, "case": f"band_{kind}", "deviation": f"{kind} tolerances only", "residual_ratio": value})
-    design = "robust" if "robust" in report.bands else "nominal"  # type: ignore[attr-defined]
+    design = "robust" if "robust" in report.bands else "nominal"
     units = {v.name: v.unit for v in result.problem.variables}
-    for c in report.corners:  # type: ignore[attr-defined]
+    for c in report.corners:
         rows.append(
             {
                 "design": design,
@@ -47,17 +53,17 @@ def tolerance_rows(result: DesignResult) -> list[Row]:
                 "adjustment": "; ".join(f"{t} {units[t].from_si(v):.6g} {units[t].label}" for t, v in c.settings),
             }
         )
-    if report.corners:  # type: ignore[attr-defined]
-        rows.append({"design": design, "case": "band_after_tuning", "deviation": report.tuning_status, "residual_ratio": report.tuned_residual})  # type: ignore[attr-defined]
+    if report.corners:
+        rows.append({"design": design, "case": "band_after_tuning", "deviation": report.tuning_status, "residual_ratio": report.tuned_residual})
     return rows
 
 
-def _box(report: object) -> str:
+def _box(report: "RobustReport") -> str:
     seen: dict[str, str] = {}
-    for d in report.deviations:  # type: ignore[attr-defined]
+    for d in report.deviations:
         t = d.tolerance
         seen.setdefault(f"{t.kind} {t.item}", f"{t.kind} {t.item} ±{100 * t.amount:g} %" if t.relative else f"{t.kind} {t.item} ±{t.amount:g} SI")
-    return ", ".join(seen.values()) + (f" ({report.shape})" if report.shape != "box" else "")  # type: ignore[attr-defined]
+    return ", ".join(seen.values()) + (f" ({report.shape})" if report.shape != "box" else "")
 
 
 def tuning_columns(result: DesignResult) -> list[str]:
@@ -65,8 +71,8 @@ def tuning_columns(result: DesignResult) -> list[str]:
     if report is None:
         return []
     units = {v.name: v.unit for v in result.problem.variables}
-    devs = [d.parameter.split(":", 1)[1] for d in report.deviations]  # type: ignore[attr-defined]
-    tune = [f"{t} [{units[t].label}]" for t in result.problem.robust.tune]  # type: ignore[union-attr]
+    devs = [d.parameter.split(":", 1)[1] for d in report.deviations]
+    tune = [f"{t} [{units[t].label}]" for t in result.problem.robust.tune]  # type: ignore[union-attr]  # called only for a [robust] problem
     return ["corner", *devs, *tune, "residual_ratio_before", "residual_ratio_after"]
 
 
@@ -77,11 +83,11 @@ def tuning_rows(result: DesignResult) -> list[Row]:
     units = {v.name: v.unit for v in result.problem.variables}
     columns = tuning_columns(result)
     rows: list[Row] = []
-    for c in report.corners:  # type: ignore[attr-defined]
+    for c in report.corners:
         row: Row = {"corner": c.name, "residual_ratio_before": c.before, "residual_ratio_after": c.after}
-        for d, sign, column in zip(report.deviations, c.signs, columns[1:]):  # type: ignore[attr-defined]
+        for d, sign, column in zip(report.deviations, c.signs, columns[1:]):
             row[column] = sign * d.half_width
-        for (t, v), column in zip(c.settings, columns[1 + len(report.deviations) :]):  # type: ignore[attr-defined]
+        for (t, v), column in zip(c.settings, columns[1 + len(report.deviations) :]):
             row[column] = units[t].from_si(v)
         rows.append(row)
     return rows
@@ -93,7 +99,7 @@ def design_rows(result: DesignResult) -> list[Row]:
     if report is None:
         return []
     rows: list[Row] = []
-    for name, (lo, hi) in report.tuning_range.items():  # type: ignore[attr-defined]
+    for name, (lo, hi) in report.tuning_range.items():
         v = result.problem.variable[name]
         rows.append(
             {
@@ -116,18 +122,18 @@ def status_lines(result: DesignResult) -> str:
     if report is None:
         return ""
     lines = []
-    for design, band in report.bands.items():  # type: ignore[attr-defined]
+    for design, band in report.bands.items():
         kinds = ", ".join(f"{k} {v:.4g}" for k, v in band.items() if k not in ("residual", "all"))
         lines.append(
             f"robust: {design} design: worst-case residual ratio {band['all']:.4g} ({kinds}); "
-            f"added mass {report.added_mass[design]:.6g} kg, objective {report.objective[design]:.6g} kg"  # type: ignore[attr-defined]
+            f"added mass {report.added_mass[design]:.6g} kg, objective {report.objective[design]:.6g} kg"
         )
-    if report.lp_seconds:  # type: ignore[attr-defined]
-        lines.append(f"robust: counterpart ({report.mode}, {report.shape}) solved by {report.solver} in {report.lp_seconds:.3g} s")  # type: ignore[attr-defined]
+    if report.lp_seconds:
+        lines.append(f"robust: counterpart ({report.mode}, {report.shape}) solved by {report.solver} in {report.lp_seconds:.3g} s")
     units = {v.name: v.unit for v in result.problem.variables}
-    for name, (lo, hi) in report.tuning_range.items():  # type: ignore[attr-defined]
+    for name, (lo, hi) in report.tuning_range.items():
         u = units[name]
         lines.append(f"tuning range {name}: {u.from_si(lo):.6g} to {u.from_si(hi):.6g} {u.label}")
-    if report.corners:  # type: ignore[attr-defined]
-        lines.append(f"tuning: {report.tuning_status}; largest residual ratio after tuning {report.tuned_residual:.3g} over {len(report.corners)} corners")  # type: ignore[attr-defined]
+    if report.corners:
+        lines.append(f"tuning: {report.tuning_status}; largest residual ratio after tuning {report.tuned_residual:.3g} over {len(report.corners)} corners")
     return "".join(f"{line}\n" for line in lines)

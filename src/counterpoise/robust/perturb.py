@@ -57,7 +57,7 @@ def _scaled(tree: ex.Expr, name: str, relative: bool) -> ex.Expr:
 
 
 def _shifted(point: Point, names: tuple[str, str, str]) -> Point:
-    return Point(point.frame, tuple(ex.BinOp("+", c, ex.Name(n)) for c, n in zip(point.position, names)))  # type: ignore[arg-type]
+    return Point(point.frame, tuple(ex.BinOp("+", c, ex.Name(n)) for c, n in zip(point.position, names)))  # type: ignore[arg-type]  # a point of three coordinates stays one
 
 
 def perturbed(problem: Problem) -> tuple[Problem, tuple[Deviation, ...]]:
@@ -82,14 +82,14 @@ def perturbed(problem: Problem) -> tuple[Problem, tuple[Deviation, ...]]:
             deviations.append(Deviation(name, t, "", t.amount))
         elif t.kind == "com":
             names = tuple(_name("com", t.item, a) for a in AXES)
-            bodies[t.item] = replace(bodies[t.item], com=_shifted(bodies[t.item].com, names))  # type: ignore[arg-type]
+            bodies[t.item] = replace(bodies[t.item], com=_shifted(bodies[t.item].com, names))  # type: ignore[arg-type]  # a point of three coordinates stays one
             deviations += [Deviation(n, t, a, t.amount) for n, a in zip(names, AXES)]
         elif t.kind == "point":
             spring = springs[t.item]
             ends = []
             for end, point in zip(("from", "to"), spring.ends):
                 names = tuple(_name("point", t.item, end, a) for a in AXES)
-                ends.append(_shifted(point, names))  # type: ignore[arg-type]
+                ends.append(_shifted(point, names))  # type: ignore[arg-type]  # a point of three coordinates stays one
                 deviations += [Deviation(n, t, f"{end}.{a}", t.amount) for n, a in zip(names, AXES)]
             springs[t.item] = replace(spring, ends=(ends[0], ends[1]))
     unit = display_unit("")

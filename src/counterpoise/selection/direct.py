@@ -96,8 +96,8 @@ def _terminal_progress(done: int, total: int) -> None:
 def _choice(problem: Problem, rows: dict[str, int], sol: object) -> Choice:
     slots = [s for s in problem.slots if s.name in rows]
     price = sum(len(s.springs) * s.catalogue.price[rows[s.name]] for s in slots)
-    choice = Choice(rows, {s.name: s.catalogue.rate[rows[s.name]] for s in slots}, sol.objective, float(price), robust=float(sol.sampled_ratio))  # type: ignore[attr-defined]
-    choice.values = dict(sol.values)  # type: ignore[attr-defined]
+    choice = Choice(rows, {s.name: s.catalogue.rate[rows[s.name]] for s in slots}, sol.objective, float(price), robust=float(sol.sampled_ratio))  # type: ignore[attr-defined]  # a minimax Solution has its objective and sampled ratio
+    choice.values = dict(sol.values)  # type: ignore[attr-defined]  # a minimax Solution has its values
     return choice
 
 

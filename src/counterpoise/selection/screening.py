@@ -294,12 +294,12 @@ class _Context:
         if self.rest_fixed and self._rest is None:
             home = {k: np.array([v]) for k, v in self.home.items()}
             rest = [energy_arrays(self.problem, self.subsystem, self.q, home, b, g, self.springs, True, self.exclude, self.columns)[0] for b, g in scenarios]
-            self._rest = np.concatenate([g.reshape(1, -1) for g in rest], axis=1) / self.reference  # type: ignore[union-attr]
+            self._rest = np.concatenate([g.reshape(1, -1) for g in rest], axis=1) / self.reference  # type: ignore[union-attr]  # energy_arrays gives G with rest=True
         parts = [energy_arrays(self.problem, self.subsystem, self.q, variables, b, g, springs, not self.rest_fixed, self.exclude, self.columns) for b, g in scenarios]
         if self.rest_fixed:
             gflat = np.broadcast_to(self._rest, (n, self._rest.shape[1]))  # type: ignore[arg-type, union-attr]  # set above whenever rest_fixed
         else:
-            flat = [np.broadcast_to(g.reshape(g.shape[0], -1), (n, g.shape[1] * g.shape[2])) for g, _ in parts]  # type: ignore[union-attr]
+            flat = [np.broadcast_to(g.reshape(g.shape[0], -1), (n, g.shape[1] * g.shape[2])) for g, _ in parts]  # type: ignore[union-attr]  # G is given with rest=True (not rest_fixed)
             gflat = (flat[0] if len(flat) == 1 else np.concatenate(flat, axis=1)) / self.reference
         out = []
         for s in springs:
