@@ -84,11 +84,24 @@ def functions(mech: Mechanics, extreme: Any = None) -> dict[str, Any]:
     return out
 
 
-def environment(mech: Mechanics, fns: Mapping[str, Any]) -> dict[str, Any]:
-    """``mech``'s names plus the report quantities (which constraints may use)."""
+def environment(mech: Mechanics, fns: Mapping[str, Any], expr: Any = None) -> dict[str, Any]:
+    """``mech``'s names plus the report quantities (which constraints may use): those
+    ``expr`` uses, directly or through other report quantities (all of them without ``expr``:
+    evaluating every report quantity after every solve of a study cost more than the solve)."""
     env = dict(mech.env)
-    for q in mech.problem.report:
-        env[q.name] = ex.evaluate(q.expr, env, fns)
+    report = mech.problem.report
+    wanted: set[str] | None = None
+    if expr is not None:
+        by_name = {q.name: q for q in report}
+        wanted, todo = set(), [n for n in ex.names(expr) if n in by_name]
+        while todo:
+            name = todo.pop()
+            if name not in wanted:
+                wanted.add(name)
+                todo.extend(n for n in ex.names(by_name[name].expr) if n in by_name)
+    for q in report:
+        if wanted is None or q.name in wanted:
+            env[q.name] = ex.evaluate(q.expr, env, fns)
     return env
 
 
@@ -182,7 +195,7 @@ def build_rows(formulation: Any, extra: Extra | None = None) -> ConstraintRows:
         for con in problem.constraints:
             e = ca.SX.sym("extreme")
             fns = functions(mech, e)
-            value = ex.evaluate(con.expr, environment(mech, fns), fns)
+            value = ex.evaluate(con.expr, environment(mech, fns, con.expr), fns)
             s = scale(con)
             start = len(lbg)
             call = con.extreme()
@@ -296,6 +309,11 @@ def dense_sample(problem: Problem, spring: ZeroFreeLengthSpring, scenario: str, 
 #: a workspace extreme is polished by the pattern search only when its constraint is within
 #: this share of its bound's scale (:func:`scale`) of the bound, or beyond it
 REFINE_MARGIN = 0.05
+#: ... and checked on the dense configurations only when, on the constraint's own sampled
+#: rows (32 per coordinate and the corners), it comes within this share of its bound: a
+#: smooth force or length does not double between those rows (a spring at 1 % of its
+#: default force limit is not searched on 10,000 configurations after every solve)
+FAR_MARGIN = 0.5
 
 
 def _value(problem: Problem, con: Constraint, base: Mapping[str, float], variables: Mapping[str, float], home: Mapping[str, float],
@@ -305,7 +323,7 @@ def _value(problem: Problem, con: Constraint, base: Mapping[str, float], variabl
     fns = functions(mech, extreme_value)
     with np.errstate(all="ignore"):
         try:
-            return float(ex.evaluate(con.expr, environment(mech, fns), fns))
+            return float(ex.evaluate(con.expr, environment(mech, fns, con.expr), fns))
         except (ArithmeticError, ValueError):
             return float("nan")
 
@@ -347,24 +365,35 @@ def evaluate(problem: Problem, solution: Any, rows: ConstraintRows | None, multi
                 group = groups.get((con.name, scenario.name))
                 key = (spring.name, scenario.name)
                 cache = rows.dense if rows is not None else {}
-                if dense and key in dense:
-                    cache[key] = dense[key]
-                elif key not in cache:
-                    cache[key] = dense_sample(problem, spring, scenario.name)
-                qs = [cache[key]]
-                if group is not None and group.configurations is not None:
-                    qs.append(group.configurations)
-                q = np.vstack([x.reshape(-1, qs[0].shape[1]) for x in qs]) if qs[0].shape[1] else qs[0]
-                extreme_value, i, _ = _extreme(problem, spring, quantity, side, base, gravity, variables, q)
-                best = q[i]
+                rows_q = group.configurations if group is not None and group.configurations is not None else None
+                far = False
+                found = float("nan")
+                if rows_q is not None and rows_q.size and not (dense and key in dense):
+                    # the constraint's own sampled rows first: a limit this far from binding there
+                    # (a designed spring's default force limit, typically) needs no dense search
+                    found, i, _ = _extreme(problem, spring, quantity, side, base, gravity, variables, rows_q)
+                    best = rows_q[i]
+                    far = _margin(problem, con, base, variables, home, gravity, found) > FAR_MARGIN
+                if not far:
+                    if dense and key in dense:
+                        cache[key] = dense[key]
+                    elif key not in cache:
+                        cache[key] = dense_sample(problem, spring, scenario.name)
+                    qs = [cache[key]]
+                    if rows_q is not None:
+                        qs.append(rows_q)
+                    q = np.vstack([x.reshape(-1, qs[0].shape[1]) for x in qs]) if qs[0].shape[1] else qs[0]
+                    found, i, _ = _extreme(problem, spring, quantity, side, base, gravity, variables, q)
+                    best = q[i]
                 # polish the dense extreme only where it matters: a constraint within REFINE_MARGIN
                 # of its bound (or beyond it); far inside, the few per mille the pattern search
                 # adds between dense points cannot reach the bound (and it costs more than the solve)
-                refine = spring.subsystem is not None and not problem.subsystem_loops(spring.subsystem)
-                if refine and _margin(problem, con, base, variables, home, gravity, extreme_value) > REFINE_MARGIN:
+                refine = not far and spring.subsystem is not None and not problem.subsystem_loops(spring.subsystem)
+                if refine and _margin(problem, con, base, variables, home, gravity, found) > REFINE_MARGIN:
                     refine = False
                 if refine:
-                    extreme_value, best = _refine(problem, spring, quantity, side, base, gravity, variables, best, extreme_value)
+                    found, best = _refine(problem, spring, quantity, side, base, gravity, variables, best, found)
+                extreme_value = found
                 names = [k.name for k in problem.subsystem_coordinates(spring.subsystem)] if spring.subsystem else []
                 configuration = {n: float(best[j]) for j, n in enumerate(names)}
             value = _value(problem, con, base, variables, home, gravity, extreme_value)
