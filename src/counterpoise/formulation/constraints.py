@@ -309,11 +309,6 @@ def dense_sample(problem: Problem, spring: ZeroFreeLengthSpring, scenario: str, 
 #: a workspace extreme is polished by the pattern search only when its constraint is within
 #: this share of its bound's scale (:func:`scale`) of the bound, or beyond it
 REFINE_MARGIN = 0.05
-#: ... and checked on the dense configurations only when, on the constraint's own sampled
-#: rows (32 per coordinate and the corners), it comes within this share of its bound: a
-#: smooth force or length does not double between those rows (a spring at 1 % of its
-#: default force limit is not searched on 10,000 configurations after every solve)
-FAR_MARGIN = 0.5
 
 
 def _value(problem: Problem, con: Constraint, base: Mapping[str, float], variables: Mapping[str, float], home: Mapping[str, float],
@@ -366,29 +361,20 @@ def evaluate(problem: Problem, solution: Any, rows: ConstraintRows | None, multi
                 key = (spring.name, scenario.name)
                 cache = rows.dense if rows is not None else {}
                 rows_q = group.configurations if group is not None and group.configurations is not None else None
-                far = False
-                found = float("nan")
-                if rows_q is not None and rows_q.size and not (dense and key in dense):
-                    # the constraint's own sampled rows first: a limit this far from binding there
-                    # (a designed spring's default force limit, typically) needs no dense search
-                    found, i, _ = _extreme(problem, spring, quantity, side, base, gravity, variables, rows_q)
-                    best = rows_q[i]
-                    far = _margin(problem, con, base, variables, home, gravity, found) > FAR_MARGIN
-                if not far:
-                    if dense and key in dense:
-                        cache[key] = dense[key]
-                    elif key not in cache:
-                        cache[key] = dense_sample(problem, spring, scenario.name)
-                    qs = [cache[key]]
-                    if rows_q is not None:
-                        qs.append(rows_q)
-                    q = np.vstack([x.reshape(-1, qs[0].shape[1]) for x in qs]) if qs[0].shape[1] else qs[0]
-                    found, i, _ = _extreme(problem, spring, quantity, side, base, gravity, variables, q)
-                    best = q[i]
+                if dense and key in dense:
+                    cache[key] = dense[key]
+                elif key not in cache:
+                    cache[key] = dense_sample(problem, spring, scenario.name)
+                qs = [cache[key]]
+                if rows_q is not None:
+                    qs.append(rows_q)
+                q = np.vstack([x.reshape(-1, qs[0].shape[1]) for x in qs]) if qs[0].shape[1] else qs[0]
+                found, i, _ = _extreme(problem, spring, quantity, side, base, gravity, variables, q)
+                best = q[i]
                 # polish the dense extreme only where it matters: a constraint within REFINE_MARGIN
                 # of its bound (or beyond it); far inside, the few per mille the pattern search
                 # adds between dense points cannot reach the bound (and it costs more than the solve)
-                refine = not far and spring.subsystem is not None and not problem.subsystem_loops(spring.subsystem)
+                refine = spring.subsystem is not None and not problem.subsystem_loops(spring.subsystem)
                 if refine and _margin(problem, con, base, variables, home, gravity, found) > REFINE_MARGIN:
                     refine = False
                 if refine:
