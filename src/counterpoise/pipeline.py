@@ -107,7 +107,7 @@ def run(
     from . import progress
 
     name = getattr(getattr(method, "problem", None), "name", "")
-    what = {"PartsMethod": "searching catalogue parts", "PayloadMethod": "designing for the payload range"}.get(type(method).__name__, "designing")
+    what = getattr(method, "phase", "designing")
     with progress.phase(f"{name}: {what}" if name else what):
         solution = method.solve(parameters, bounds, initial)
     if solution.verification is not None:

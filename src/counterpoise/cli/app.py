@@ -11,7 +11,6 @@ nothing written); 3 an internal error (one line; ``--debug`` shows the traceback
 from __future__ import annotations
 
 import sys
-import time
 import warnings
 from collections.abc import Mapping
 from pathlib import Path

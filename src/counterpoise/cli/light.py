@@ -25,7 +25,6 @@ from __future__ import annotations
 import os
 import re
 import sys
-import time
 from typing import Any
 
 #: Command name -> first line of its help, in the order the app registers them.

@@ -21,7 +21,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..model import expr as ex
-from ..model.mechanism import Rotation
 from ..model.problem import Problem
 from ..solvers.base import Bounds, SolverOutput, Status
 
@@ -32,10 +31,7 @@ if TYPE_CHECKING:
 def geometric_variables(problem: Problem) -> set[str]:
     """Variables that appear in a position: a frame transform, a body's centre of mass, a
     counter-mass position or a spring end."""
-    trees: list[ex.Expr] = []
-    for frame in problem.frames:
-        for t in frame.transforms:
-            trees += [t.angle, *t.axis] if isinstance(t, Rotation) else list(t.vector)
+    trees: list[ex.Expr] = [tree for frame in problem.frames for t in frame.transforms for tree in t.expressions]
     points = [b.com for b in problem.bodies] + [c.position for c in problem.counter_masses]
     points += [end for s in problem.springs for end in s.ends]
     for point in points:

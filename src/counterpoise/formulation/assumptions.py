@@ -173,12 +173,7 @@ def degeneracies(problem: Problem) -> list[str]:
     out: list[str] = []
     if not problem.bodies:
         return ["nothing to balance: the problem has no bodies (is the file cut short before its frames and bodies?)"]
-    used: set[str] = set()
-    for frame in problem.frames:
-        for t in frame.transforms:
-            trees = [t.angle, *t.axis] if isinstance(t, Rotation) else list(t.vector)
-            for tree in trees:
-                used |= ex.names(tree)
+    used: set[str] = set().union(*(frame.names() for frame in problem.frames))
     idle = [c.name for c in problem.coordinates if c.name not in used]
     for name in idle:
         out.append(f"coordinate '{name}' drives no frame: it moves nothing, so there is nothing to balance about it")

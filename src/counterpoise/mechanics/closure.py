@@ -51,7 +51,7 @@ import numpy as np
 from ..errors import ProblemFileError
 from ..model.loops import PRISMATIC_JOINT, REVOLUTE_JOINT, SPHERICAL_JOINT
 from ..model.units import MAX_LENGTH_M
-from ..model.mechanism import GROUND, Rotation
+from ..model.mechanism import GROUND
 from ..model.problem import Problem
 from .energy import Mechanics
 from .kinematics import matvec, sub
@@ -707,9 +707,7 @@ def geometry_parameters(problem: Problem, subsystem: str) -> tuple[str, ...]:
             name: str | None = point.frame
             while name is not None and name != GROUND:
                 f = problem.frame[name]
-                for t in f.transforms:
-                    for tree in ((t.angle, *t.axis) if isinstance(t, Rotation) else t.vector):
-                        used |= ex.names(tree)
+                used |= f.names()
                 name = f.parent
     derived = {p.name: p.expr for p in problem.parameters if not p.is_base}
     todo = [n for n in used if n in derived]

@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Union
 
-from .expr import Expr
+from .expr import Expr, names
 from .units import DisplayUnit
 
 GROUND = "ground"
@@ -53,10 +53,20 @@ class Rotation:
     axis: Vector
     angle: Expr
 
+    @property
+    def expressions(self) -> tuple[Expr, ...]:
+        """Every expression the transform depends on (the angle, then the axis)."""
+        return (self.angle, *self.axis)
+
 
 @dataclass(frozen=True)
 class Translation:
     vector: Vector
+
+    @property
+    def expressions(self) -> tuple[Expr, ...]:
+        """Every expression the transform depends on (the vector)."""
+        return tuple(self.vector)
 
 
 Transform = Union[Rotation, Translation]
@@ -81,6 +91,10 @@ class Frame:
     keys: tuple[str, ...] = ()  # file key of each transform (a DH row gives four), for messages
     orientation: str | None = None
     link: bool = False  # a link of a [robot] model
+
+    def names(self) -> frozenset[str]:
+        """Every name (coordinate, variable, parameter) its own transforms use (not its parent's)."""
+        return frozenset().union(*(names(tree) for t in self.transforms for tree in t.expressions))
 
     def key(self, index: int) -> str:
         """The file key of transform ``index``."""

@@ -12,6 +12,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 #: the largest tilt range about one axis (a full turn)
 FULL_TURN = 2 * math.pi
 
@@ -32,26 +34,23 @@ class Tilt:
     description: str = ""
 
 
-def _rotation(axis: tuple[float, float, float], angle: float) -> list[list[float]]:
-    """Rotation matrix about a unit ``axis`` by ``angle`` (Rodrigues)."""
-    x, y, z = axis
-    c, s = math.cos(angle), math.sin(angle)
-    t = 1.0 - c
-    return [
-        [c + x * x * t, x * y * t - z * s, x * z * t + y * s],
-        [y * x * t + z * s, c + y * y * t, y * z * t - x * s],
-        [z * x * t - y * s, z * y * t + x * s, c + z * z * t],
-    ]
+def tilted_directions(direction: tuple[float, float, float], tilts: tuple[Tilt, ...], angles: np.ndarray) -> np.ndarray:
+    """Gravity's directions in base coordinates, (n, 3), for the base tilted by each row of
+    ``angles`` (n, one column per tilt; see :class:`Tilt`): v ← R(axisₖ, φₖ)ᵀ v for k = 1, 2, ...,
+    since gᵀ(R₁ R₂ ...) = (... R₂ᵀ R₁ᵀ g)ᵀ; Rᵀ by Rodrigues' formula with −φ."""
+    angles = np.atleast_2d(np.asarray(angles, dtype=float))
+    v = np.tile(np.asarray(direction, dtype=float), (angles.shape[0], 1))
+    for k, tilt in enumerate(tilts):
+        axis = np.asarray(tilt.axis, dtype=float)
+        c, s = np.cos(angles[:, k])[:, None], np.sin(angles[:, k])[:, None]
+        v = v * c - np.cross(axis, v) * s + axis * (v @ axis)[:, None] * (1 - c)
+    return v
 
 
 def tilted(direction: tuple[float, float, float], tilts: tuple[Tilt, ...], angles: tuple[float, ...]) -> tuple[float, float, float]:
     """Gravity's direction in base coordinates when the base is tilted by ``angles`` (see :class:`Tilt`)."""
-    v = list(direction)
-    # gᵀ(R₁ R₂ ...) = (... R₂ᵀ R₁ᵀ g)ᵀ: apply R₁ᵀ first, then R₂ᵀ, ...
-    for tilt, angle in zip(tilts, angles):
-        r = _rotation(tilt.axis, angle)
-        v = [sum(r[i][k] * v[i] for i in range(3)) for k in range(3)]  # Rᵀ v
-    return (v[0], v[1], v[2])
+    x, y, z = (float(c) for c in tilted_directions(direction, tilts, np.array([angles]))[0])
+    return (x, y, z)
 
 
 def tilt_nodes(tilt: Tilt) -> tuple[float, ...]:

@@ -29,6 +29,9 @@ SampleKey = tuple[tuple[str, tuple[tuple[str, float], ...]], ...]
 class PayloadMethod:
     """Design for a payload range around ``core(sampled problem)``, built once per sample set."""
 
+    #: what a solve is doing, for the progress line of a slow one (:func:`counterpoise.progress.phase`)
+    phase = "designing for the payload range"
+
     def __init__(self, problem: Problem, core: Callable[[Problem], DesignMethod]) -> None:
         self.problem = problem
         self._core = core

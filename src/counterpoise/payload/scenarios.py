@@ -21,7 +21,7 @@ from dataclasses import dataclass, replace
 
 from ..formulation.layout import Slot
 from ..model.payload import MIN_ADDED, Payload
-from ..model.problem import Objective, Parameter, Problem, Scenario, Variable
+from ..model.problem import Parameter, Problem, Scenario, Variable
 
 #: the scenario a file without [scenarios] gets (see io.resolve.quantities)
 _DEFAULT = "nominal"

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping
-from typing import Any, SupportsFloat
+from typing import SupportsFloat
 
 import numpy as np
 
@@ -26,7 +26,7 @@ from ..mechanics.energy import Mechanics
 from ..mechanics.poses import assembled
 from ..mechanics.realisation import DIRECT, Realisation, finite, realise_spring
 from ..model import expr as ex
-from ..model.mechanism import Point, Rotation
+from ..model.mechanism import Point
 from ..model.problem import Problem
 from ..pipeline import DesignResult
 from .rows import Row
@@ -191,12 +191,7 @@ def realisations(result: DesignResult, mech: Mechanics | None = None) -> dict[st
 
 def _names_in_mechanism(problem: Problem) -> set[str]:
     """Names the frames and bodies use (a design variable among them is an adjustment row)."""
-    used: set[str] = set()
-    for f in problem.frames:
-        for t in f.transforms:
-            trees = [t.angle, *t.axis] if isinstance(t, Rotation) else list(t.vector)
-            for tree in trees:
-                used |= ex.names(tree)
+    used: set[str] = set().union(*(f.names() for f in problem.frames))
     for b in problem.bodies:
         used |= ex.names(b.mass)
         for c in b.com.position:

@@ -74,6 +74,9 @@ class _Given:
 class PartsMethod:
     """Choose catalogue parts for the slots of ``problem``, then design with ``inner``."""
 
+    #: what a solve is doing, for the progress line of a slow one (:func:`counterpoise.progress.phase`)
+    phase = "searching catalogue parts"
+
     def __init__(self, problem: Problem, inner: DesignMethod, direct: bool) -> None:
         self.problem = problem
         self.inner = inner

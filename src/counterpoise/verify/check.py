@@ -15,6 +15,7 @@ import numpy as np
 from ..model.problem import Problem
 from .checks import PRISMATIC, REVOLUTE, CoordinateCheck, Verification
 from ..model import expr as ex
+from ..model.tilt import tilted_directions
 from .manifold import ManifoldResiduals
 from .residuals import BOX_MAXIMUM_STARTS, BoxMaximum, SubsystemResiduals, _base_parameters, configurations, energy_scale
 
@@ -166,12 +167,7 @@ def _at_random_tilts(
     rng = np.random.default_rng([problem.settings.seed + 2 if seed is None else seed, index])
     angles = np.column_stack([rng.uniform(t.lower, t.upper, n) for t in problem.tilts])
     upright = scenario.upright
-    g0 = np.asarray(upright.direction, dtype=float)
-    directions = np.tile(g0, (n, 1))
-    for k, tilt in enumerate(problem.tilts):  # v ← R(axis, φ)ᵀ v, row by row (Rodrigues with −φ)
-        axis = np.asarray(tilt.axis, dtype=float)
-        c, s = np.cos(angles[:, k])[:, None], np.sin(angles[:, k])[:, None]
-        directions = directions * c - np.cross(axis, directions) * s + axis * (directions @ axis)[:, None] * (1 - c)
+    directions = tilted_directions(upright.direction, problem.tilts, angles)
     g = upright.acceleration * directions
     r0, t0 = evaluator.evaluate(variables, base, (0.0, 0.0, 0.0))
     r, t = r0.copy(), t0.copy()

@@ -28,7 +28,7 @@ from ..mechanics import NUMPY_FUNCTIONS, Mechanics
 from ..mechanics.sampling import MAX_CORNERS, STEP, configurations  # noqa: F401 - re-exported
 from ..model import expr as ex
 from ..model.elements import CounterMass, ZeroFreeLengthSpring
-from ..model.mechanism import GROUND, Body, Point, Rotation
+from ..model.mechanism import GROUND, Body, Point
 from ..model.problem import Problem
 
 #: configurations evaluated at once (one coordinate perturbed at a time)
@@ -116,11 +116,7 @@ def frame_names(problem: Problem) -> dict[str, frozenset[str]]:
     def names(name: str) -> frozenset[str]:
         if name not in out:
             frame = problem.frame[name]
-            own: set[str] = set()
-            for t in frame.transforms:
-                for tree in (*t.axis, t.angle) if isinstance(t, Rotation) else tuple(t.vector):
-                    own |= ex.names(tree)
-            out[name] = frozenset(own) | (names(frame.parent) if frame.parent is not None else frozenset())
+            out[name] = frame.names() | (names(frame.parent) if frame.parent is not None else frozenset())
         return out[name]
 
     for name in problem.frame:

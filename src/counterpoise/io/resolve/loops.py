@@ -15,7 +15,7 @@ from typing import Any
 
 from ...model import expr as ex
 from ...model.loops import PRISMATIC_JOINT, REVOLUTE_JOINT, Loop
-from ...model.mechanism import GROUND, Coordinate, Frame, Point, Rotation
+from ...model.mechanism import GROUND, Coordinate, Frame, Point
 from ...model.problem import Problem
 from ...model.units import LENGTH, MAX_LENGTH_M, canonical_dimension, dimension_name
 from .context import Context
@@ -56,10 +56,7 @@ def _frame_names(frame: str, frames: Mapping[str, Frame]) -> set[str]:
     name: str | None = frame
     while name is not None and name != GROUND:
         f = frames[name]
-        for t in f.transforms:
-            trees = (t.angle, *t.axis) if isinstance(t, Rotation) else t.vector
-            for tree in trees:
-                used |= ex.names(tree)
+        used |= f.names()
         name = f.parent
     return used
 

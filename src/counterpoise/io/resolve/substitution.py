@@ -173,9 +173,7 @@ def _names_of(point: Point, frames: Mapping[str, Frame]) -> set[str]:
     frame: str | None = point.frame
     while frame != GROUND and frame is not None:
         f = frames[frame]
-        for t in f.transforms:
-            for c in (*t.axis, t.angle) if isinstance(t, Rotation) else t.vector:
-                out |= ex.names(c)
+        out |= f.names()
         frame = f.parent
     return out
 
