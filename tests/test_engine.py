@@ -276,3 +276,18 @@ def test_designer_is_built_once_and_reused():
     second = designer.solve({Slot("b", None): 0.9})
     assert designer.backend.solver is solver
     assert first.values[Slot("b", None)] == pytest.approx(second.values[Slot("b", None)], rel=1e-8)
+
+
+def test_a_chain_hypothesis_found_balances_with_its_designed_spring():
+    """Found by the random chains (2026-11-26): a non-binding default force limit of the free
+    spring (188 N against 2030 N) made IPOPT fail on this chain, which balances without it.
+    A designed spring's limit is now reported, not a row of the NLP (docs/springs.md)."""
+    from builders import Chain, Link
+
+    chain = Chain(
+        links=[Link(length=0.5, mass=3.0, com=(0.5, 0.0), arm=0.375, free_offset=True), Link(length=0.5, mass=1.0, com=(0.5, 0.0), arm=0.25, free_offset=True)],
+        base_angle=4.25, spring_on_first=0.16796875, ranges=[], inertia_weight=0.0, offset_bound=5.0,
+    )
+    result = design(chain.problem())
+    assert result.status is Status.OPTIMAL, result.message
+    assert result.verification.residual_ratio <= 1e-9

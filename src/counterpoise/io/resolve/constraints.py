@@ -39,19 +39,16 @@ def designed_spring_force_limit(spring: ZeroFreeLengthSpring) -> tuple[float, st
     """HOOK: the default largest force (N, and where it comes from) of a designed spring,
     one whose stiffness is free (not a catalogue slot), when the file gives no ``max_force``.
 
-    It is the largest force a helical extension spring of the spring's material can carry
-    within its envelope and smallest safety factor (``counterpoise.springs.force_limit``,
-    docs/springs.md): a design that needs more cannot be wound, whatever its rate. A
-    catalogue slot's spring is limited by its part instead (None here).
+    None: such a spring's largest force is not a row of the NLP unless the file gives
+    ``max_force``. Its designed spring reports the force it can carry
+    (``counterpoise.springs.force_limit``, springs.csv's ``part_max_load_N``) and status.txt
+    says when no spring can be wound for it. Entering that default as a row of every
+    free-spring problem was tried: far from binding (188 N against 2030 N), the extra
+    inequality made IPOPT fail on a random two-link chain that balances without it
+    (tests/test_engine.py's random chains), and it cost each study point.
     """
-    if spring.slot is not None:
-        return None
-    from ...springs.design import force_limit
-
-    options = getattr(spring, "design", None)
-    limit = force_limit(options)
-    material = getattr(options, "material", None) or "music wire"
-    return limit, f"the largest force a designed {material.replace('_', ' ')} spring can carry"
+    del spring
+    return None
 
 
 def constraints(
