@@ -217,12 +217,11 @@ def test_design_default_is_the_dense_check():
 
 
 def test_fast_path_parses_check():
-    from counterpoise.cli.light import parse_solve
+    from counterpoise.cli.light import parse
 
-    assert parse_solve(["solve", "a.toml", "--check", "auto"]).check == "auto"
-    assert parse_solve(["solve", "a.toml"]).check == "dense"
-    assert parse_solve(["solve", "a.toml", "--check", "bogus"]) is None  # the app says what is wrong
-    assert parse_solve(["solve", "a.toml", "--check", "auto", "--check=dense"]) is None
+    assert parse(["solve", "a.toml", "--check", "auto"])[1]["check"] == "auto"
+    assert parse(["solve", "a.toml"])[1]["check"] == "dense"
+    assert parse(["solve", "a.toml", "--check", "auto", "--check=dense"])[1]["check"] == "dense"  # the last, as the app
 
 
 def test_study_of_a_closed_loop_falls_back_to_the_dense_check(tmp_path, capsys):

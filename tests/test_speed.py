@@ -1,4 +1,4 @@
-"""Long chains, the reusable dense check, the light command-line entry and BLAS threads.
+"""Long chains, the reusable dense check, the start-up of the command line and BLAS threads.
 
 Speed itself is measured in ``benchmarks/`` (no timed tests); these tests pin what the
 speed-ups must not change.
@@ -103,19 +103,6 @@ def test_a_study_of_masses_reuses_the_arrays_and_matches_a_fresh_check():
         assert check.max_residual == pytest.approx(float(np.abs(r[:, 0]).max()), rel=1e-9, abs=1e-14)
         # the sampled maximum, refined to the box maximum (verify.checks): never below it, and close
         assert float(np.abs(t[:, 0]).max()) <= check.max_gravity_torque <= float(np.abs(t[:, 0]).max()) * (1 + 1e-2)
-
-
-def test_light_help_lists_the_apps_commands():
-    """``counterpoise --help`` is printed without importing typer; it must list exactly
-    the commands of the typer app, with their help."""
-    from counterpoise.cli import app as cli_app
-    from counterpoise.cli.light import COMMANDS, DESCRIPTION, top_level_help
-
-    registered = {(c.name or c.callback.__name__): (c.callback.__doc__ or "").strip().splitlines()[0] for c in cli_app.app.registered_commands}
-    assert registered == COMMANDS
-    assert cli_app.app.info.help == DESCRIPTION
-    text = top_level_help()
-    assert all(name in text for name in COMMANDS)
 
 
 def test_blas_is_single_threaded_after_a_designer_is_built():
@@ -239,142 +226,8 @@ def test_light_csc_matrix_is_scipys_and_clarabel_accepts_both():
     np.testing.assert_allclose(y, ref.x, atol=1e-12)
 
 
-# -- the light solve path ----------------------------------------------------------------------
-
-
-@pytest.mark.parametrize(
-    "args",
-    [
-        ["solve"],  # no file: the app's usage error
-        ["solve", "a.toml", "--help"],
-        ["solve", "a.toml", "--starts", "0"],
-        ["solve", "a.toml", "--starts", "two"],
-        ["solve", "a.toml", "--jobs", "0"],
-        ["solve", "a.toml", "--jobs", "2", "--jobs", "3"],
-        ["solve", "a.toml", "--out", "x", "--out", "y"],
-        ["solve", "a.toml", "--out"],
-        ["solve", "a.toml", "--out", "--plot"],
-        ["solve", "a.toml", "--plot=yes"],
-        ["solve", "a.toml", "--no-such-option"],
-        ["solve", "-"],
-        ["validate", "a.toml"],
-    ],
-)
-def test_light_solve_hands_unusual_calls_to_the_app(args):
-    from counterpoise.cli.light import parse_solve
-
-    assert parse_solve(args) is None
-
-
-def test_light_solve_parses_as_the_app():
-    from counterpoise.cli.light import SolveArgs, parse_solve
-
-    got = parse_solve(["solve", "a.toml", "--set=x=1", "--debug", "--out=o", "--set", "y=2 mm", "b.toml", "--plot", "--starts", "3", "--", "--c.toml"])
-    assert got == SolveArgs(("a.toml", "b.toml", "--c.toml"), "o", ("x=1", "y=2 mm"), True, 3, True)
-    assert parse_solve(["solve", "a.toml"]) == SolveArgs(("a.toml",))
-    assert parse_solve(["solve", "a.toml", "--jobs=2"]) == SolveArgs(("a.toml",), jobs=2)
-
-
-def _rows():
-    base = {"added_inertia_kg_m2": 0.0665714, "objective": 5.753, "residual_ratio": 1.23e-15, "checked_configurations": 30024, "solve_time_s": 0.0123}
-    return [
-        {**base, "problem": "yasir2019_hybrid", "status": "optimal", "added_mass_kg": 5.753, "wall_s": 0.151, "folder": "out/yasir2019_hybrid", "message": "ok"},
-        {**base, "problem": "p", "status": "infeasible", "added_mass_kg": -123456789.0, "wall_s": 1234.5, "folder": "out/p", "message": "balance cannot be met: M at its upper bound"},
-    ]
-
-
-@pytest.mark.parametrize("which", [slice(0, 1), slice(0, 2), slice(1, 2)])
-def test_plain_summary_is_what_the_app_prints(which, monkeypatch, capsys):
-    """The plain-text table is byte for byte the app's rich table on a 160-column console
-    that is not a terminal (including a cell wider than its right-justified header)."""
-    import io
-
-    from rich.console import Console
-
-    from counterpoise.cli import app, light
-
-    rows = _rows()[which]
-    buffer = io.StringIO()
-    monkeypatch.setattr(app, "out_console", Console(file=buffer, width=light.PLAIN_WIDTH))
-    app._print_summary(rows)
-    monkeypatch.setattr(light, "rich_is_terminal", lambda stream, environ=None: False)
-    light.print_summary(rows)
-    assert light.plain_table(light.SUMMARY_TITLE, light.SUMMARY_COLUMNS, [light.summary_cells(r) for r in rows], light.PLAIN_WIDTH) is not None
-    assert capsys.readouterr().out == buffer.getvalue()
-
-
-def test_plain_summary_defers_to_rich_when_rich_would_differ():
-    from counterpoise.cli import light
-
-    cells = [light.summary_cells(r) for r in _rows()]
-    table = lambda rows, width=light.PLAIN_WIDTH: light.plain_table(light.SUMMARY_TITLE, light.SUMMARY_COLUMNS, rows, width)  # noqa: E731
-    assert table(cells) is not None
-    assert table(cells, width=100) is None  # rich would shrink and wrap columns
-    assert table([]) is None
-    assert table([["[bold]x", *cells[0][1:]]]) is None  # markup
-    assert table([["a:smile:", *cells[0][1:]]]) is None  # emoji code
-    assert table([["é", *cells[0][1:]]]) is None  # width not known here
-    assert light.rich_is_terminal(io_stub(False), {"FORCE_COLOR": "1"})
-    assert not light.rich_is_terminal(io_stub(True), {"TTY_COMPATIBLE": "0"})
-    assert light.rich_is_terminal(io_stub(True), {}) and not light.rich_is_terminal(io_stub(False), {})
-
-
-def io_stub(tty: bool):
-    class Stream:
-        def isatty(self) -> bool:
-            return tty
-
-    return Stream()
-
-
-def _cli_runs(tmp_path, *args: str, env: dict[str, str] | None = None):
-    """The same ``solve`` call through the light path and through the typer app."""
-    import os
-    import re
-    import subprocess
-    import sys
-    from pathlib import Path
-
-    src = str(Path(__file__).resolve().parent.parent / "src")
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [src, os.environ.get("PYTHONPATH")])), **(env or {})}
-    env.pop("FORCE_COLOR", None)
-    env.pop("TTY_COMPATIBLE", None)
-    runs = []
-    for name, code in (
-        ("light", "from counterpoise.cli import main; main()"),
-        ("app", "import sys; from counterpoise.cli.app import main; main(sys.argv[1:])"),
-    ):
-        out = tmp_path / name
-        run = subprocess.run([sys.executable, "-c", code, "solve", *args, "--out", str(out)], capture_output=True, text=True, env=env, cwd=PROBLEMS.parent)
-        text = run.stdout.replace(str(out), "OUT")
-        # the time column (total; with --wide also solve), in a UTF-8 or an ASCII box
-        text = re.sub(r"(?<=[│|]) +\d+\.\d{3} (?=[│|])", " T ", text)
-        runs.append((run.returncode, text, run.stderr.replace(str(out), "OUT"), out))
-    return runs
-
-
-@pytest.mark.parametrize(
-    "args",
-    [
-        ("problems/yasir2019_hybrid.toml", "problems/yasir2019_counter_mass.toml"),
-        ("problems/yasir2019_counter_mass.toml", "--set", "variables.M_c.upper=100 g"),  # infeasible: exit 1, message
-        ("problems/yasir2019_counter_mass.toml", "--set", "novalue"),  # the app's message
-        ("problems/yasir2019_counter_mass.toml", "problems/no_such_file.toml"),  # load error: the app's message
-    ],
-)
-def test_light_solve_prints_and_writes_what_the_app_does(tmp_path, args):
-    (code_a, out_a, err_a, dir_a), (code_b, out_b, err_b, dir_b) = _cli_runs(tmp_path, *args)
-    assert (code_a, out_a, err_a) == (code_b, out_b, err_b)
-    files_a = sorted(p.relative_to(dir_a) for p in dir_a.rglob("*.csv")) if dir_a.exists() else []
-    files_b = sorted(p.relative_to(dir_b) for p in dir_b.rglob("*.csv")) if dir_b.exists() else []
-    assert files_a == files_b
-    for rel in files_a:
-        if rel.name != "summary.csv":  # solve_time_s differs
-            assert (dir_a / rel).read_text() == (dir_b / rel).read_text(), rel
-
-
 def test_solve_imports_neither_typer_nor_rich_nor_cvxpy(tmp_path):
-    """The light path in a fresh process: an LP design through Clarabel's own API, and no
+    """The fast path in a fresh process: an LP design through Clarabel's own API, and no
     typer, rich, cvxpy, scipy, pandas, matplotlib or dask on the way; without a [robot]
     table, not the robot reader either (nor yourdfpy, trimesh, MuJoCo)."""
     out = _fresh(
@@ -400,11 +253,3 @@ def test_quantity_pattern_unchanged_by_its_faster_form():
                "-1.5e-3 kg", "1e", "3 ·", "3 °", ".5 g", "5.", "5 Ω", "r_a * 2", "2 * r_a", "+3 Z", "3 _", "3\tkg", "3 ω"]
     for text in samples:
         assert bool(units._QUANTITY_RE.match(text)) == bool(before.match(text)), text
-
-
-def test_light_summary_without_utf8_stdout_is_richs(tmp_path):
-    """A stdout that is not UTF-8: the light path leaves the summary to rich, so both paths
-    end the same way (today an internal error: rich cannot encode the header's '²')."""
-    runs = _cli_runs(tmp_path, "problems/yasir2019_counter_mass.toml", env={"PYTHONIOENCODING": "ascii"})
-    (code_a, out_a, err_a, _), (code_b, out_b, err_b, _) = runs
-    assert (code_a, out_a, err_a) == (code_b, out_b, err_b)

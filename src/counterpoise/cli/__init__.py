@@ -1,14 +1,15 @@
 """The command line: a thin layer over the library.
 
 :func:`main` is the console-script entry point. It imports nothing heavy: ``counterpoise``
-and ``counterpoise --help`` are answered from :mod:`.light` (the standard library only),
-and so is ``counterpoise solve`` with the options :mod:`.light` knows (it imports the
-library, not typer or rich); every other command, and any ``solve`` call :mod:`.light`
-hands back, goes to the typer app in :mod:`.app`, imported then. When the console script
-runs ``solve`` or ``validate``, the process ends with ``os._exit`` once the command has
-returned and stdout and stderr are flushed: every report is already closed and renamed
-into place by then (:mod:`counterpoise.report.files`), and tearing down the imported
-modules (numpy, CasADi, pint, pydantic) would take longer than the work.
+and ``counterpoise --help`` are answered from the table of commands in :mod:`.spec` (the
+standard library only), and ``counterpoise solve`` is parsed by :mod:`.light` with a parser
+derived from that table (it imports the library, not typer or rich); every other command,
+and any ``solve`` call :mod:`.light` hands back (``--help``, a usage error), goes to the
+typer app in :mod:`.app`, whose commands are built from the same table, imported then.
+When the console script runs ``solve`` or ``validate``, the process ends with ``os._exit``
+once the command has returned and stdout and stderr are flushed: every report is already
+closed and renamed into place by then (:mod:`counterpoise.report.files`), and tearing down
+the imported modules (numpy, CasADi, pint, pydantic) would take longer than the work.
 
 Before anything is imported, the process environment gets (unless the user set them):
 one BLAS thread (:mod:`counterpoise.threads`) and ``PYDANTIC_DISABLE_PLUGINS=__all__``:
@@ -23,7 +24,7 @@ import sys
 
 from ..threads import limit_blas_environment
 from . import light
-from .light import COMMANDS, top_level_help, wants_top_level_help
+from .spec import COMMANDS, top_level_help, wants_top_level_help
 
 __all__ = ["COMMANDS", "main"]
 

@@ -2,7 +2,10 @@
 ``counterpoise solve FILE...``, ``counterpoise schedule FILE --payload MASS``,
 ``counterpoise study FILE --vary ...`` and ``counterpoise plot FILE|STUDY``.
 
-A thin layer: it parses options, calls the library and prints. Exit status: 0 every
+A thin layer: it parses options, calls the library and prints. The commands, their
+arguments and options (types, defaults, help, checks) are declared once, in
+:mod:`.spec`; :func:`command` gives each function below the typer signature of its entry
+there, and :mod:`.light` derives the fast path's parser from the same entry. Exit status: 0 every
 problem solved to a verified optimum; 1 some problem is infeasible or failed (its reports
 are still written when there is a design to report); 2 bad input (one line per error,
 nothing written); 3 an internal error (one line; ``--debug`` shows the traceback).
@@ -10,57 +13,81 @@ nothing written); 3 an internal error (one line; ``--debug`` shows the traceback
 
 from __future__ import annotations
 
+import functools
+import inspect
 import sys
 import warnings
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Optional
+from typing import TYPE_CHECKING, Annotated, Any, Optional
 
 import typer
 from rich.console import Console
 from rich.table import Table
 
 from .. import progress
-from .light import INTERNAL_ERROR, _short, coerce
+from . import light
+from .light import INTERNAL_ERROR, UsageError, _short
+from .spec import BY_NAME, DESCRIPTION, Param, invalid
 from ..errors import CounterpoiseError, ProblemFileError, clip
 
 if TYPE_CHECKING:
     from ..model.problem import Problem
 
-app = typer.Typer(
-    add_completion=False,
-    no_args_is_help=True,
-    pretty_exceptions_enable=False,
-    help="Design gravity balancers for mechanisms. Add --debug to see the traceback of an internal error.",
-)
+app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False, help=DESCRIPTION)
 out_console = Console()
 if not out_console.is_terminal:  # logs and CI: wide enough that names are not cut
     out_console = Console(width=160)
 err_console = Console(stderr=True, highlight=False, soft_wrap=True)
 
-FilesArg = Annotated[list[Path], typer.Argument(help="Problem files (TOML).", show_default=False)]
-SetOpt = Annotated[
-    Optional[list[str]],
-    typer.Option("--set", help="Override a key before validation, e.g. --set 'parameters.r_a=140 mm' (repeatable)."),
-]
+_TYPES: dict[str, type] = {"path": Path, "str": str, "int": int, "float": float, "flag": bool}
+
+
+def typer_parameter(param: Param) -> inspect.Parameter:
+    """``param`` of the table (:mod:`.spec`) as typer reads a command's parameter: its type
+    annotated with a :func:`typer.Argument` or :func:`typer.Option`, and its default."""
+    kind: Any = _TYPES[param.kind]
+    if param.many:
+        kind = list[kind]  # a runtime type built from the table
+    if param.default is None:
+        kind = Optional[kind]
+    options: dict[str, Any] = {"help": param.help, "show_default": param.show_default}
+    if param.metavar is not None:
+        options["metavar"] = param.metavar
+    info = typer.Option("/".join(param.flags), **options) if param.flags else typer.Argument(**options)
+    default = inspect.Parameter.empty if param.required else light.convert(param.kind, param.default)
+    return inspect.Parameter(param.dest, inspect.Parameter.KEYWORD_ONLY, default=default, annotation=Annotated[kind, info])
+
+
+def command(body: Callable[..., None]) -> Callable[..., None]:
+    """Register ``body`` as the command of its name, with the arguments and options of its
+    entry in :data:`counterpoise.cli.spec.COMMANDS` (its parameters must be theirs, in
+    order; a function taking ``**values`` gets them all). The table's checks
+    (:func:`counterpoise.cli.spec.invalid`) run before ``body``: one line, exit 2."""
+    spec = BY_NAME[body.__name__]
+    own = [p for p in inspect.signature(body).parameters.values()]
+    if [p.kind for p in own] != [inspect.Parameter.VAR_KEYWORD] and [p.name for p in own] != [p.dest for p in spec.params]:
+        raise TypeError(f"{body.__name__}: parameters {[p.name for p in own]} are not the table's {[p.dest for p in spec.params]}")
+
+    @functools.wraps(body)
+    def run(**values: Any) -> None:
+        wrong = invalid(spec, values)
+        if wrong is not None:
+            _err_line(wrong)
+            raise typer.Exit(2)
+        body(**values)
+
+    run.__signature__ = inspect.Signature([typer_parameter(p) for p in spec.params])  # type: ignore[attr-defined]  # what typer reads
+    app.command(spec.name, help=spec.help)(run)
+    return run
 
 
 def _overrides(items: list[str] | None) -> dict[str, object]:
-    out: dict[str, object] = {}
-    for item in items or []:
-        key, sep, value = item.partition("=")
-        if not sep or not key.strip():
-            err_console.print(f"--set {clip(item)}: expected KEY=VALUE", markup=False)
-            raise typer.Exit(2)
-        try:
-            out[key.strip()] = _coerce(value.strip())
-        except ValueError as exc:
-            err_console.print(f"--set {clip(key.strip())}: {clip(str(exc))}", markup=False)
-            raise typer.Exit(2) from None
-    return out
-
-
-_coerce = coerce  # one reading of --set values for both paths (.light)
+    try:
+        return light.overrides(items)
+    except UsageError as exc:
+        _err_line(str(exc))
+        raise typer.Exit(2) from None
 
 
 def _load_all(files: list[Path], overrides: Mapping[str, object]) -> list[Problem]:
@@ -86,9 +113,8 @@ def _err_line(line: str) -> None:
     err_console.print(line, markup=False)
 
 
-@app.command()
-def validate(files: FilesArg, set_: SetOpt = None) -> None:
-    """Check problem files without solving them."""
+@command
+def validate(files: list[Path], set_: list[str] | None) -> None:
     problems = _load_all(files, _overrides(set_))
     for p in problems:
         n_var = len(p.variables)
@@ -99,13 +125,8 @@ def validate(files: FilesArg, set_: SetOpt = None) -> None:
         )
 
 
-@app.command()
-def catalogue(
-    files: Annotated[list[Path], typer.Argument(help="Catalogue files (CSV), or 'shipped'.", show_default=False)],
-    columns: Annotated[str, typer.Option("--columns", help="Column preset: counterpoise, vendor or vendor_inch.")] = "counterpoise",
-    units: Annotated[Optional[str], typer.Option("--units", help="Unit system: SI, N-mm or inch (default: the preset's).")] = None,
-) -> None:
-    """Check spring catalogues (every row) and print their ranges (docs/catalogues.md)."""
+@command
+def catalogue(files: list[Path], columns: str, units: str | None) -> None:
     from ..catalogue import mapping_from, read_catalogue
 
     try:
@@ -132,44 +153,9 @@ def catalogue(
         raise typer.Exit(2)
 
 
-@app.command()
-def solve(
-    files: FilesArg,
-    out: Annotated[Path, typer.Option("--out", help="Folder for the reports (one subfolder per problem).")] = Path("results"),
-    set_: SetOpt = None,
-    plot: Annotated[bool, typer.Option("--plot", help="Also write energy.png (energies and residual torque) and mechanism.png (the mechanism with its design) next to the reports.")] = False,
-    starts: Annotated[int, typer.Option("--starts", help="Seeded multi-start over the free geometry: number of starts.")] = 1,
-    report: Annotated[
-        str, typer.Option("--report", help="html: also write report.html, one self-contained page of the design (docs/build.md); csv: the CSV files only.")
-    ] = "html",
-    wide: Annotated[bool, typer.Option("--wide", help="Show every column of the summary (inertia, objective, configurations, solve time).")] = False,
-    check: Annotated[
-        str,
-        typer.Option("--check", help="dense: the dense random check (default); auto: the exact certificate where the residual is a trigonometric polynomial and it proves balance, else dense (docs/studies.md)."),
-    ] = "dense",
-    jobs: Annotated[int, typer.Option("--jobs", help="Worker processes solving the problems (1 = in this process); one summary, in the files' order.")] = 1,
-) -> None:
-    """Solve problem files and write their reports."""
-    from .light import CHECK_MODES, REPORTS
-    from .run import solve_all
-
-    if starts < 1:
-        err_console.print(f"--starts: must be at least 1, got {starts}", markup=False)
-        raise typer.Exit(2)
-    if jobs < 1:
-        err_console.print(f"--jobs: must be at least 1, got {jobs}", markup=False)
-        raise typer.Exit(2)
-    if report not in REPORTS:
-        err_console.print(f"--report: expected one of {', '.join(REPORTS)}, got '{report}'", markup=False)
-        raise typer.Exit(2)
-    if check not in CHECK_MODES:
-        err_console.print(f"--check: expected one of {', '.join(CHECK_MODES)}, got '{check}'", markup=False)
-        raise typer.Exit(2)
-    problems = _load_all(files, _overrides(set_))
-    _check_out(out)
-    rows, worst = solve_all(problems, out, plot, starts, _err_line, html=report == "html", jobs=jobs, check=check)
-    _print_summary(rows, wide)
-    raise typer.Exit(worst)
+@command
+def solve(**values: Any) -> None:
+    raise typer.Exit(light.run_solve(_err_line, _print_summary, **values))  # the fast path's function
 
 
 #: ``schedule --payload`` beyond this multiple of the declared range's upper end is an
@@ -177,13 +163,8 @@ def solve(
 PAYLOAD_FACTOR = 100.0
 
 
-@app.command()
-def schedule(
-    file: Annotated[Path, typer.Argument(help="Problem file with a payload range.", show_default=False)],
-    payload: Annotated[str, typer.Option("--payload", help="Payload mass to print the settings for, e.g. '31 g'.", show_default=False)],
-    set_: SetOpt = None,
-) -> None:
-    """Print the adjustments for one payload: what an operator sets at the table."""
+@command
+def schedule(file: Path, payload: str, set_: list[str] | None) -> None:
     from ..errors import InputError
     from ..model.units import MASS, canonical_dimension, dimension_name, parse_quantity
 
@@ -239,34 +220,26 @@ def schedule(
     out_console.print(f"residual ratio {result.setting.residual_ratio:.2e} (balanced in every working mode)", markup=False)
 
 
-@app.command()
+@command
 def study(
-    file: Annotated[Path, typer.Argument(help="Problem file (TOML).", show_default=False)],
-    vary: Annotated[list[str], typer.Option("--vary", help="NAME=START:STOP:N (grid) or NAME=START:STOP (with --samples), with units, e.g. 'm_endo=500 g:900 g:41'.")],
-    samples: Annotated[Optional[int], typer.Option("--samples", help="Number of Latin-hypercube samples.")] = None,
-    method: Annotated[Optional[str], typer.Option("--method", help="grid or lhs (default: lhs with --samples, else grid).")] = None,
-    seed: Annotated[Optional[int], typer.Option("--seed", help="Seed of the Latin hypercube (the default is written in study.json).")] = None,
-    out: Annotated[Path, typer.Option("--out", help="Folder for <problem>-study/.")] = Path("results"),
-    jobs: Annotated[Optional[int], typer.Option("--jobs", help="Worker processes (default: the number of cores; 1 = in this process).")] = None,
-    scheduler: Annotated[Optional[str], typer.Option("--scheduler", help="tcp://HOST:PORT of a Dask scheduler, or local for a Dask LocalCluster.")] = None,
-    scheduler_timeout: Annotated[float, typer.Option("--scheduler-timeout", help="Seconds to wait for the Dask scheduler.")] = 10.0,
-    resume: Annotated[bool, typer.Option("--resume", help="Skip the points already in study.csv.")] = False,
-    time_limit: Annotated[Optional[float], typer.Option("--time-limit", help="Seconds per point; a point past it is recorded as timeout.")] = None,
-    batch_size: Annotated[int, typer.Option("--batch-size", help="Points per batch (one task of a worker).")] = 16,
-    plot: Annotated[bool, typer.Option("--plot/--no-plot", help="Write study.png (and pareto.png when a weight is varied).")] = True,
-    set_: SetOpt = None,
-    check: Annotated[
-        str,
-        typer.Option("--check", help="auto: each point by the exact certificate where the residual is a trigonometric polynomial and it proves balance, else the dense check (default); dense: the dense random check always."),
-    ] = "auto",
+    file: Path,
+    vary: list[str],
+    samples: int | None,
+    method: str | None,
+    seed: int | None,
+    out: Path,
+    jobs: int | None,
+    scheduler: str | None,
+    scheduler_timeout: float,
+    resume: bool,
+    time_limit: float | None,
+    batch_size: int,
+    plot: bool,
+    set_: list[str] | None,
+    check: str,
 ) -> None:
-    """Solve a problem over a grid or a Latin hypercube of parameters, bounds or weights."""
     from ..studies.command import StudyOptions, run_study_command
-    from .light import CHECK_MODES
 
-    if check not in CHECK_MODES:
-        err_console.print(f"--check: expected one of {', '.join(CHECK_MODES)}, got '{check}'", markup=False)
-        raise typer.Exit(2)
     overrides = _overrides(set_)
     problem = _load_all([file], overrides)[0]
     _check_out(out)
@@ -307,13 +280,8 @@ def _study_interrupted(problem: Problem, out: Path, exc: KeyboardInterrupt) -> N
     raise typer.Exit(EXIT_SIGTERM if isinstance(exc, StudyTerminated) else EXIT_SIGINT)
 
 
-@app.command()
-def plot(
-    file: Annotated[Path, typer.Argument(help="A problem file (solve it, plot its energies), or a study folder or its study.csv.", show_default=False)],
-    out: Annotated[Path, typer.Option("--out", help="Folder for <problem>/energy.png (problem files).")] = Path("results"),
-    set_: SetOpt = None,
-) -> None:
-    """Write plots: energy.png of a problem's design, or study.png/pareto.png of a study."""
+@command
+def plot(file: Path, out: Path, set_: list[str] | None) -> None:
     if file.is_dir() or file.suffix == ".csv":
         from ..plots import study_plots
 
@@ -337,32 +305,8 @@ def plot(
         out_console.print(f"wrote {path}", markup=False)
 
 
-AtOpt = Annotated[
-    Optional[list[str]],
-    typer.Option("--at", help="A coordinate (or design variable) and its value with a unit, e.g. --at 'elbow_joint=30 deg' (repeatable); the others stay at home."),
-]
-
-
-DesignOpt = Annotated[
-    Optional[Path],
-    typer.Option(
-        "--design",
-        help="A solved design: the folder solve wrote (results/<problem>). Its variables and chosen parts are shown, "
-        "with the parts' spring forces; without it, the file's initial values.",
-        show_default=False,
-    ),
-]
-
-
-@app.command()
-def frames(
-    file: Annotated[Path, typer.Argument(help="Problem file (TOML).", show_default=False)],
-    at: AtOpt = None,
-    csv: Annotated[bool, typer.Option("--csv", help="Print CSV instead of a table.")] = False,
-    set_: SetOpt = None,
-    design: DesignOpt = None,
-) -> None:
-    """Print the world position of every frame, centre of mass, counter-mass and spring end."""
+@command
+def frames(file: Path, at: list[str] | None, csv: bool, set_: list[str] | None, design: Path | None) -> None:
     from .mechanism import AtError, frames_table
 
     problem = _load_all([file], _overrides(set_))[0]
@@ -373,15 +317,8 @@ def frames(
         raise typer.Exit(2) from None
 
 
-@app.command()
-def draw(
-    file: Annotated[Path, typer.Argument(help="Problem file (TOML).", show_default=False)],
-    at: AtOpt = None,
-    out: Annotated[Path, typer.Option("--out", help="Folder for <problem>/mechanism.png.")] = Path("results"),
-    set_: SetOpt = None,
-    design: DesignOpt = None,
-) -> None:
-    """Draw the mechanism (a kinematic sketch) at home and at the corners of its ranges."""
+@command
+def draw(file: Path, at: list[str] | None, out: Path, set_: list[str] | None, design: Path | None) -> None:
     from .mechanism import AtError, draw_files
 
     problem = _load_all([file], _overrides(set_))[0]
@@ -398,13 +335,9 @@ def draw(
         out_console.print(f"wrote {path}", markup=False)
 
 
-def _print_summary(rows: list[dict], wide: bool = False) -> None:
-    from .light import rich_summary
-
+def _print_summary(rows: list[dict[str, Any]], wide: bool = False) -> None:
     if rows:  # no design, no table (every problem's failure was already said on stderr)
-        rich_summary(rows, out_console, wide=wide)  # one table for both paths (see .light)
-
-
+        light.rich_summary(rows, out_console, wide=wide)  # one table for both paths (see .light)
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -1,23 +1,20 @@
-"""The command line without typer and rich, for the two things run most: the top-level help
-and ``counterpoise solve``. The standard library only at import.
+"""The fast path of the command line: ``counterpoise solve`` without typer and rich, and
+what both paths share (reading ``--set``, running ``solve``, printing its summary).
 
-- ``counterpoise`` and ``counterpoise --help`` are printed from :data:`COMMANDS`.
-  ``tests/test_speed.py`` checks that :data:`COMMANDS` lists exactly the commands of the
-  typer app (:mod:`.app`), with the same one-line help: a command added there must be
-  added here too.
-- ``counterpoise solve FILE... [--out DIR] [--set KEY=VALUE]... [--plot] [--starts N] [--report html|csv] [--check dense|auto] [--jobs N]``
-  is parsed and run here (:func:`solve`), with the same output, messages and exit status
-  as the typer app's ``solve``: importing typer and rich costs 0.1–0.15 s, a quarter of
-  a whole solve. Anything this path does not fully understand is handed to the typer app
-  unchanged (:func:`solve` returns None): another option or a misspelt one, ``--help``,
-  a value that would be an error (``--starts 0``, ``--set`` without ``=``). Loading and
-  solving are :mod:`.run`'s, shared with the app (a file that does not load: every
-  error, one line each, exit 2). The summary
-  table is printed by :func:`plain_table` when rich would print plain text (output not a
-  terminal, width 160, nothing rich would re-interpret), else by rich itself.
-  ``tests/test_speed.py`` runs both paths on the same commands and compares their output.
-  **An option added to the app's ``solve`` must be added to :data:`SOLVE_OPTIONS` and to
-  :func:`_run` to be served here; until then such a call simply goes to the app.**
+- ``counterpoise solve ...`` is parsed here by an :mod:`argparse` parser derived from the
+  command's entry in :data:`counterpoise.cli.spec.COMMANDS` (:func:`parse`), checked by
+  that table's rules (:func:`counterpoise.cli.spec.invalid`) and run by :func:`run_solve`,
+  the very function the typer app's ``solve`` calls: importing typer and rich costs
+  ~0.2 s of CPU, a fifth of a whole solve. A call the derived parser does not accept
+  (``--help``, an unknown or misspelt option, a value of the wrong type, a missing file
+  argument) is handed to the typer app unchanged (:func:`solve` returns None), which
+  prints its usage message. Loading and solving are :mod:`.run`'s.
+- The summary table is printed by :func:`plain_table` when rich would print plain text
+  (output not a terminal, width 160, nothing rich would re-interpret), else by rich itself
+  (:func:`print_summary`; the app always prints it through rich, :func:`rich_summary`).
+
+An option is added in :mod:`.spec` only (and, for ``solve``, as a keyword of
+:func:`run_solve`): both parsers are derived from it.
 """
 
 from __future__ import annotations
@@ -25,63 +22,18 @@ from __future__ import annotations
 import os
 import re
 import sys
-from typing import Any
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 
-#: Command name -> first line of its help, in the order the app registers them.
-COMMANDS: dict[str, str] = {
-    "validate": "Check problem files without solving them.",
-    "catalogue": "Check spring catalogues (every row) and print their ranges (docs/catalogues.md).",
-    "solve": "Solve problem files and write their reports.",
-    "schedule": "Print the adjustments for one payload: what an operator sets at the table.",
-    "study": "Solve a problem over a grid or a Latin hypercube of parameters, bounds or weights.",
-    "plot": "Write plots: energy.png of a problem's design, or study.png/pareto.png of a study.",
-    "frames": "Print the world position of every frame, centre of mass, counter-mass and spring end.",
-    "draw": "Draw the mechanism (a kinematic sketch) at home and at the corners of its ranges.",
-}
+from ..errors import clip
+from .spec import BY_NAME, Command, invalid
 
-DESCRIPTION = "Design gravity balancers for mechanisms. Add --debug to see the traceback of an internal error."
+if TYPE_CHECKING:
+    import argparse
+    from pathlib import Path
 
-
-def wants_top_level_help(args: list[str]) -> int | None:
-    """The exit status when ``args`` ask for the top-level help (0 for ``--help``, 2 for
-    no arguments at all, as the typer app does), else None."""
-    if not args:
-        return 2
-    if args == ["--help"]:
-        return 0
-    return None
-
-
-def top_level_help() -> str:
-    width = max(len(name) for name in COMMANDS)
-    lines = [
-        "Usage: counterpoise [OPTIONS] COMMAND [ARGS]...",
-        "",
-        f"  {DESCRIPTION}",
-        "",
-        "Options:",
-        "  --help  Show this message and exit.",
-        "",
-        "Commands:",
-        *(f"  {name.ljust(width)}  {text}" for name, text in COMMANDS.items()),
-        "",
-        "Run 'counterpoise COMMAND --help' for the options of a command.",
-        "",
-    ]
-    return "\n".join(lines)
-
-
-# -- solve ---------------------------------------------------------------------------------
-
-#: The app's ``solve`` options served here: name -> whether it takes a value.
-SOLVE_OPTIONS: dict[str, bool] = {"--out": True, "--set": True, "--starts": True, "--plot": False, "--report": True, "--wide": False, "--check": True, "--jobs": True}
-
-#: ``solve --report``: ``html`` (the default) writes report.html beside the CSV files, ``csv`` only those
-REPORTS = ("html", "csv")
-#: ``solve --check`` / ``study --check``: ``dense`` the dense random check; ``auto`` the exact
-#: certificate where the residual is a trigonometric polynomial and it proves balance, else
-#: the dense check (as :data:`counterpoise.verify.check.CHECKS`; kept here: no import at start)
-CHECK_MODES = ("auto", "dense")
+#: Commands the fast path runs (every other one goes to the typer app).
+FAST = ("solve",)
 
 #: Exit status of an internal error (as :data:`counterpoise.cli.app.INTERNAL_ERROR`).
 INTERNAL_ERROR = 3
@@ -91,7 +43,6 @@ PLAIN_WIDTH = 160
 
 #: rich replaces ``:name:`` by an emoji even with markup off; text like this goes to rich.
 _EMOJI_LIKE = re.compile(r":\S*?:")
-_INT = re.compile(r"-?[0-9]+")
 
 #: The summary table: header and justification of each column (as the app's). ``--wide``
 #: shows them all; by default only those marked True, so the table fits 80 columns.
@@ -110,6 +61,13 @@ SUMMARY_COLUMNS_ALL: tuple[tuple[str, str, bool], ...] = (
 )
 SUMMARY_COLUMNS: tuple[tuple[str, str], ...] = tuple((name, how) for name, how, _ in SUMMARY_COLUMNS_ALL)
 
+Err = Callable[[str], None]
+Summary = Callable[[list[dict[str, Any]], bool], None]
+
+
+class UsageError(Exception):
+    """A command-line value that is wrong: its one line (the command exits 2, nothing written)."""
+
 
 def summary_columns(rows: list[dict[str, Any]], wide: bool = False) -> list[int]:
     """Indices of the summary columns to show: all with ``wide``, else the default ones;
@@ -120,100 +78,107 @@ def summary_columns(rows: list[dict[str, Any]], wide: bool = False) -> list[int]
     return keep
 
 
-class SolveArgs:
-    """The arguments of one ``solve`` call (a plain class: ``dataclasses`` costs ~10 ms
-    to import, which ``--help`` would pay)."""
+# -- the parser derived from the table -------------------------------------------------------
 
-    __slots__ = ("files", "out", "sets", "plot", "starts", "debug", "report", "wide", "check", "jobs")
 
-    def __init__(
-        self,
-        files: tuple[str, ...],
-        out: str = "results",
-        sets: tuple[str, ...] = (),
-        plot: bool = False,
-        starts: int = 1,
-        debug: bool = False,
-        report: str = "html",
-        wide: bool = False,
-        check: str = "dense",
-        jobs: int = 1,
-    ) -> None:
-        self.files, self.out, self.sets, self.plot, self.starts, self.debug, self.report, self.wide = files, out, sets, plot, starts, debug, report, wide
-        self.check, self.jobs = check, jobs
+def convert(kind: str, value: object) -> object:
+    """A default or parsed string as typer hands it to a command (a path as :class:`Path`)."""
+    if kind == "path" and isinstance(value, str):
+        from pathlib import Path
 
-    def __eq__(self, other: object) -> bool:
-        return isinstance(other, SolveArgs) and all(getattr(self, k) == getattr(other, k) for k in self.__slots__)
+        return Path(value)
+    return value
 
-    def __repr__(self) -> str:
-        return "SolveArgs(" + ", ".join(f"{k}={getattr(self, k)!r}" for k in self.__slots__) + ")"
+
+def parser(command: Command) -> argparse.ArgumentParser:
+    """An :mod:`argparse` parser of ``command``'s arguments and options, derived from its
+    entry in :data:`~counterpoise.cli.spec.COMMANDS`. It raises :class:`argparse.ArgumentError`
+    (or :class:`_Defer`) on anything it does not accept, and prints no help of its own
+    (``--help`` is not an option here: such a call goes to the typer app)."""
+    import argparse
+
+    class Parser(argparse.ArgumentParser):
+        def error(self, message: str) -> Any:  # argparse's errors that ignore exit_on_error
+            raise _Defer(message)
+
+    types: dict[str, Callable[[str], Any]] = {"int": _number(_INT, int), "float": _number(_FLOAT, float)}
+    p = Parser(prog=f"counterpoise {command.name}", description=command.help, add_help=False, allow_abbrev=False, exit_on_error=False)
+    for param in command.params:
+        text = param.help.replace("%", "%%")  # argparse formats help with %
+        if not param.flags:
+            p.add_argument(param.dest, nargs="+" if param.many else None, help=text, metavar=param.metavar)
+        elif param.kind == "flag":
+            p.add_argument(param.flags[0], dest=param.dest, action="store_const", const=True, default=param.default, help=text)
+            for negative in param.flags[1:]:
+                p.add_argument(negative, dest=param.dest, action="store_const", const=False, help=text)
+        else:
+            p.add_argument(
+                *param.flags,
+                dest=param.dest,
+                type=types.get(param.kind, str),
+                action="append" if param.many else "store",
+                default=None if param.required else param.default,
+                required=param.required,
+                help=text,
+                metavar=param.metavar,
+            )
+    return p
+
+
+#: Numbers the fast path reads; anything else (' 3', '3_0', '1e3' for an int, 'inf'...) goes
+#: to the typer app, which reads it its own way or says what is wrong.
+_INT = re.compile(r"[-+]?[0-9]+")
+_FLOAT = re.compile(r"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?")
+
+
+def _number(pattern: re.Pattern[str], kind: Callable[[str], object]) -> Callable[[str], object]:
+    def read(text: str) -> object:
+        if not pattern.fullmatch(text):
+            raise ValueError(text)  # argparse: an ArgumentError, the call goes to the app
+        return kind(text)
+
+    return read
 
 
 class _Defer(Exception):
     """This call is for the typer app (raised before anything was written)."""
 
 
-def parse_solve(args: list[str]) -> SolveArgs | None:
-    """``solve`` arguments as the app would read them, or None when the app should."""
-    if args[:1] != ["solve"]:
+def parse(args: list[str]) -> tuple[Command, dict[str, Any]] | None:
+    """``args`` (a command and its arguments, ``--debug`` taken out) parsed as the typer app
+    parses them: the command and the values its function receives, keyed by
+    :attr:`~counterpoise.cli.spec.Param.dest`; None when the typer app should read them (a
+    command not served here, or anything the derived parser does not accept)."""
+    if not args or args[0] not in FAST:
         return None
-    debug = "--debug" in args
-    if args.count("--debug") > 1:
+    import argparse
+
+    command = BY_NAME[args[0]]
+    rest = args[1:]
+    try:
+        namespace = parser(command).parse_intermixed_args(rest)
+    except (_Defer, argparse.ArgumentError):
         return None
-    rest = list(args[1:])
-    if debug:
-        rest.remove("--debug")  # as the app: the first occurrence, wherever it is
-    files: list[str] = []
-    values: dict[str, list[str]] = {name: [] for name, takes in SOLVE_OPTIONS.items() if takes}
-    flags: set[str] = set()
-    i = 0
-    while i < len(rest):
-        token = rest[i]
-        i += 1
-        if token == "--":
-            files += rest[i:]
-            break
-        if token == "-":
-            return None
-        if not token.startswith("-"):
-            files.append(token)
-            continue
-        name, eq, value = token.partition("=")
-        if name not in SOLVE_OPTIONS:
-            return None  # --help, an option of the app not served here, a typo
-        if not SOLVE_OPTIONS[name]:
-            if eq or name in flags:
+    values: dict[str, Any] = {}
+    for param in command.params:
+        value = getattr(namespace, param.dest)
+        values[param.dest] = [convert(param.kind, v) for v in value] if isinstance(value, list) else convert(param.kind, value)
+    # argparse reads '-1' or '-x y' before '--' as an argument; click as an unknown option
+    after = len(rest) - rest.index("--") - 1 if "--" in rest else 0
+    for param in command.params:
+        if not param.flags and param.many:
+            given = [str(v) for v in values[param.dest]]
+            if any(v.startswith("-") and v != "-" for v in given[: len(given) - after]):
                 return None
-            flags.add(name)
-            continue
-        if not eq:
-            if i >= len(rest) or rest[i].startswith("-"):
-                return None
-            value = rest[i]
-            i += 1
-        values[name].append(value)
-    if not files or any(len(values[name]) > 1 for name in ("--out", "--starts", "--report", "--check", "--jobs")):
-        return None
-    check = values["--check"][0] if values["--check"] else "dense"
-    if check not in CHECK_MODES:
-        return None  # the app says what is wrong
-    report = values["--report"][0] if values["--report"] else "html"
-    if report not in REPORTS:
-        return None  # the app says what is wrong
-    starts = values["--starts"][0] if values["--starts"] else "1"
-    if not _INT.fullmatch(starts) or int(starts) < 1:
-        return None
-    jobs = values["--jobs"][0] if values["--jobs"] else "1"
-    if not _INT.fullmatch(jobs) or int(jobs) < 1:
-        return None
-    out = values["--out"][0] if values["--out"] else "results"
-    if not out:
-        return None
-    return SolveArgs(tuple(files), out, tuple(values["--set"]), "--plot" in flags, int(starts), debug, report, "--wide" in flags, check, int(jobs))
+    return command, values
+
+
+# -- running solve (both paths) ---------------------------------------------------------------
 
 
 def solve(args: list[str], pause_gc: bool = False) -> int | None:
-    """Run ``counterpoise solve`` here; its exit status, or None for the typer app.
+    """Run ``counterpoise ARGS`` here when the fast path serves it: its exit status, or None
+    for the typer app.
 
     ``pause_gc`` (for a process that ends right after, as the console script's does): no
     cyclic garbage collection while the library is imported and the files are loaded,
@@ -221,30 +186,45 @@ def solve(args: list[str], pause_gc: bool = False) -> int | None:
     nothing of it is garbage) before the design work starts. Imports allocate ~95,000
     tracked objects, which otherwise cost ~140 young and one full collection for nothing.
     """
-    parsed = parse_solve(args)
+    if args[:1] != ["solve"]:
+        return None
+    debug = "--debug" in args
+    rest = list(args)
+    if debug:
+        rest.remove("--debug")  # as the app: the first occurrence, wherever it is
+    parsed = parse(rest)
     if parsed is None:
         return None
+    command, values = parsed
+    wrong = invalid(command, values)
+    if wrong is not None:
+        _err(wrong)
+        return 2
     import gc
 
     paused = pause_gc and gc.isenabled()
     if paused:
         gc.disable()
+
+    def loaded() -> None:
+        if paused:
+            gc.freeze()
+            gc.enable()
+
     try:
         import warnings
 
         from .. import progress
 
         with warnings.catch_warnings(), progress.sink(_err, timed=progress.wants_timed_notes(sys.stderr)):  # as the app: progress lines on stderr,
-            if not parsed.debug:  # and no library warning (with its source path) unless --debug
+            if not debug:  # and no library warning (with its source path) unless --debug
                 warnings.simplefilter("ignore")
-            return _run(parsed, paused)
-    except _Defer:
-        return None
+            return run_solve(_err, print_summary, loaded=loaded, **values)
     except KeyboardInterrupt:
         _err("interrupted")
         return 130
     except Exception as exc:  # noqa: BLE001 - as the app: one line, never a traceback
-        if parsed.debug:
+        if debug:
             raise
         _err(f"internal error: {type(exc).__name__}: {_short(exc)} (run with --debug for the traceback)")
         return INTERNAL_ERROR
@@ -253,17 +233,58 @@ def solve(args: list[str], pause_gc: bool = False) -> int | None:
             gc.enable()
 
 
-def overrides(items: tuple[str, ...]) -> dict[str, object] | None:
-    """``--set`` items as the app reads them, or None when one is malformed."""
+def run_solve(
+    err: Err,
+    summary: Summary,
+    *,
+    files: list[Path],
+    out: Path,
+    set_: list[str] | None,
+    plot: bool,
+    starts: int,
+    report: str,
+    wide: bool,
+    check: str,
+    jobs: int,
+    loaded: Callable[[], None] | None = None,
+) -> int:
+    """``counterpoise solve`` once its values are parsed and checked (by either path): load
+    every file, design, verify and write each, print the summary; the exit status. Every
+    message goes through ``err`` (one line each); ``loaded`` is called once every file has
+    loaded, before the design work."""
+    from .run import load_all, out_error, solve_all
+
+    try:
+        sets = overrides(set_)
+    except UsageError as exc:
+        err(str(exc))
+        return 2
+    problems = load_all(list(files), sets, err)
+    if problems is None:
+        return 2
+    wrong = out_error(out)
+    if wrong is not None:
+        err(wrong)
+        return 2
+    if loaded is not None:
+        loaded()
+    rows, worst = solve_all(problems, out, plot, starts, err, html=report == "html", jobs=jobs, check=check)
+    summary(rows, wide)
+    return worst
+
+
+def overrides(items: list[str] | tuple[str, ...] | None) -> dict[str, object]:
+    """``--set`` items as the problem loader takes them; :class:`UsageError` (its one line)
+    when one is not KEY=VALUE or its value cannot be read."""
     out: dict[str, object] = {}
-    for item in items:
+    for item in items or ():
         key, sep, value = item.partition("=")
         if not sep or not key.strip():
-            return None
+            raise UsageError(f"--set {clip(item)}: expected KEY=VALUE")
         try:
             out[key.strip()] = coerce(value.strip())
-        except ValueError:
-            return None  # the app says what is wrong
+        except ValueError as exc:
+            raise UsageError(f"--set {clip(key.strip())}: {clip(str(exc))}") from None
     return out
 
 
@@ -289,31 +310,6 @@ def coerce(value: str) -> object:
         except ValueError:
             pass
     return value
-
-
-def _run(a: SolveArgs, paused_gc: bool = False) -> int:
-    from pathlib import Path
-
-    from .run import load_all, out_error, solve_all
-
-    sets = overrides(a.sets)
-    if sets is None:
-        raise _Defer
-    problems = load_all([Path(f) for f in a.files], sets, _err)
-    if problems is None:
-        return 2
-    wrong = out_error(Path(a.out))
-    if wrong is not None:
-        _err(wrong)
-        return 2
-    if paused_gc:
-        import gc
-
-        gc.freeze()
-        gc.enable()
-    rows, worst = solve_all(problems, Path(a.out), a.plot, a.starts, _err, html=a.report == "html", jobs=a.jobs, check=a.check)
-    print_summary(rows, a.wide)
-    return worst
 
 
 # -- output --------------------------------------------------------------------------------
