@@ -23,7 +23,6 @@ import os
 import sys
 
 from ..threads import limit_blas_environment
-from . import light
 from .spec import COMMANDS, top_level_help, wants_top_level_help
 
 __all__ = ["COMMANDS", "main"]
@@ -44,6 +43,8 @@ def main(argv: list[str] | None = None) -> None:
     limit_blas_environment()  # before numpy and CasADi load their BLAS (see counterpoise.threads)
     os.environ.setdefault("PYDANTIC_DISABLE_PLUGINS", "__all__")
     fast = argv is None and bool(FAST_EXIT & set(args[:1]))
+    from . import light
+
     code = light.solve(args, pause_gc=fast)
     if code is not None:
         if fast:
