@@ -112,10 +112,12 @@ def test_a_command_function_must_take_the_tables_parameters():
         cli_app.command(solve)
 
 
-def test_run_solve_takes_every_option_of_solve():
-    """The fast path and the app call the same :func:`light.run_solve` with the parsed values."""
-    keywords = [name for name, p in inspect.signature(light.run_solve).parameters.items() if p.kind is p.KEYWORD_ONLY]
-    assert keywords[: len(spec.BY_NAME["solve"].params)] == [p.dest for p in spec.BY_NAME["solve"].params]
+@pytest.mark.parametrize("name, function", [("solve", light.run_solve), ("validate", light.run_validate)])
+def test_the_shared_function_takes_every_option_of_its_command(name, function):
+    """The fast path and the app call the same function with the parsed values."""
+    assert name in light.FAST
+    keywords = [k for k, p in inspect.signature(function).parameters.items() if p.kind is p.KEYWORD_ONLY]
+    assert keywords[: len(spec.BY_NAME[name].params)] == [p.dest for p in spec.BY_NAME[name].params]
 
 
 # -- both parsers read the same values ---------------------------------------------------------
@@ -123,14 +125,16 @@ def test_run_solve_takes_every_option_of_solve():
 
 @pytest.fixture
 def recorded(monkeypatch):
-    """``run_solve`` replaced by a recorder (exit 0): what each path hands it."""
+    """``run_solve`` and ``run_validate`` replaced by a recorder (exit 0): what each path
+    hands them."""
     calls: list[dict] = []
 
-    def record(err, summary, loaded=None, **values):
+    def record(err, printer, /, loaded=None, **values):
         calls.append(values)
         return 0
 
     monkeypatch.setattr(light, "run_solve", record)
+    monkeypatch.setattr(light, "run_validate", record)
     return calls
 
 
@@ -145,6 +149,8 @@ SAME = [
     ["solve", "-"],
     ["solve", "a.toml", "--", "--", "-x"],
     ["solve", "--set", "a=[1, 2]", "a.toml", "--set=b={ c = 1 }"],
+    ["validate", "a.toml", "b.toml", "--set", "x=1"],
+    ["validate", "--debug", "a.toml"],
 ]
 
 
@@ -159,7 +165,7 @@ def test_the_fast_path_and_the_app_read_the_same_values(recorded, argv):
         assert exit_.value.code == 0
     fast, app = recorded
     assert fast == app
-    assert sorted(fast) == sorted(p.dest for p in spec.BY_NAME["solve"].params)
+    assert sorted(fast) == sorted(p.dest for p in spec.BY_NAME[argv[0]].params)
 
 
 @pytest.mark.parametrize(
@@ -178,7 +184,8 @@ def test_the_fast_path_and_the_app_read_the_same_values(recorded, argv):
         ["solve", "a.toml", "-1"],  # an unknown option to click, a file to argparse
         ["solve", "a.toml", "--x y"],
         ["solve", "a.toml", "--debug"],  # --debug is taken out before parsing
-        ["validate", "a.toml"],
+        ["validate", "a.toml", "--plot"],
+        ["schedule", "a.toml", "--payload", "1 kg"],  # not served here
     ],
 )
 def test_the_fast_path_hands_unusual_calls_to_the_app(argv):
@@ -186,7 +193,7 @@ def test_the_fast_path_hands_unusual_calls_to_the_app(argv):
 
 
 def test_a_second_debug_goes_to_the_app(recorded):
-    assert light.solve(["solve", "a.toml", "--debug", "--debug"]) is None
+    assert light.run(["solve", "a.toml", "--debug", "--debug"]) is None
     assert recorded == []
 
 
@@ -275,8 +282,8 @@ def _untimed(text: str) -> str:
     return re.sub(r"(?<=[│|]) +\d+\.\d{3} (?=[│|])", " T ", text)
 
 
-def _both_paths(tmp_path, capsys, *args: str):
-    """The same ``solve`` call through the fast path and through the typer app, in this
+def _both_paths(tmp_path, capsys, *args: str, command: str = "solve"):
+    """The same ``solve`` (or ``command``) call through the fast path and through the typer app, in this
     process: (exit status, stdout with the times masked, stderr, output folder) of each."""
     from counterpoise.cli import main
 
@@ -284,7 +291,7 @@ def _both_paths(tmp_path, capsys, *args: str):
     for name, entry in (("fast", main), ("app", cli_app.main)):
         out = tmp_path / name
         with pytest.raises(SystemExit) as exit_:
-            entry(["solve", *args, "--out", str(out)])
+            entry([command, *args, "--out", str(out)] if command == "solve" else [command, *args])
         captured = capsys.readouterr()
         text = captured.out.replace(str(out), "OUT")
         text = _untimed(text)
@@ -309,6 +316,31 @@ def test_the_fast_path_prints_and_writes_what_the_app_does(tmp_path, capsys, arg
     for rel in files_a:
         if rel.name != "summary.csv":  # solve_time_s differs
             assert (dir_a / rel).read_text() == (dir_b / rel).read_text(), rel
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        (str(PROBLEMS / "yasir2019_hybrid.toml"), str(PROBLEMS / "yasir2019_counter_mass.toml")),
+        (str(PROBLEMS / "yasir2019_counter_mass.toml"), str(PROBLEMS / "no_such_file.toml"), "--set", "x=1"),
+        (str(PROBLEMS / "yasir2019_counter_mass.toml"), "--set", "novalue"),
+    ],
+)
+def test_validate_prints_what_the_app_prints(tmp_path, capsys, args):
+    (code_a, out_a, err_a, _), (code_b, out_b, err_b, _) = _both_paths(tmp_path, capsys, *args, command="validate")
+    assert (code_a, out_a, err_a) == (code_b, out_b, err_b)
+    assert code_a == 0 or (code_a == 2 and out_a == "" and "Traceback" not in err_a), err_a  # one line per error
+
+
+def test_a_long_or_unusual_line_is_printed_by_rich(monkeypatch, capsys):
+    """Plain only what rich would print unchanged; a line wider than the console, or with
+    text rich measures otherwise, goes to rich (which folds it as the app does)."""
+    monkeypatch.setattr(light, "rich_is_terminal", lambda stream, environ=None: False)
+    for line in ("ok  " + "x" * 200, "ok  é", "ok  plain"):
+        light._out(line)
+        mine = capsys.readouterr().out
+        cli_app._out_line(line)
+        assert mine == capsys.readouterr().out
 
 
 def test_the_fast_summary_without_utf8_stdout_is_richs(tmp_path, capsys, monkeypatch):

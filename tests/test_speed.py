@@ -241,6 +241,19 @@ def test_solve_imports_neither_typer_nor_rich_nor_cvxpy(tmp_path):
     assert out.strip().splitlines()[-1] == "0 [] True"
 
 
+def test_validate_imports_neither_typer_nor_rich(tmp_path):
+    """``validate`` is served by the fast path too (a robot file's check pays no 0.2 s of
+    typer and rich)."""
+    out = _fresh(
+        "import sys\n"
+        "from counterpoise.cli import main\n"
+        f"try:\n    main(['validate', {str(PROBLEMS / 'yasir2019_hybrid.toml')!r}])\n"
+        "except SystemExit as e:\n    code = e.code\n"
+        "print(code, sorted(m for m in ('typer', 'rich', 'cvxpy', 'pandas', 'matplotlib') if m in sys.modules))\n"
+    )
+    assert out.strip().splitlines()[-1] == "0 []"
+
+
 def test_quantity_pattern_unchanged_by_its_faster_form():
     """The quantity-literal pattern with Ω as an alternative of its own (13 ms less to
     compile) accepts exactly what the character class [A-Za-z°µΩ%] accepted."""

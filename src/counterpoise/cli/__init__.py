@@ -2,10 +2,11 @@
 
 :func:`main` is the console-script entry point. It imports nothing heavy: ``counterpoise``
 and ``counterpoise --help`` are answered from the table of commands in :mod:`.spec` (the
-standard library only), and ``counterpoise solve`` is parsed by :mod:`.light` with a parser
-derived from that table (it imports the library, not typer or rich); every other command,
-and any ``solve`` call :mod:`.light` hands back (``--help``, a usage error), goes to the
-typer app in :mod:`.app`, whose commands are built from the same table, imported then.
+standard library only), and ``counterpoise solve`` and ``validate`` are parsed by
+:mod:`.light` with a parser derived from that table (it imports the library, not typer or
+rich); every other command, and any call :mod:`.light` hands back (``--help``, a usage
+error), goes to the typer app in :mod:`.app`, whose commands are built from the same
+table, imported then.
 When the console script runs ``solve`` or ``validate``, the process ends with ``os._exit``
 once the command has returned and stdout and stderr are flushed: every report is already
 closed and renamed into place by then (:mod:`counterpoise.report.files`), and tearing down
@@ -45,7 +46,7 @@ def main(argv: list[str] | None = None) -> None:
     fast = argv is None and bool(FAST_EXIT & set(args[:1]))
     from . import light
 
-    code = light.solve(args, pause_gc=fast)
+    code = light.run(args, pause_gc=fast)
     if code is not None:
         if fast:
             _fast_exit(code)

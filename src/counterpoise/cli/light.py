@@ -33,7 +33,7 @@ if TYPE_CHECKING:
     from pathlib import Path
 
 #: Commands the fast path runs (every other one goes to the typer app).
-FAST = ("solve",)
+FAST = ("solve", "validate")
 
 #: Exit status of an internal error (as :data:`counterpoise.cli.app.INTERNAL_ERROR`).
 INTERNAL_ERROR = 3
@@ -176,9 +176,9 @@ def parse(args: list[str]) -> tuple[Command, dict[str, Any]] | None:
 # -- running solve (both paths) ---------------------------------------------------------------
 
 
-def solve(args: list[str], pause_gc: bool = False) -> int | None:
-    """Run ``counterpoise ARGS`` here when the fast path serves it: its exit status, or None
-    for the typer app.
+def run(args: list[str], pause_gc: bool = False) -> int | None:
+    """Run ``counterpoise ARGS`` here when the fast path serves it (:data:`FAST`): its exit
+    status, or None for the typer app.
 
     ``pause_gc`` (for a process that ends right after, as the console script's does): no
     cyclic garbage collection while the library is imported and the files are loaded,
@@ -186,7 +186,7 @@ def solve(args: list[str], pause_gc: bool = False) -> int | None:
     nothing of it is garbage) before the design work starts. Imports allocate ~95,000
     tracked objects, which otherwise cost ~140 young and one full collection for nothing.
     """
-    if args[:1] != ["solve"]:
+    if not args or args[0] not in FAST:
         return None
     debug = "--debug" in args
     rest = list(args)
@@ -219,6 +219,8 @@ def solve(args: list[str], pause_gc: bool = False) -> int | None:
         with warnings.catch_warnings(), progress.sink(_err, timed=progress.wants_timed_notes(sys.stderr)):  # as the app: progress lines on stderr,
             if not debug:  # and no library warning (with its source path) unless --debug
                 warnings.simplefilter("ignore")
+            if command.name == "validate":
+                return run_validate(_err, _out, **values)
             return run_solve(_err, print_summary, loaded=loaded, **values)
     except KeyboardInterrupt:
         _err("interrupted")
@@ -271,6 +273,28 @@ def run_solve(
     rows, worst = solve_all(problems, out, plot, starts, err, html=report == "html", jobs=jobs, check=check)
     summary(rows, wide)
     return worst
+
+
+def run_validate(err: Err, out: Err, *, files: list[Path], set_: list[str] | None) -> int:
+    """``counterpoise validate`` once its values are parsed (by either path): load and check
+    every file, one ``ok`` line each on ``out``; the exit status (2: some file does not load,
+    every error said on ``err``)."""
+    from .run import load_all
+
+    try:
+        sets = overrides(set_)
+    except UsageError as exc:
+        err(str(exc))
+        return 2
+    problems = load_all(list(files), sets, err)
+    if problems is None:
+        return 2
+    for p in problems:
+        out(
+            f"ok  {p.path}  ({p.name}: {len(p.subsystems)} subsystem(s), {len(p.coordinates)} coordinate(s), "
+            f"{len(p.variables)} variable(s), {len(p.scenarios)} scenario(s))"
+        )
+    return 0
 
 
 def overrides(items: list[str] | tuple[str, ...] | None) -> dict[str, object]:
@@ -344,6 +368,22 @@ def _err(line: str) -> None:
     from rich.console import Console
 
     Console(stderr=True, highlight=False, soft_wrap=True).print(line, markup=False)
+
+
+def _out(line: str) -> None:
+    """One line on stdout, as the app's console prints it: plain when rich would print
+    exactly that (not a terminal, at most its 160 columns, nothing it re-interprets)."""
+    utf = (getattr(sys.stdout, "encoding", None) or "").lower().startswith("utf")
+    if utf and not rich_is_terminal(sys.stdout) and len(line) <= PLAIN_WIDTH and _plain(line, ascii_only=True) and "[" not in line:
+        sys.stdout.write(line + "\n")
+        sys.stdout.flush()
+        return
+    from rich.console import Console
+
+    console = Console()
+    if not console.is_terminal:
+        console = Console(width=PLAIN_WIDTH)
+    console.print(line, markup=False)
 
 
 def summary_cells(row: dict[str, Any], columns: list[int] | None = None) -> list[str]:
