@@ -3,12 +3,13 @@
 ``counterpoise study FILE --vary ...`` and ``counterpoise plot FILE|STUDY``.
 
 A thin layer: it parses options, calls the library and prints. The commands, their
-arguments and options (types, defaults, help, checks) are declared once, in
-:mod:`.spec`; :func:`command` gives each function below the typer signature of its entry
-there, and :mod:`.light` derives the fast path's parser from the same entry. Exit status: 0 every
-problem solved to a verified optimum; 1 some problem is infeasible or failed (its reports
-are still written when there is a design to report); 2 bad input (one line per error,
-nothing written); 3 an internal error (one line; ``--debug`` shows the traceback).
+arguments and options (types, defaults, help, checks) are declared once, in :mod:`.spec`;
+:func:`command` gives each function below the typer signature of its entry there, and
+:mod:`.light` derives the fast path's parser from the same entry (``solve`` and
+``validate`` run the same function on both paths). Exit status: 0 every problem solved to
+a verified optimum; 1 some problem is infeasible or failed (its reports are still written
+when there is a design to report); 2 bad input (one line per error, nothing written); 3 an
+internal error (one line; ``--debug`` shows the traceback).
 """
 
 from __future__ import annotations
@@ -64,21 +65,21 @@ def command(body: Callable[..., None]) -> Callable[..., None]:
     entry in :data:`counterpoise.cli.spec.COMMANDS` (its parameters must be theirs, in
     order; a function taking ``**values`` gets them all). The table's checks
     (:func:`counterpoise.cli.spec.invalid`) run before ``body``: one line, exit 2."""
-    spec = BY_NAME[body.__name__]
+    entry = BY_NAME[body.__name__]
     own = [p for p in inspect.signature(body).parameters.values()]
-    if [p.kind for p in own] != [inspect.Parameter.VAR_KEYWORD] and [p.name for p in own] != [p.dest for p in spec.params]:
-        raise TypeError(f"{body.__name__}: parameters {[p.name for p in own]} are not the table's {[p.dest for p in spec.params]}")
+    if [p.kind for p in own] != [inspect.Parameter.VAR_KEYWORD] and [p.name for p in own] != [p.dest for p in entry.params]:
+        raise TypeError(f"{body.__name__}: parameters {[p.name for p in own]} are not the table's {[p.dest for p in entry.params]}")
 
     @functools.wraps(body)
     def run(**values: Any) -> None:
-        wrong = invalid(spec, values)
+        wrong = invalid(entry, values)
         if wrong is not None:
             _err_line(wrong)
             raise typer.Exit(2)
         body(**values)
 
-    run.__signature__ = inspect.Signature([typer_parameter(p) for p in spec.params])  # type: ignore[attr-defined]  # what typer reads
-    app.command(spec.name, help=spec.help)(run)
+    run.__signature__ = inspect.Signature([typer_parameter(p) for p in entry.params])  # type: ignore[attr-defined]  # what typer reads
+    app.command(entry.name, help=entry.help)(run)
     return run
 
 

@@ -1,11 +1,12 @@
-"""The fast path of the command line: ``counterpoise solve`` without typer and rich, and
-what both paths share (reading ``--set``, running ``solve``, printing its summary).
+"""The fast path of the command line: ``counterpoise solve`` and ``validate`` without typer
+and rich, and what both paths share (reading ``--set``, running ``solve`` and ``validate``,
+printing the summary).
 
-- ``counterpoise solve ...`` is parsed here by an :mod:`argparse` parser derived from the
-  command's entry in :data:`counterpoise.cli.spec.COMMANDS` (:func:`parse`), checked by
-  that table's rules (:func:`counterpoise.cli.spec.invalid`) and run by :func:`run_solve`,
-  the very function the typer app's ``solve`` calls: importing typer and rich costs
-  ~0.2 s of CPU, a fifth of a whole solve. A call the derived parser does not accept
+- ``counterpoise solve ...`` and ``validate ...`` are parsed here by an :mod:`argparse`
+  parser derived from the command's entry in :data:`counterpoise.cli.spec.COMMANDS`
+  (:func:`parse`), checked by that table's rules (:func:`counterpoise.cli.spec.invalid`)
+  and run by :func:`run_solve` / :func:`run_validate`, the very functions the typer app's
+  commands call: importing typer and rich costs ~0.2 s of CPU, a fifth of a whole solve. A call the derived parser does not accept
   (``--help``, an unknown or misspelt option, a value of the wrong type, a missing file
   argument) is handed to the typer app unchanged (:func:`solve` returns None), which
   prints its usage message. Loading and solving are :mod:`.run`'s.
@@ -13,8 +14,8 @@ what both paths share (reading ``--set``, running ``solve``, printing its summar
   (output not a terminal, width 160, nothing rich would re-interpret), else by rich itself
   (:func:`print_summary`; the app always prints it through rich, :func:`rich_summary`).
 
-An option is added in :mod:`.spec` only (and, for ``solve``, as a keyword of
-:func:`run_solve`): both parsers are derived from it.
+An option is added in :mod:`.spec` only (and, for ``solve`` and ``validate``, as a keyword
+of :func:`run_solve` / :func:`run_validate`): both parsers are derived from it.
 """
 
 from __future__ import annotations
@@ -165,15 +166,13 @@ def parse(args: list[str]) -> tuple[Command, dict[str, Any]] | None:
         values[param.dest] = [convert(param.kind, v) for v in value] if isinstance(value, list) else convert(param.kind, value)
     # argparse reads '-1' or '-x y' before '--' as an argument; click as an unknown option
     after = len(rest) - rest.index("--") - 1 if "--" in rest else 0
-    for param in command.params:
-        if not param.flags and param.many:
-            given = [str(v) for v in values[param.dest]]
-            if any(v.startswith("-") and v != "-" for v in given[: len(given) - after]):
-                return None
+    given = [str(v) for p in command.params if not p.flags for v in (values[p.dest] if p.many else [values[p.dest]])]
+    if any(v.startswith("-") and v != "-" for v in given[: len(given) - after]):
+        return None
     return command, values
 
 
-# -- running solve (both paths) ---------------------------------------------------------------
+# -- running solve and validate (both paths) ---------------------------------------------------------------
 
 
 def run(args: list[str], pause_gc: bool = False) -> int | None:
