@@ -6,10 +6,11 @@ printing the summary).
   parser derived from the command's entry in :data:`counterpoise.cli.spec.COMMANDS`
   (:func:`parse`), checked by that table's rules (:func:`counterpoise.cli.spec.invalid`)
   and run by :func:`run_solve` / :func:`run_validate`, the very functions the typer app's
-  commands call: importing typer and rich costs ~0.2 s of CPU, a fifth of a whole solve. A call the derived parser does not accept
-  (``--help``, an unknown or misspelt option, a value of the wrong type, a missing file
-  argument) is handed to the typer app unchanged (:func:`solve` returns None), which
-  prints its usage message. Loading and solving are :mod:`.run`'s.
+  commands call: importing typer and rich costs ~0.2 s of CPU, a fifth of a whole solve.
+  A call the derived parser does not accept (``--help``, an unknown or misspelt option, a
+  value of the wrong type, a missing file argument) is handed to the typer app unchanged
+  (:func:`run` returns None), which prints its usage message. Loading and solving are
+  :mod:`.run`'s.
 - The summary table is printed by :func:`plain_table` when rich would print plain text
   (output not a terminal, width 160, nothing rich would re-interpret), else by rich itself
   (:func:`print_summary`; the app always prints it through rich, :func:`rich_summary`).
