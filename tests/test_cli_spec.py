@@ -98,6 +98,13 @@ def test_every_commands_help_lists_every_option_of_the_table(monkeypatch, capsys
             assert " ".join(p.help.split()) in text, (command.name, p.dest)
 
 
+def test_the_check_modes_are_the_verifiers():
+    """``--check`` is declared without importing the verifier; its choices are its modes."""
+    from counterpoise.verify.check import CHECKS
+
+    assert spec.CHECK_MODES == CHECKS
+
+
 def test_top_level_help_lists_every_command():
     text = spec.top_level_help()
     assert all(f"  {c.name}" in text and c.help in text for c in COMMANDS)
