@@ -63,10 +63,10 @@ def _overrides(items: list[str] | None) -> dict[str, object]:
 _coerce = coerce  # one reading of --set values for both paths (.light)
 
 
-def _load_all(files: list[Path], overrides: Mapping[str, object]) -> list[Problem]:
+def _load_all(files: list[Path], overrides: Mapping[str, object], warnings: dict[str, tuple[str, ...]] | None = None) -> list[Problem]:
     from .run import load_all
 
-    problems = load_all(files, overrides, _err_line)
+    problems = load_all(files, overrides, _err_line, warnings)
     if problems is None:
         raise typer.Exit(2)
     return problems
@@ -165,9 +165,10 @@ def solve(
     if check not in CHECK_MODES:
         err_console.print(f"--check: expected one of {', '.join(CHECK_MODES)}, got '{check}'", markup=False)
         raise typer.Exit(2)
-    problems = _load_all(files, _overrides(set_))
+    warnings: dict[str, tuple[str, ...]] = {}  # found at load, written into status.txt as found
+    problems = _load_all(files, _overrides(set_), warnings)
     _check_out(out)
-    rows, worst = solve_all(problems, out, plot, starts, _err_line, html=report == "html", jobs=jobs, check=check)
+    rows, worst = solve_all(problems, out, plot, starts, _err_line, html=report == "html", jobs=jobs, check=check, warnings=warnings)
     _print_summary(rows, wide)
     raise typer.Exit(worst)
 

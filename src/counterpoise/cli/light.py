@@ -299,7 +299,8 @@ def _run(a: SolveArgs, paused_gc: bool = False) -> int:
     sets = overrides(a.sets)
     if sets is None:
         raise _Defer
-    problems = load_all([Path(f) for f in a.files], sets, _err)
+    warnings: dict[str, tuple[str, ...]] = {}  # found at load, written into status.txt as found
+    problems = load_all([Path(f) for f in a.files], sets, _err, warnings)
     if problems is None:
         return 2
     wrong = out_error(Path(a.out))
@@ -311,7 +312,7 @@ def _run(a: SolveArgs, paused_gc: bool = False) -> int:
 
         gc.freeze()
         gc.enable()
-    rows, worst = solve_all(problems, Path(a.out), a.plot, a.starts, _err, html=a.report == "html", jobs=a.jobs, check=a.check)
+    rows, worst = solve_all(problems, Path(a.out), a.plot, a.starts, _err, html=a.report == "html", jobs=a.jobs, check=a.check, warnings=warnings)
     print_summary(rows, a.wide)
     return worst
 
