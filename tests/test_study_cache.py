@@ -53,8 +53,12 @@ def test_two_studies_of_one_file_with_different_set_values_on_one_cluster(tmp_pa
 
 @pytest.mark.parametrize("name, vary", [("yasir2019_hybrid_catalogue.toml", "m_endo=680 g:700 g:3"), ("woo2019_counterweight.toml", "m1=80 g:90 g:3")])
 def test_a_slot_or_payload_problem_builds_its_method_once_per_worker(tmp_path, monkeypatch, name, vary):
-    # issue 13 §3: slot problems build their relaxed designer (the part search's) once per worker
+    # issue 13 §3: slot problems build their relaxed designer (the part search's) once per worker;
+    # issue 19 §4: so do payload problems their schedule's adjustment designer. Two designers
+    # per worker: the slot problem's own and its search's; the payload problem's sampled one
+    # and its adjustments' (the varied values are parameters: one content for all points)
     import counterpoise.pipeline as pipeline
+    from counterpoise.designer.designer import Designer
     from counterpoise.studies.runners import SerialRunner, _WORKER
 
     builds = []
@@ -64,13 +68,22 @@ def test_a_slot_or_payload_problem_builds_its_method_once_per_worker(tmp_path, m
         builds.append(problem.name)
         return original(problem, *args, **kwargs)
 
+    designers = []
+    constructor = Designer.__init__
+
+    def counting_designers(self, problem, *args, **kwargs):
+        designers.append(problem.name)
+        return constructor(self, problem, *args, **kwargs)
+
     monkeypatch.setattr(pipeline, "build_method", counting)
+    monkeypatch.setattr(Designer, "__init__", counting_designers)
     monkeypatch.setattr(_WORKER, "methods", OrderedDict(), raising=False)  # a fresh worker
     problem = load_problem(PROBLEMS / name)
     plan = plan_study(problem, [vary], "f")
     outcome = run_study(problem, plan, tmp_path, SerialRunner(), batch_size=2)
     assert outcome.counts.get("optimal", 0) == 3
     assert builds == [problem.name]
+    assert len(designers) == 2, designers
 
 
 def _constructions(monkeypatch, problem, vary, folder):
