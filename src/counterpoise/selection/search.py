@@ -123,7 +123,8 @@ class PartSearch:
         self.model = model or SearchModel(problem)
         self.designer = self.model.designer
         self.parameters = dict(parameters or {}) or None
-        self.bounds: dict[Slot | str, tuple[float, float]] = dict(bounds or {})
+        # by variable, on every slot of it, as the problem this search sees has them
+        self.bounds: dict[Slot | str, tuple[float, float]] = {(k.variable if isinstance(k, Slot) else k): v for k, v in (bounds or {}).items()}
         self.solves = 0
         self.screens: dict[str, RateScreen] = {}
         self.q = sample_configurations(problem, problem.selection.limit_samples, problem.settings.seed + LIMIT_SEED)
