@@ -111,3 +111,90 @@ def test_layers_do_not_import_upwards():
             if target in rank and rank[target] > rank[layer]:
                 offenders.append(f"{rel}: imports {target}")
     assert not offenders, offenders
+
+
+def _import_graph() -> dict[str, dict[str, set[str]]]:
+    """Modules of src/counterpoise -> {imported module: names imported, prefixed "def:" when
+    the import runs inside a function}. Imports under ``if TYPE_CHECKING`` never run: left out."""
+    import ast
+
+    src = ROOT / "src"
+    files = {}
+    for path in (src / "counterpoise").rglob("*.py"):
+        parts = list(path.relative_to(src).with_suffix("").parts)
+        package = parts[-1] == "__init__"
+        files[".".join(parts[:-1] if package else parts)] = (path, package)
+    graph: dict[str, dict[str, set[str]]] = {m: {} for m in files}
+    for module, (path, package) in files.items():
+        here = module.split(".") if package else module.split(".")[:-1]
+
+        def visit(node, in_function, module=module, here=here):
+            for child in ast.iter_child_nodes(node):
+                inner = in_function or isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda))
+                if isinstance(child, ast.If) and "TYPE_CHECKING" in ast.unparse(child.test):
+                    continue
+                targets = []
+                if isinstance(child, ast.ImportFrom):
+                    base = here[: len(here) - child.level + 1] if child.level else []
+                    target = ".".join(base + (child.module.split(".") if child.module else []))
+                    for alias in child.names:  # `from . import parts` imports the module parts
+                        sub = f"{target}.{alias.name}"
+                        targets.append((sub, "*") if sub in files else (target, alias.name))
+                elif isinstance(child, ast.Import):
+                    targets = [(alias.name, "*") for alias in child.names]
+                for target, name in targets:
+                    if target in files and target != module:
+                        graph[module].setdefault(target, set()).add(f"def:{name}" if inner else name)
+                visit(child, inner)
+
+        visit(ast.parse(path.read_text(encoding="utf-8")), False)
+    return graph
+
+
+def _cycles(edges: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components of more than one module (Tarjan)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    out: list[list[str]] = []
+
+    def strong(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        for w in edges[v]:
+            if w not in index:
+                strong(w)
+                low[v] = min(low[v], low[w])
+            elif w in stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                out.append(sorted(component))
+
+    for v in edges:
+        if v not in index:
+            strong(v)
+    return out
+
+
+def test_no_circle_of_imports():
+    """No two modules import each other at module level, directly or round a longer circle;
+    an import inside a function may close a circle (a lazy import), but not one that takes a
+    private name (``_x``): a helper that two modules share belongs in a module both import."""
+    graph = _import_graph()
+    module_level = {m: {t for t, names in targets.items() if any(not n.startswith("def:") for n in names)} for m, targets in graph.items()}
+    assert _cycles(module_level) == []
+    private = []
+    for component in _cycles({m: set(targets) for m, targets in graph.items()}):
+        for m in component:
+            for target, names in graph[m].items():
+                taken = sorted(n.removeprefix("def:") for n in names if n.removeprefix("def:").startswith("_"))
+                if target in component and taken:
+                    private.append(f"{m} imports {', '.join(taken)} from {target} (a circle: {' '.join(component)})")
+    assert private == []

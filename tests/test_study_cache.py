@@ -53,8 +53,12 @@ def test_two_studies_of_one_file_with_different_set_values_on_one_cluster(tmp_pa
 
 @pytest.mark.parametrize("name, vary", [("yasir2019_hybrid_catalogue.toml", "m_endo=680 g:700 g:3"), ("woo2019_counterweight.toml", "m1=80 g:90 g:3")])
 def test_a_slot_or_payload_problem_builds_its_method_once_per_worker(tmp_path, monkeypatch, name, vary):
-    # issue 13 §3: slot problems build their relaxed designer (the part search's) once per worker
+    # issue 13 §3: slot problems build their relaxed designer (the part search's) once per worker;
+    # issue 19 §4: so do payload problems their schedule's adjustment designer. Two designers
+    # per worker: the slot problem's own and its search's; the payload problem's sampled one
+    # and its adjustments' (the varied values are parameters: one content for all points)
     import counterpoise.pipeline as pipeline
+    from counterpoise.designer.designer import Designer
     from counterpoise.studies.runners import SerialRunner, _WORKER
 
     builds = []
@@ -64,10 +68,62 @@ def test_a_slot_or_payload_problem_builds_its_method_once_per_worker(tmp_path, m
         builds.append(problem.name)
         return original(problem, *args, **kwargs)
 
+    designers = []
+    constructor = Designer.__init__
+
+    def counting_designers(self, problem, *args, **kwargs):
+        designers.append(problem.name)
+        return constructor(self, problem, *args, **kwargs)
+
     monkeypatch.setattr(pipeline, "build_method", counting)
+    monkeypatch.setattr(Designer, "__init__", counting_designers)
     monkeypatch.setattr(_WORKER, "methods", OrderedDict(), raising=False)  # a fresh worker
     problem = load_problem(PROBLEMS / name)
     plan = plan_study(problem, [vary], "f")
     outcome = run_study(problem, plan, tmp_path, SerialRunner(), batch_size=2)
     assert outcome.counts.get("optimal", 0) == 3
     assert builds == [problem.name]
+    assert len(designers) == 2, designers
+
+
+def _constructions(monkeypatch, problem, vary, folder):
+    """How many of each solver-holding object a study of ``problem`` builds in a fresh worker
+    (this process: SerialRunner), counted at their constructors."""
+    from counterpoise.designer.designer import Designer
+    from counterpoise.designer.minimax import MinimaxDesigner
+    from counterpoise.selection.search import SearchModel
+    from counterpoise.solvers.ipopt import IpoptBackend
+    from counterpoise.studies.runners import SerialRunner, _WORKER
+
+    counts = {cls.__name__: 0 for cls in (Designer, MinimaxDesigner, SearchModel, IpoptBackend)}
+    for cls in (Designer, MinimaxDesigner, SearchModel, IpoptBackend):
+        original = cls.__init__
+
+        def counting(self, *args, _original=original, _name=cls.__name__, **kwargs):
+            counts[_name] += 1
+            return _original(self, *args, **kwargs)
+
+        monkeypatch.setattr(cls, "__init__", counting)
+    monkeypatch.setattr(_WORKER, "methods", OrderedDict(), raising=False)  # a fresh worker
+    plan = plan_study(problem, [vary], "f")
+    outcome = run_study(problem, plan, folder, SerialRunner(), batch_size=8)
+    monkeypatch.undo()
+    return outcome, counts
+
+
+def test_a_slot_problem_builds_its_search_designer_once_in_a_20_point_study(tmp_path, monkeypatch):
+    # issue 19 §4: the part search's designer (of the relaxed problem) is built once per
+    # problem content and worker, not once per solve; the varied mass is a parameter, so
+    # all 20 points share one problem content. Expected, per worker: 1 SearchModel; 2
+    # Designers (the problem's own, for the solve with the chosen parts, and the relaxed
+    # one of the search); no MinimaxDesigner (no directly attached spring); and the same
+    # number of solver builds (IpoptBackend) for 20 points as for 2.
+    problem = load_problem(PROBLEMS / "essomba2021_orientation_catalogue.toml")
+    few, few_counts = _constructions(monkeypatch, problem, "m_A=190 g:200 g:2", tmp_path / "two")
+    many, counts = _constructions(monkeypatch, problem, "m_A=190 g:200 g:20", tmp_path / "twenty")
+    assert few.counts.get("optimal", 0) == 2
+    assert many.counts.get("optimal", 0) == 20
+    assert counts["SearchModel"] == 1
+    assert counts["Designer"] == 2
+    assert counts["MinimaxDesigner"] == 0
+    assert counts == few_counts

@@ -252,10 +252,17 @@ def test_the_tilted_leg_file_warns_only_while_its_tilt_axis_is_vertical():
     assert degeneracies(load_problem(path, overrides={"parameters.beta": "60 deg"})) == []
 
 
-def test_the_warning_reaches_stderr_and_status_txt(tmp_path):
+def test_the_warning_reaches_stderr_and_status_txt(tmp_path, monkeypatch):
+    # found once, at load; the report layer writes what the CLI found (issue 19 §4)
+    import counterpoise.formulation.assumptions as assumptions
+
+    calls = []
+    original = assumptions.degeneracies
+    monkeypatch.setattr(assumptions, "degeneracies", lambda problem: calls.append(problem.name) or original(problem))
     path = tmp_path / "flat.toml"
     path.write_text(YASIR.replace("direction = [0, -1, 0]", "direction = [0, 0, -1]"), encoding="utf-8")
     proc = run_cli("solve", str(path), "--out", str(tmp_path / "out"), cwd=tmp_path)
     assert f"{path}: warning: nothing to balance" in proc.stderr
     status = (tmp_path / "out" / "yasir2019_counter_mass" / "status.txt").read_text(encoding="utf-8")
     assert "warning: nothing to balance: the weight of the bodies does no work" in status
+    assert calls == ["yasir2019_counter_mass"]

@@ -91,10 +91,10 @@ def _overrides(items: list[str] | None) -> dict[str, object]:
         raise typer.Exit(2) from None
 
 
-def _load_all(files: list[Path], overrides: Mapping[str, object]) -> list[Problem]:
+def _load_all(files: list[Path], overrides: Mapping[str, object], warnings: dict[str, tuple[str, ...]] | None = None) -> list[Problem]:
     from .run import load_all
 
-    problems = load_all(files, overrides, _err_line)
+    problems = load_all(files, overrides, _err_line, warnings)
     if problems is None:
         raise typer.Exit(2)
     return problems

@@ -261,7 +261,8 @@ def run_solve(
     except UsageError as exc:
         err(str(exc))
         return 2
-    problems = load_all(list(files), sets, err)
+    warnings: dict[str, tuple[str, ...]] = {}  # found at load, written into status.txt as found
+    problems = load_all(list(files), sets, err, warnings)
     if problems is None:
         return 2
     wrong = out_error(out)
@@ -270,7 +271,7 @@ def run_solve(
         return 2
     if loaded is not None:
         loaded()
-    rows, worst = solve_all(problems, out, plot, starts, err, html=report == "html", jobs=jobs, check=check)
+    rows, worst = solve_all(problems, out, plot, starts, err, html=report == "html", jobs=jobs, check=check, warnings=warnings)
     summary(rows, wide)
     return worst
 

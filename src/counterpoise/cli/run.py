@@ -32,9 +32,11 @@ def out_error(out: Path) -> str | None:
     return None
 
 
-def load_all(files: list[Path], overrides: Mapping[str, object], err: Err) -> list[Problem] | None:
+def load_all(files: list[Path], overrides: Mapping[str, object], err: Err, warnings: dict[str, tuple[str, ...]] | None = None) -> list[Problem] | None:
     """Every file loaded and checked (closed loops assemble), or None after printing every
-    error (the caller exits 2); a problem with nothing to balance gets a warning line."""
+    error (the caller exits 2); a problem with nothing to balance gets a warning line.
+    ``warnings``: filled with each problem's warnings (:func:`~counterpoise.formulation.assumptions.degeneracies`)
+    by problem name (unique here), for :func:`solve_all` to pass on to the reports."""
     from ..errors import ProblemFileError
     from ..io.loader import load_problem
     from ..mechanics.closure import check_assembly
@@ -60,18 +62,31 @@ def load_all(files: list[Path], overrides: Mapping[str, object], err: Err) -> li
     from ..formulation.assumptions import degeneracies
 
     for problem in problems:  # nothing to balance: say so, the design would be "optimal" anyway
-        for warning in degeneracies(problem):
+        found = tuple(degeneracies(problem))
+        if warnings is not None:
+            warnings[problem.name] = found
+        for warning in found:
             err(f"{problem.path}: warning: {warning}")
     return problems
 
 
 def solve_all(
-    problems: list[Problem], out: Path, plot: bool, starts: int, err: Err, html: bool = True, jobs: int = 1, check: str = "dense"
+    problems: list[Problem],
+    out: Path,
+    plot: bool,
+    starts: int,
+    err: Err,
+    html: bool = True,
+    jobs: int = 1,
+    check: str = "dense",
+    warnings: Mapping[str, tuple[str, ...]] | None = None,
 ) -> tuple[list[dict[str, Any]], int]:
     """Design, verify and write every problem (``plot``: energy.png and mechanism.png in its
     folder before the folder appears; ``html``: report.html, the page of the folder, last);
     the summary rows and the worst exit status. ``check``: ``dense`` or ``auto`` (the exact
-    certificate where it applies, :func:`counterpoise.verify.check.check`).
+    certificate where it applies, :func:`counterpoise.verify.check.check`). ``warnings``:
+    what :func:`load_all` found per problem name, written into status.txt as found (a
+    problem missing from it is looked at by the report layer).
 
     ``jobs`` > 1 (``solve --jobs N``): the problems are solved on a local pool of that many
     worker processes (at most one per problem; :func:`counterpoise.studies.runners.process_pool`),
@@ -79,9 +94,9 @@ def solve_all(
     order of ``problems``, as in one process, and each design is the same as in one process.
     """
     if jobs > 1 and len(problems) > 1:
-        outcomes: Iterable[tuple[dict[str, Any] | None, int]] = _pooled(problems, out, plot, starts, err, html, min(jobs, len(problems)), check)
+        outcomes: Iterable[tuple[dict[str, Any] | None, int]] = _pooled(problems, out, plot, starts, err, html, min(jobs, len(problems)), check, warnings)
     else:
-        outcomes = (solve_one(problem, out, plot, starts, err, html, check) for problem in problems)
+        outcomes = (solve_one(problem, out, plot, starts, err, html, check, _found(warnings, problem)) for problem in problems)
     rows, worst = [], 0
     for row, status in outcomes:
         worst = max(worst, status)
@@ -90,9 +105,16 @@ def solve_all(
     return rows, worst
 
 
-def solve_one(problem: Problem, out: Path, plot: bool, starts: int, err: Err, html: bool = True, check: str = "dense") -> tuple[dict[str, Any] | None, int]:
+def _found(warnings: Mapping[str, tuple[str, ...]] | None, problem: Problem) -> tuple[str, ...] | None:
+    return None if warnings is None else warnings.get(problem.name)
+
+
+def solve_one(
+    problem: Problem, out: Path, plot: bool, starts: int, err: Err, html: bool = True, check: str = "dense", warnings: tuple[str, ...] | None = None
+) -> tuple[dict[str, Any] | None, int]:
     """Design, verify and write one problem (as :func:`solve_all`): its summary row (None
-    when there is no design to report) and its exit status."""
+    when there is no design to report) and its exit status. ``warnings``: the problem's
+    degeneracy warnings found at load (None: the report layer finds them)."""
     from ..errors import CounterpoiseError, ProblemFileError
     from ..pipeline import design
     from ..report.files import write_reports
@@ -117,7 +139,7 @@ def solve_one(problem: Problem, out: Path, plot: bool, starts: int, err: Err, ht
                 energy_plot(result, folder)
                 design_mechanism_plot(result, folder)
 
-        folder = write_reports(result, out, extra, html=html)
+        folder = write_reports(result, out, extra, html=html, warnings=warnings)
     except OSError as exc:
         err(f"{problem.path}: cannot write reports to {out}: {exc.strerror or exc}")
         return None, 1
@@ -128,15 +150,25 @@ def solve_one(problem: Problem, out: Path, plot: bool, starts: int, err: Err, ht
     return row, 0 if result.optimal else 1
 
 
-def _solve_in_worker(problem: Problem, out: Path, plot: bool, starts: int, html: bool, check: str = "dense") -> tuple[dict[str, Any] | None, int, list[str]]:
+def _solve_in_worker(
+    problem: Problem, out: Path, plot: bool, starts: int, html: bool, check: str = "dense", warnings: tuple[str, ...] | None = None
+) -> tuple[dict[str, Any] | None, int, list[str]]:
     """:func:`solve_one` in a pool worker: its error lines are sent back with its row."""
     lines: list[str] = []
-    row, status = solve_one(problem, out, plot, starts, lines.append, html, check)
+    row, status = solve_one(problem, out, plot, starts, lines.append, html, check, warnings)
     return row, status, lines
 
 
 def _pooled(
-    problems: list[Problem], out: Path, plot: bool, starts: int, err: Err, html: bool, jobs: int, check: str = "dense"
+    problems: list[Problem],
+    out: Path,
+    plot: bool,
+    starts: int,
+    err: Err,
+    html: bool,
+    jobs: int,
+    check: str = "dense",
+    warnings: Mapping[str, tuple[str, ...]] | None = None,
 ) -> Iterator[tuple[dict[str, Any] | None, int]]:
     """:func:`solve_one` of every problem on a pool of ``jobs`` processes, in order."""
     from ..studies.runners import process_pool, stop_pool
@@ -144,7 +176,7 @@ def _pooled(
     pool = process_pool(jobs)
     finished = False
     try:
-        futures = [pool.submit(_solve_in_worker, problem, out, plot, starts, html, check) for problem in problems]
+        futures = [pool.submit(_solve_in_worker, problem, out, plot, starts, html, check, _found(warnings, problem)) for problem in problems]
         for future in futures:
             row, status, lines = future.result()
             for line in lines:

@@ -22,7 +22,7 @@ import numpy as np
 from ..formulation.conditions import BalanceConditions
 from ..formulation.formulation import Formulation
 from ..formulation.layout import Slot
-from ..formulation.manifold import for_geometry
+from ..formulation.manifold import Geometries, for_geometry
 from ..model.problem import BOUND_TOLERANCE, Problem
 from ..solvers.base import Bounds, SolverOutput, Status
 from ..solvers.gauss_newton import Evaluate, Evaluation, gauss_newton, worst
@@ -112,6 +112,8 @@ class Designer:
         self._residual_jacobian: Any = None
         self._settings: dict[str, tuple[Any, np.ndarray]] | None = None
         self._minimax: Any = None  # the epigraph NLP of the closest design (built on first use)
+        #: designers of this problem rebuilt for other loop geometries (:func:`for_geometry`)
+        self.geometries = Geometries()
 
     def __reduce__(self) -> tuple[Any, ...]:
         """Pickle as a description; the worker rebuilds the CasADi objects."""
@@ -158,7 +160,7 @@ class Designer:
         multi-start) pass False (their probes get the least-squares closest design) and
         :meth:`certify` the one they report.
         """
-        other = for_geometry(self, parameters, lambda problem: Designer(problem, self._ipopt_options, self.backend_choice))
+        other = for_geometry(self, parameters, lambda problem: Designer(problem, self._ipopt_options, self.backend_choice), self.geometries)
         if other is not self:  # closed loops: a new geometry needs its own manifold equalities
             return other.solve(initial, parameters, bounds, certify)
         if self._refined is not None:  # a verification round added configurations
@@ -184,7 +186,7 @@ class Designer:
 
     def certify(self, solution: Solution, parameters: Mapping[str, float] | None = None, bounds: BoundsOverride | None = None) -> Solution:
         """Set the certificate gap of ``solution`` (solved with these ``parameters`` and ``bounds``)."""
-        other = for_geometry(self, parameters, lambda problem: Designer(problem, self._ipopt_options, self.backend_choice))
+        other = for_geometry(self, parameters, lambda problem: Designer(problem, self._ipopt_options, self.backend_choice), self.geometries)
         if other is not self:
             return other.certify(solution, parameters, bounds)
         if self._refined is not None:

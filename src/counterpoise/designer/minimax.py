@@ -30,7 +30,7 @@ import numpy as np
 
 from ..formulation.formulation import Formulation
 from ..formulation.layout import Slot
-from ..formulation.manifold import for_geometry
+from ..formulation.manifold import Geometries, for_geometry
 from ..mechanics import Mechanics, casadi_functions
 from ..mechanics.closure import manifold_configurations
 from ..mechanics.kinematics import dot, sub
@@ -105,6 +105,8 @@ class MinimaxDesigner:
         self._ipopt_options = dict(ipopt_options or {})
         self._only = (None if coordinates is None else frozenset(coordinates), None if springs is None else frozenset(springs))
         self._restricted: dict[tuple[frozenset[str], frozenset[str]], MinimaxDesigner] = {}
+        #: designers of this problem rebuilt for other loop geometries (:func:`for_geometry`)
+        self.geometries = Geometries()
         self.formulation = f = Formulation(problem)
         self.parameters = f.parameters.values()
         rng = np.random.default_rng(problem.settings.seed + 5)
@@ -197,7 +199,7 @@ class MinimaxDesigner:
         parameters: Mapping[str, float] | None = None,
         bounds: Mapping[Slot | str, tuple[float, float]] | None = None,
     ) -> Solution:
-        other = for_geometry(self, parameters, lambda problem: MinimaxDesigner(problem, self._ipopt_options, coordinates=self._only[0], springs=self._only[1]))
+        other = for_geometry(self, parameters, lambda problem: MinimaxDesigner(problem, self._ipopt_options, coordinates=self._only[0], springs=self._only[1]), self.geometries)
         if other is not self:  # closed loops: a new geometry is sampled on its own manifold
             return other.solve(initial, parameters, bounds)
         if self._refined is not None:  # a verification round added configurations

@@ -129,3 +129,42 @@ def adaptive_compression(
         if samples.shape[1] < need:
             n_design *= 2
     return comp, context
+
+
+# -- sampling the residual (shared by :mod:`.conditions` and :mod:`.manifold`) ----------------
+
+
+def coordinate_weights(values: np.ndarray, n_q: int, noise: float = 0.0) -> np.ndarray:
+    """One weight per coordinate: 1 / its largest sampled |residual|, and 0 when that is not
+    above ``noise`` (rounding noise of the energy terms, see
+    :data:`NOISE_TOLERANCE`: a residual that is zero in exact arithmetic, such
+    as a spring whose length cannot change or an axis parallel to gravity, carries no condition).
+
+    Scaling each coordinate's rows changes no zero set (r = 0 exactly when w·r = 0) but
+    puts every coordinate on the same footing before the SVD: in a long chain the inner
+    joints carry residuals ten orders of magnitude larger than the outer ones, and a rank
+    tolerance relative to the largest singular value would drop the outer conditions.
+    """
+    largest = np.abs(values).reshape(-1, n_q, values.shape[1]).max(axis=(0, 2)) if values.size else np.zeros(n_q)
+    loaded = largest > noise
+    return np.where(loaded, 1.0 / np.where(loaded, largest, 1.0), 0.0)
+
+
+def sample_residuals(residual: Any, q: np.ndarray, z: np.ndarray, parameters: np.ndarray) -> np.ndarray:
+    """Residual entries at every (configuration, design) pair: (N·n_q) × K."""
+    n_conf, n_q = q.shape
+    n_design = z.shape[0]
+    mapped = residual.map(n_conf * n_design)
+    qq = np.tile(q.T, (1, n_design))
+    zz = np.repeat(z.T, n_conf, axis=1)
+    pp = np.tile(parameters[:, None], (1, n_conf * n_design))
+    out = np.array(mapped(qq, zz, pp))  # n_q × (K·N), column k*N + i
+    return out.reshape(n_q, n_design, n_conf).transpose(2, 0, 1).reshape(n_conf * n_q, n_design)
+
+
+def largest_value(function: Any, q: np.ndarray, z: np.ndarray, parameters: np.ndarray) -> float:
+    """Largest |value| of a scalar function of (q, z, p) over every (configuration, design) pair."""
+    n_conf, n_design = q.shape[0], z.shape[0]
+    mapped = function.map(n_conf * n_design)
+    out = np.array(mapped(np.tile(q.T, (1, n_design)), np.repeat(z.T, n_conf, axis=1), np.tile(parameters[:, None], (1, n_conf * n_design))))
+    return float(np.abs(out).max(initial=0.0))

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from .assumptions import check_exact_conditions
-from .compression import NOISE_TOLERANCE, adaptive_compression, numerical_rank
+from .compression import NOISE_TOLERANCE, adaptive_compression, coordinate_weights, largest_value, numerical_rank, sample_residuals
 from .formulation import Block, Formulation
 from .manifold import manifold_conditions
 
@@ -46,8 +46,8 @@ class BalanceConditions:
             def sample(n_conf: int, n_design: int, block: Block = block) -> tuple[np.ndarray, Any, float]:
                 q = lo + (hi - lo) * rng.random((n_conf, n_q))
                 z = self._random_designs(n_design, rng)
-                values = _sample_residuals(block.residual, q, z, parameters)
-                weights = _coordinate_weights(values, n_q, NOISE_TOLERANCE * _largest(block.magnitude, q, z, parameters))
+                values = sample_residuals(block.residual, q, z, parameters)
+                weights = coordinate_weights(values, n_q, NOISE_TOLERANCE * largest_value(block.magnitude, q, z, parameters))
                 with np.errstate(over="ignore", invalid="ignore"):  # huge bounds: compress() reports the overflow
                     return values * np.tile(weights, n_conf)[:, None], (q, weights), 0.0
 
@@ -94,41 +94,3 @@ class BalanceConditions:
         parts = ", ".join(f"{sub}/{sc} {r}" for sub, sc, r in self.ranks)
         total = sum(r for *_, r in self.ranks)
         return parts + (f"; {total} before removing repeats across blocks" if total != self.count else "")
-
-
-def _coordinate_weights(values: np.ndarray, n_q: int, noise: float = 0.0) -> np.ndarray:
-    """One weight per coordinate: 1 / its largest sampled |residual|, and 0 when that is not
-    above ``noise`` (rounding noise of the energy terms, see
-    :data:`~.compression.NOISE_TOLERANCE`: a residual that is zero in exact arithmetic, such
-    as a spring whose length cannot change or an axis parallel to gravity, carries no condition).
-
-    Scaling each coordinate's rows changes no zero set (r = 0 exactly when w·r = 0) but
-    puts every coordinate on the same footing before the SVD: in a long chain the inner
-    joints carry residuals ten orders of magnitude larger than the outer ones, and a rank
-    tolerance relative to the largest singular value would drop the outer conditions.
-    """
-    largest = np.abs(values).reshape(-1, n_q, values.shape[1]).max(axis=(0, 2)) if values.size else np.zeros(n_q)
-    loaded = largest > noise
-    return np.where(loaded, 1.0 / np.where(loaded, largest, 1.0), 0.0)
-
-
-def _sample_residuals(residual: Any, q: np.ndarray, z: np.ndarray, parameters: np.ndarray) -> np.ndarray:
-    """Residual entries at every (configuration, design) pair: (N·n_q) × K."""
-    n_conf, n_q = q.shape
-    n_design = z.shape[0]
-    mapped = residual.map(n_conf * n_design)
-    qq = np.tile(q.T, (1, n_design))
-    zz = np.repeat(z.T, n_conf, axis=1)
-    pp = np.tile(parameters[:, None], (1, n_conf * n_design))
-    out = np.array(mapped(qq, zz, pp))  # n_q × (K·N), column k*N + i
-    return out.reshape(n_q, n_design, n_conf).transpose(2, 0, 1).reshape(n_conf * n_q, n_design)
-
-
-
-
-def _largest(function: Any, q: np.ndarray, z: np.ndarray, parameters: np.ndarray) -> float:
-    """Largest |value| of a scalar function of (q, z, p) over every (configuration, design) pair."""
-    n_conf, n_design = q.shape[0], z.shape[0]
-    mapped = function.map(n_conf * n_design)
-    out = np.array(mapped(np.tile(q.T, (1, n_design)), np.repeat(z.T, n_conf, axis=1), np.tile(parameters[:, None], (1, n_conf * n_design))))
-    return float(np.abs(out).max(initial=0.0))

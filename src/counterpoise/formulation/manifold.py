@@ -24,7 +24,7 @@ import numpy as np
 
 from ..mechanics.closure import closure, geometry_parameters
 from ..model.problem import Problem
-from .compression import NOISE_TOLERANCE, adaptive_compression
+from .compression import NOISE_TOLERANCE, adaptive_compression, coordinate_weights, largest_value, sample_residuals
 
 
 def manifold_conditions(
@@ -37,8 +37,6 @@ def manifold_conditions(
     """(rank, CasADi column of equalities or None) of one (subsystem, scenario) block."""
     import casadi as ca
 
-    from .conditions import _coordinate_weights, _largest, _sample_residuals
-
     f = formulation
     _, base = f.parameters.scenario_values(parameters)[block.scenario]
     c = closure(f.problem, block.subsystem, base)
@@ -49,10 +47,10 @@ def manifold_conditions(
         qi = c.lower + (c.upper - c.lower) * rng.random((n_conf, n_i))
         points = c.solve(qi)
         z = random_designs(n_design, rng)
-        full = _sample_residuals(block.residual, points.q, z, parameters).reshape(n_conf, n, n_design)
+        full = sample_residuals(block.residual, points.q, z, parameters).reshape(n_conf, n, n_design)
         values = (full[:, ind, :] + np.einsum("kdi,kdj->kij", points.tangent, full[:, dep, :])).reshape(n_conf * n_i, n_design)
-        noise = NOISE_TOLERANCE * _largest(block.magnitude, points.q, z, parameters)
-        weights = _coordinate_weights(values, n_i, noise)
+        noise = NOISE_TOLERANCE * largest_value(block.magnitude, points.q, z, parameters)
+        weights = coordinate_weights(values, n_i, noise)
         return values * np.tile(weights, n_conf)[:, None], (points, weights), 0.0
 
     start_designs = max(32, 2 * (len(f.design) + 1) + 8)
@@ -101,19 +99,33 @@ def with_values(problem: Problem, values: Any) -> Problem:
     return replace(problem, parameters=tuple(replace(q, value=float(values[q.name])) if q.is_base and q.name in values else q for q in problem.parameters))
 
 
-def for_geometry(owner: Any, parameters: Any, build: Callable[[Problem], Any]) -> Any:
+class Geometries:
+    """The designers one designer rebuilt for other loop geometries (:func:`for_geometry`),
+    by the changed (name, value) pairs: owned by that designer (a field it creates), at most
+    :data:`GEOMETRIES_KEPT`, the least recently used dropped first."""
+
+    def __init__(self) -> None:
+        self._kept: dict[tuple[tuple[str, float], ...], Any] = {}
+
+    def get(self, changed: tuple[tuple[str, float], ...], build: Callable[[], Any]) -> Any:
+        found = self._kept.pop(changed, None)
+        if found is None:
+            found = build()
+        self._kept[changed] = found
+        while len(self._kept) > GEOMETRIES_KEPT:
+            self._kept.pop(next(iter(self._kept)))
+        return found
+
+    def __len__(self) -> int:
+        return len(self._kept)
+
+
+def for_geometry(owner: Any, parameters: Any, build: Callable[[Problem], Any], geometries: Geometries) -> Any:
     """The designer to solve ``parameters`` with: ``owner`` itself, or, when they change a
     loop's geometry, one built by ``build`` on the problem with those values (the manifold
-    equalities are solved at the build's geometry, docs/loops.md), kept on ``owner`` per
-    geometry (at most :data:`GEOMETRIES_KEPT`)."""
+    equalities are solved at the build's geometry, docs/loops.md), kept in ``geometries``
+    (the owner's :class:`Geometries`) per geometry."""
     changed = changed_geometry(owner.problem, parameters)
     if not changed:
         return owner
-    kept = owner.__dict__.setdefault("_geometries", {})
-    found = kept.pop(changed, None)
-    if found is None:
-        found = build(with_values(owner.problem, dict(changed)))
-    kept[changed] = found
-    while len(kept) > GEOMETRIES_KEPT:
-        kept.pop(next(iter(kept)))
-    return found
+    return geometries.get(changed, lambda: build(with_values(owner.problem, dict(changed))))

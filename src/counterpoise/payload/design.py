@@ -45,7 +45,7 @@ from ..verify.judge import judge
 from ..formulation.layout import Slot
 from .options import adjustment_bounds, check_options, merged_bounds, sampled_initial
 from .scenarios import Sampled, is_pinned, modes, payload_of, sampled_problem, setting_name
-from .schedule import AdjustmentSolver, Schedule, Setting, schedule
+from .schedule import Adjusters, AdjustmentSolver, Schedule, Setting, schedule
 from .widest import PAYLOAD_RESOLUTION, WidestRange, widest_range
 
 #: re-designs with an added failing payload before the schedule's failure is final
@@ -150,19 +150,22 @@ def design_payloads(
     bounds: Mapping[Any, tuple[float, float]] | None = None,
     initial: Mapping[Slot, float] | None = None,
     certify: bool = True,
+    adjusters: Adjusters | None = None,
 ) -> PayloadDesign:
     """Design ``problem`` for its payload range (see the module docstring).
 
     ``core`` builds the design method of a sampled problem (default: the plain designer);
     ``parameters``, ``bounds`` (by variable name) and ``initial`` (by slot or variable of
-    ``problem``) act on every sample and on the schedule's adjustments."""
+    ``problem``) act on every sample and on the schedule's adjustments. ``adjusters``: where
+    the schedule's adjustment methods are kept across designs (a payload method's; None:
+    built for each design)."""
     payload = payload_of(problem)
     check_options(problem, parameters, bounds)
     core = core or (lambda p: Plain(Designer(p)))
     masses = {payload.lower, payload.nominal, payload.upper}
     for _ in range(REFINEMENTS + 1):
         sampled, solution, verification, status, message = _solve_samples(problem, core, masses, parameters, bounds, initial, certify)
-        solver = AdjustmentSolver(problem, _shared(solution), parameters, adjustment_bounds(problem, bounds))
+        solver = AdjustmentSolver(problem, _shared(solution), parameters, adjustment_bounds(problem, bounds), adjusters)
         plan = schedule(solver, payload.lower, payload.upper)
         failure = plan.first_failure
         if status is not Status.OPTIMAL or failure is None or failure.payload in masses:
@@ -175,7 +178,7 @@ def design_payloads(
         narrowed = _narrowed(problem, core, parameters, bounds, initial)
         if narrowed is not None:  # report the design that balances the most of the range
             sampled, solution, verification = narrowed
-            solver = AdjustmentSolver(problem, _shared(solution), parameters, adjustment_bounds(problem, bounds))
+            solver = AdjustmentSolver(problem, _shared(solution), parameters, adjustment_bounds(problem, bounds), adjusters)
             widest, plan = widest_range(solver, schedule(solver, min(sampled.masses), max(sampled.masses)))
             message += f"; {widest.text(payload, solver.problem)} (the design reported)"
     elif status is Status.OPTIMAL and failure is not None:

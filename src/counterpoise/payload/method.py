@@ -19,6 +19,7 @@ from ..designer.solution import Solution
 from ..formulation.layout import Slot
 from ..model.problem import Problem
 from .design import PayloadDesign, design_payloads
+from .schedule import Adjusters
 from .scenarios import payload_of, sampled_problem
 
 
@@ -36,6 +37,8 @@ class PayloadMethod:
         self.problem = problem
         self._core = core
         self._built: dict[SampleKey, DesignMethod] = {}
+        #: the schedules' adjustment methods, built once per content (:class:`.schedule.Adjusters`)
+        self._adjusters = Adjusters()
 
     def core(self, sampled: Problem) -> DesignMethod:
         """The inner method of a sampled problem (built once per set of samples)."""
@@ -57,7 +60,7 @@ class PayloadMethod:
         initial: Mapping[Slot, float] | None = None,
         certify: bool = True,
     ) -> PayloadDesign:
-        return design_payloads(self.problem, self.core, parameters, bounds, initial, certify)
+        return design_payloads(self.problem, self.core, parameters, bounds, initial, certify, self._adjusters)
 
     def solve(
         self,

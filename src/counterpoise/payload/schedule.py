@@ -15,13 +15,15 @@ its bound span) is reported as linear in the payload, with slope and intercept.
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..designer.methods import core_method
+from ..designer.methods import Minimax, MultiStart, Plain, core_method
 from ..formulation.layout import Slot
+from ..model.digest import content_key
 from ..model.problem import Problem, bound_side
 from ..solvers.base import Status
 from ..verify.check import verify
@@ -74,6 +76,37 @@ class Schedule:
         return self.first_failure is None
 
 
+#: adjustment methods an :class:`Adjusters` keeps (a study's designs share one, mostly)
+KEPT_ADJUSTERS = 4
+
+
+class Adjusters:
+    """The adjustments' design methods of one payload design method, built once per content.
+
+    A fixed design's shared variables are parameters of its adjustment problem
+    (:func:`.scenarios.adjustment_problem`), so one method serves every design of the same
+    problem: the shared values are passed per solve, like a study's parameters. Its key is
+    the adjustment problem's content (:func:`~counterpoise.model.digest.content_key`) with
+    the shared values left out, and which of them are exactly zero (the balance conditions
+    are compressed at the build's values, where a zero may hide a condition). Directly
+    attached springs are not kept: the minimax designer's reference torque is taken at its
+    build values (:class:`AdjustmentSolver` builds one per design)."""
+
+    def __init__(self) -> None:
+        self._built: OrderedDict[tuple[str, tuple[str, ...]], Plain | Minimax | MultiStart] = OrderedDict()
+
+    def method(self, problem: Problem, shared: Mapping[str, float]) -> Plain | Minimax | MultiStart:
+        """The design method of the adjustment problem ``problem`` of a design whose shared
+        variables have the values ``shared`` (SI): built on first use with these values."""
+        template = replace(problem, parameters=tuple(replace(p, value=0.0) if p.name in shared else p for p in problem.parameters))
+        key = (content_key(template), tuple(sorted(n for n, v in shared.items() if v == 0.0)))
+        method = self._built.pop(key, None) or core_method(problem)
+        self._built[key] = method
+        while len(self._built) > KEPT_ADJUSTERS:
+            self._built.popitem(last=False)
+        return method
+
+
 class AdjustmentSolver:
     """One solver for the adjustments of a fixed design; :meth:`at` solves one payload."""
 
@@ -83,18 +116,27 @@ class AdjustmentSolver:
         shared: dict[str, float],
         parameters: Mapping[str, float] | None = None,
         bounds: Mapping[str, tuple[float, float]] | None = None,
+        adjusters: Adjusters | None = None,
     ) -> None:
         """``parameters``: base parameters (SI) that differ from the file's (a study point,
-        the chosen catalogue parts); ``bounds``: narrower bounds of adjustments (SI)."""
+        the chosen catalogue parts); ``bounds``: narrower bounds of adjustments (SI);
+        ``adjusters``: where the method is kept across designs (None: built for this one)."""
+        from ..designer.minimax import has_direct_springs
+
         self.source = problem
         self.payload = payload_of(problem)
         self.problem = adjustment_problem(problem, shared)
         #: the adjustments' design method: the plain designer, or the minimax one when a
         #: spring is attached directly (then "feasible" means its minimax solve converged)
-        self.method = core_method(self.problem)
+        frozen = {v.name: float(shared[v.name]) for v in problem.variables if not v.adjustable}
+        if adjusters is None or has_direct_springs(problem):
+            self.method = core_method(self.problem)
+            frozen = {}  # the method was built on these values
+        else:
+            self.method = adjusters.method(self.problem, frozen)
         self.designer = self.method.designer
         self.samples = max(200, problem.settings.verify_samples // VERIFY_SHARE)
-        self.parameters = dict(parameters or {})
+        self.parameters = {**frozen, **dict(parameters or {})}
         given: dict[Slot | str, tuple[float, float]] = {k: v for k, v in (bounds or {}).items()}
         self.bounds = given or None
         self._last: dict[Slot, float] = {}
@@ -184,4 +226,4 @@ def _lines(problem: Problem, settings: tuple[Setting, ...], lower: float, upper:
     return tuple(out)
 
 
-__all__ = ["AdjustmentSolver", "BETWEEN", "Line", "Schedule", "Setting", "adjustable", "grid", "schedule"]
+__all__ = ["AdjustmentSolver", "Adjusters", "BETWEEN", "Line", "Schedule", "Setting", "adjustable", "grid", "schedule"]

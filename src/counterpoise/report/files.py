@@ -120,21 +120,27 @@ def atomic_folder(folder: Path, fill: Callable[[Path], None]) -> Path:
         raise
 
 
-def report_texts(result: DesignResult) -> dict[str, str]:
+def report_texts(result: DesignResult, warnings: Sequence[str] | None = None) -> dict[str, str]:
     """File name -> text of every report of ``result`` (substitution.csv only when the
     problem substitutes a body; payload problems add ``schedule.csv``; problems with
     catalogue parts ``springs.csv`` and ``tolerance.csv``; problems with free-stiffness
     springs ``springs.csv``; problems with springs or counter-masses ``build.csv``, :mod:`.build`;
-    ``[robust]`` problems ``tolerance.csv`` and, with ``tune``, ``tuning.csv``: :mod:`.robust`)."""
+    ``[robust]`` problems ``tolerance.csv`` and, with ``tune``, ``tuning.csv``: :mod:`.robust`).
+
+    ``warnings``: the problem's degeneracy warnings as already found
+    (:func:`~counterpoise.formulation.assumptions.degeneracies`; the CLI finds them at load);
+    None: found here."""
     texts = {
         "design.csv": csv_text(design_rows(result) + parts.part_design_rows(result), DESIGN_COLUMNS),
         "summary.csv": csv_text([summary_row(result)], SUMMARY_COLUMNS),
         "verification.csv": csv_text(verification_rows(result), VERIFICATION_COLUMNS),
         "status.txt": status_text(result) + parts.parts_status(result) + parts.designed_status(result),
     }
-    from ..formulation.assumptions import degeneracies
+    if warnings is None:
+        from ..formulation.assumptions import degeneracies
 
-    texts["status.txt"] += "".join(f"warning: {w}\n" for w in degeneracies(result.problem))
+        warnings = degeneracies(result.problem)
+    texts["status.txt"] += "".join(f"warning: {w}\n" for w in warnings)
     if result.problem.substitutions:
         texts["substitution.csv"] = csv_text(substitution_rows(result), SUBSTITUTION_COLUMNS)
     if result.payload is not None:
@@ -162,15 +168,18 @@ def report_texts(result: DesignResult) -> dict[str, str]:
     return texts
 
 
-def write_reports(result: DesignResult, out_dir: str | Path, extra: Callable[[Path], object] | None = None, html: bool = False) -> Path:
+def write_reports(
+    result: DesignResult, out_dir: str | Path, extra: Callable[[Path], object] | None = None, html: bool = False, warnings: Sequence[str] | None = None
+) -> Path:
     """Write every report of ``result`` into ``out_dir/<problem name>/``; returns that folder.
 
     The folder appears whole or not at all (:func:`atomic_folder`): it replaces what was
     there (reports of an earlier run included) only once every file is written.
     ``extra(folder)`` writes more files into it first (the CLI's ``--plot``). ``html``: then
     ``report.html``, the page of every file and plot in the folder (:mod:`.html`).
+    ``warnings``: the degeneracy warnings already found (see :func:`report_texts`).
     """
-    texts = report_texts(result)  # built before anything is written
+    texts = report_texts(result, warnings)  # built before anything is written
 
     def fill(temp: Path) -> None:
         for name, text in texts.items():

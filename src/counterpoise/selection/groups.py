@@ -70,8 +70,16 @@ def reduced_echelon(a: np.ndarray) -> np.ndarray:
     return m[:r]
 
 
-def slot_groups(designer: Designer, names: list[str], base_values: Any, seed: int) -> list[tuple[str, ...]]:
-    """Slots whose conditions share variables, as tuples of slot names."""
+def slot_groups(
+    designer: Designer,
+    names: list[str],
+    base_values: Any,
+    seed: int,
+    parameters: Mapping[str, float] | None = None,
+    bounds: Mapping[Slot | str, tuple[float, float]] | None = None,
+) -> list[tuple[str, ...]]:
+    """Slots whose conditions share variables, as tuples of slot names; ``parameters`` and
+    ``bounds`` (SI): the call's, as in :meth:`Designer.solve` (the random points lie in these bounds)."""
     import casadi as ca
 
     d = designer
@@ -80,10 +88,14 @@ def slot_groups(designer: Designer, names: list[str], base_values: Any, seed: in
     parts = _Components(n)
     rng = np.random.default_rng(seed)
     lo, hi = f.design.lower, f.design.upper
+    if bounds:
+        lbz, ubz = f.design.bounds(bounds)
+        lo, hi = lbz * f.design.scale, ubz * f.design.scale
+    p = f.parameters.values(parameters) if parameters else d.parameters
     points = [f.design.to_z(f.design.vector(base_values))] + [f.design.to_z(lo + (hi - lo) * rng.random(n)) for _ in range(RANDOM_POINTS)]
     gj = d.residual_jacobian()
     for z in points:
-        _, jac, _ = (np.array(v) for v in gj(z, d.parameters))
+        _, jac, _ = (np.array(v) for v in gj(z, p))
         if jac.size == 0:
             continue
         jac = jac / max(np.abs(jac).max(), 1e-300)

@@ -32,6 +32,7 @@ from ..verify.check import verify
 from ..verify.judge import judge
 from . import parts
 from .direct import part_parameters, search_direct
+from .search import SearchModels
 
 #: searches re-run with a payload added where a part left its limits
 REFINEMENTS = 2
@@ -81,6 +82,8 @@ class PartsMethod:
         self.problem = problem
         self.inner = inner
         self.direct = direct
+        #: the part search's designers, one per searched problem's content (built once per worker)
+        self._searches = SearchModels()
 
     def _search_problem(self, extra: tuple[float, ...]) -> Problem:
         return self.inner.search_problem_with(extra) if isinstance(self.inner, SampledMethod) else self.problem
@@ -114,7 +117,8 @@ class PartsMethod:
                 if start is None and search.choice is not None and len(search.groups) > 1:
                     start = search.choice.values  # the groups' designs, searched one by one, put together
             else:
-                search, rows, _rates = parts.choose(with_options(searched, given, bounds))  # rows carry the rates
+                # the search designer of ``searched`` is built once (per content) and solved with the call's options
+                search, rows, _rates = parts.choose(with_options(searched, given, bounds), self._searches.of(searched), given, bounds)  # rows carry the rates
             solution = self.inner.solve({**given, **part_parameters(self.problem, rows)}, bounds, start, certify=certify)
             outcome = solution.payload
             checked = outcome.schedule_solution() if outcome is not None and outcome.schedule is not None else None

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -19,7 +20,7 @@ from ..model.problem import Problem
 from ..solvers.base import Status
 from ..verify.check import verify
 from .geometry import sample_configurations, spring_lengths
-from .search import PartSearch, SearchResult
+from .search import PartSearch, SearchModel, SearchResult
 from .tolerance import ToleranceBand, tolerance_band
 
 #: at most this many tolerance corners are re-adjusted (2 per slot, all combinations)
@@ -95,9 +96,15 @@ class PartsReport:
         return next((u for u in self.by_scenario or self.springs if not u.fits), None)
 
 
-def choose(problem: Problem) -> tuple[SearchResult, dict[str, int], dict[str, float]]:
-    """Run the search; the chosen rows and rates (the nearest candidate's when none fits)."""
-    result = PartSearch(problem).run()
+def choose(
+    problem: Problem,
+    model: SearchModel | None = None,
+    parameters: Mapping[str, float] | None = None,
+    bounds: Mapping[Any, tuple[float, float]] | None = None,
+) -> tuple[SearchResult, dict[str, int], dict[str, float]]:
+    """Run the search; the chosen rows and rates (the nearest candidate's when none fits).
+    ``model``, ``parameters``, ``bounds``: see :class:`~.search.PartSearch`."""
+    result = PartSearch(problem, model, parameters, bounds).run()
     if result.choice is not None:
         return result, dict(result.choice.parts), dict(result.choice.rates)
     rows: dict[str, int] = {}

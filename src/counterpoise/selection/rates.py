@@ -71,7 +71,7 @@ def screen_rates(search: Any, name: str, rates: np.ndarray, kept: np.ndarray, ot
     nodes = []
     for i in picks:
         k = float(rates[i])
-        sol = search.designer.solve(initial=search.base.values, bounds={name: (k, k), **others}, certify=False)
+        sol = search.solve_relaxed(search.base.values, {name: (k, k), **others})
         search.solves += 1
         if sol.status.value == "optimal":
             nodes.append(({name: k}, sol))

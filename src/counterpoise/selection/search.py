@@ -1,9 +1,12 @@
 """Choose one catalogue part per spring slot, and re-solve the continuous design for it.
 
 The search works on the *relaxed* problem, in which every slot's rate is a continuous
-design variable bounded by its catalogue's range; it is built once (one
-:class:`~counterpoise.designer.Designer`) and a candidate part is tried by fixing its
-rate through per-call bounds, without rebuilding anything.
+design variable bounded by its catalogue's range. What it builds (:class:`SearchModel`: the
+relaxed problem's :class:`~counterpoise.designer.Designer` and its rate-window NLP) is built
+once per problem content and kept by the design method (:class:`SearchModels`, keyed by
+:func:`~counterpoise.model.digest.content_key`, never by a name or path): a search takes
+the call's parameters and bounds as solve arguments, so a study's points reuse it, and a
+candidate part is tried by fixing its rate through per-call bounds, without rebuilding anything.
 
 1. **Relaxation.** Solve the relaxed problem. If no rate in the catalogue's range
    balances, no part can: stop and say so.
@@ -34,6 +37,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections import OrderedDict
 from collections.abc import Mapping
 from typing import Any
 
@@ -41,6 +45,7 @@ import numpy as np
 
 from ..designer.designer import Designer
 from ..formulation.layout import Slot
+from ..model.digest import content_key
 from ..model.parts import SpringSlot
 from ..model.problem import Problem
 from ..solvers.base import Status
@@ -52,9 +57,9 @@ from .limits import fitting_parts
 from .nearest import rate_misses
 from .rates import EXACT_RATES, PREDICTION_MARGIN, RateScreen, screen_rates
 from .results import TIE, Choice, NearMiss, SearchResult, SlotCount
-from .windows import inside_window, rate_windows, relaxed_problem
+from .windows import RateWindows, inside_window, relaxed_problem
 
-__all__ = ["TIE", "Choice", "NearMiss", "PartSearch", "SearchResult", "SlotCount", "relaxed_problem"]
+__all__ = ["TIE", "Choice", "NearMiss", "PartSearch", "SearchModel", "SearchModels", "SearchResult", "SlotCount", "relaxed_problem"]
 
 #: how a limit is named in the evidence
 LIMIT_NAME = {"initial_tension": "slack string", "max_length": "max length", "max_load": "max load"}
@@ -63,14 +68,63 @@ LIMIT_NAME = {"initial_tension": "slack string", "max_length": "max length", "ma
 LIMIT_SEED, GROUP_SEED = 7, 3
 
 
-class PartSearch:
-    """The search for one problem; :meth:`run` returns a :class:`SearchResult`."""
+#: search models a design method keeps (a payload range's refinements search other sample sets)
+KEPT_MODELS = 4
+
+
+class SearchModel:
+    """What the part search of one problem builds, once: the relaxed problem's designer and
+    its rate-window NLP (:class:`~.windows.RateWindows`). Every search with it passes its
+    parameters and bounds per solve, so nothing is rebuilt for another study point."""
 
     def __init__(self, problem: Problem) -> None:
         self.problem = problem
-        self.slots: dict[str, SpringSlot] = {s.name: s for s in problem.slots}
         self.relaxed = relaxed_problem(problem)
         self.designer = Designer(self.relaxed)
+        self.windows = RateWindows(self.designer)
+
+
+class SearchModels:
+    """The search models of one design method, one per problem content (at most
+    :data:`KEPT_MODELS`, least recently used dropped): the method is built once per worker,
+    so each problem's search designer is built once per problem content and worker."""
+
+    def __init__(self) -> None:
+        self._built: OrderedDict[str, SearchModel] = OrderedDict()
+
+    def of(self, problem: Problem) -> SearchModel:
+        """The model of ``problem`` (a problem without the call's options), built on first use."""
+        key = content_key(problem)
+        model = self._built.pop(key, None) or SearchModel(problem)
+        self._built[key] = model
+        while len(self._built) > KEPT_MODELS:
+            self._built.popitem(last=False)
+        return model
+
+
+class PartSearch:
+    """The search for one problem; :meth:`run` returns a :class:`SearchResult`.
+
+    ``problem``: the problem as this search sees it (the call's parameter values and bounds
+    in it: limits and tolerance bands are evaluated on it). ``model``: a
+    :class:`SearchModel` built once for the problem without them (default: one built for
+    ``problem``); ``parameters`` and ``bounds`` (SI) are then passed to each of its solves."""
+
+    def __init__(
+        self,
+        problem: Problem,
+        model: SearchModel | None = None,
+        parameters: Mapping[str, float] | None = None,
+        bounds: Mapping[Slot | str, tuple[float, float]] | None = None,
+    ) -> None:
+        self.problem = problem
+        self.slots: dict[str, SpringSlot] = {s.name: s for s in problem.slots}
+        self.relaxed = relaxed_problem(problem)
+        self.model = model or SearchModel(problem)
+        self.designer = self.model.designer
+        self.parameters = dict(parameters or {}) or None
+        # by variable, on every slot of it, as the problem this search sees has them
+        self.bounds: dict[Slot | str, tuple[float, float]] = {(k.variable if isinstance(k, Slot) else k): v for k, v in (bounds or {}).items()}
         self.solves = 0
         self.screens: dict[str, RateScreen] = {}
         self.q = sample_configurations(problem, problem.selection.limit_samples, problem.settings.seed + LIMIT_SEED)
@@ -80,7 +134,7 @@ class PartSearch:
         d = self.designer
         nearest_count = self.problem.selection.nearest
         counts = {n: SlotCount(n, len(s.catalogue), (math.nan, math.nan)) for n, s in self.slots.items()}
-        base = d.solve(certify=False)
+        base = self.solve_relaxed()
         self.solves += 1
         if base.status is not Status.OPTIMAL:
             message = (
@@ -90,7 +144,7 @@ class PartSearch:
             nearest = rate_misses(self.slots, {n: (math.nan, math.nan) for n in self.slots}, base.values, nearest_count)
             return SearchResult(None, list(counts.values()), [], [], nearest, self.solves, time.perf_counter() - t0, message)
         self.base = base
-        windows, solves = rate_windows(d, self.relaxed, list(self.slots), base)
+        windows, solves = self.model.windows.solve(self.relaxed, list(self.slots), base, self.parameters, self.bounds)
         self.solves += solves
         kept: dict[str, np.ndarray] = {}
         for name, s in self.slots.items():
@@ -99,7 +153,7 @@ class PartSearch:
             counts[name].pruned = int((~inside).sum())
             kept[name] = np.flatnonzero(inside)
         nearest = rate_misses(self.slots, windows, base.values, nearest_count)
-        groups = slot_groups(d, list(self.slots), base.values, self.problem.settings.seed + GROUP_SEED)
+        groups = slot_groups(d, list(self.slots), base.values, self.problem.settings.seed + GROUP_SEED, self.parameters, self.bounds)
         methods, choices_per_group = [], []
         for group in groups:
             method, found, misses = self._search_group(group, kept, windows, counts)
@@ -131,6 +185,12 @@ class PartSearch:
         evidence = self._evidence(counts, groups, methods)
         # every solved design meets the balance conditions exactly: the ratio's bound is 0
         return SearchResult(choice, list(counts.values()), groups, methods, nearest, self.solves, time.perf_counter() - t0, "", ranked, 0.0, evidence)
+
+    def solve_relaxed(self, initial: Mapping[Slot, float] | None = None, bounds: Mapping[Slot | str, tuple[float, float]] | None = None) -> Any:
+        """The relaxed problem solved with this search's parameters and bounds, and ``bounds``
+        (a candidate's rate interval, the other slots' windows) on top."""
+        given = {**self.bounds, **(bounds or {})} or None
+        return self.designer.solve(initial=initial, parameters=self.parameters, bounds=given, certify=False)
 
     def _evidence(self, counts: Mapping[str, SlotCount], groups: list[tuple[str, ...]], methods: list[str]) -> tuple[str, ...]:
         """What the search did and what it guarantees, one line per slot and group."""
@@ -168,7 +228,7 @@ class PartSearch:
 
         def solve(intervals: Mapping[str, tuple[float, float]]) -> Any | None:
             bounds: dict[Slot | str, tuple[float, float]] = {k: v for part in (intervals, others) for k, v in part.items()}
-            sol = self.designer.solve(initial=self.base.values, bounds=bounds, certify=False)
+            sol = self.solve_relaxed(self.base.values, bounds)
             self.solves += 1
             return sol if sol.status is Status.OPTIMAL else None
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import replace
 from typing import Any
 
@@ -35,35 +36,62 @@ def relaxed_problem(problem: Problem) -> Problem:
     )
 
 
-def rate_windows(designer: Designer, relaxed: Problem, names: list[str], base: Any) -> tuple[dict[str, tuple[float, float]], int]:
-    """Smallest and largest balanceable rate of each slot (two NLPs per slot), and the solves made."""
-    import casadi as ca
+class RateWindows:
+    """The rate-window NLP of a relaxed problem's designer (minimise or maximise one slot's
+    rate subject to the balance conditions), built on first use and kept: each search
+    passes its parameters and bounds per solve."""
 
-    d = designer
-    f = d.formulation
-    if d.n_equalities > len(f.design):
-        return {n: (float(relaxed.variable[n].lower), float(relaxed.variable[n].upper)) for n in names}, 0
-    w = ca.SX.sym("w", len(names))
-    index = [f.design.index[Slot(n, None)] for n in names]
-    objective = sum(w[i] * f.z[index[i]] for i in range(len(names)))
-    nlp = {"x": f.z, "p": ca.vertcat(f.p, w), "f": objective, "g": ca.vertcat(d.conditions.equalities, f.nonnegative)}
-    backend = IpoptBackend(nlp, d.options, "rate_window")
-    bounds = d.bounds(d.n_equalities, constraints=False)  # a window without the design constraints: wider, so it prunes safely
-    z0 = f.design.to_z(f.design.vector(base.values))
-    out, solves = {}, 0
-    for i, n in enumerate(names):
-        ends = []
-        for sign in (1.0, -1.0):
-            weights = np.zeros(len(names))
-            weights[i] = sign
-            res = backend.solve(z0, np.concatenate([d.parameters, weights]), bounds)
-            solves += 1
-            if res.status is Status.OPTIMAL:
-                ends.append(float(f.design.to_x(res.z)[index[i]]))
-            else:  # not settled: do not prune on this side
-                ends.append(relaxed.variable[n].lower if sign > 0 else relaxed.variable[n].upper)
-        out[n] = (min(ends), max(ends))
-    return out, solves
+    def __init__(self, designer: Designer) -> None:
+        self.designer = designer
+        self._backends: dict[tuple[str, ...], IpoptBackend] = {}
+
+    def _backend(self, names: tuple[str, ...]) -> IpoptBackend:
+        import casadi as ca
+
+        if names not in self._backends:
+            d = self.designer
+            f = d.formulation
+            w = ca.SX.sym("w", len(names))
+            index = [f.design.index[Slot(n, None)] for n in names]
+            objective = sum(w[i] * f.z[index[i]] for i in range(len(names)))
+            nlp = {"x": f.z, "p": ca.vertcat(f.p, w), "f": objective, "g": ca.vertcat(d.conditions.equalities, f.nonnegative)}
+            self._backends[names] = IpoptBackend(nlp, d.options, "rate_window")
+        return self._backends[names]
+
+    def solve(
+        self,
+        relaxed: Problem,
+        names: list[str],
+        base: Any,
+        parameters: Mapping[str, float] | None = None,
+        bounds: Mapping[Slot | str, tuple[float, float]] | None = None,
+    ) -> tuple[dict[str, tuple[float, float]], int]:
+        """Smallest and largest balanceable rate of each slot (two NLPs per slot), and the
+        solves made; ``parameters`` and ``bounds`` (SI) as in :meth:`Designer.solve`."""
+        d = self.designer
+        f = d.formulation
+        if d.n_equalities > len(f.design):
+            return {n: (float(relaxed.variable[n].lower), float(relaxed.variable[n].upper)) for n in names}, 0
+        backend = self._backend(tuple(names))
+        index = [f.design.index[Slot(n, None)] for n in names]
+        p = f.parameters.values(parameters) if parameters else d.parameters
+        # a window without the design constraints: wider, so it prunes safely
+        b = d.bounds(d.n_equalities, bounds or None, constraints=False)
+        z0 = f.design.to_z(f.design.vector(base.values))
+        out, solves = {}, 0
+        for i, n in enumerate(names):
+            ends = []
+            for sign in (1.0, -1.0):
+                weights = np.zeros(len(names))
+                weights[i] = sign
+                res = backend.solve(z0, np.concatenate([p, weights]), b)
+                solves += 1
+                if res.status is Status.OPTIMAL:
+                    ends.append(float(f.design.to_x(res.z)[index[i]]))
+                else:  # not settled: do not prune on this side
+                    ends.append(relaxed.variable[n].lower if sign > 0 else relaxed.variable[n].upper)
+            out[n] = (min(ends), max(ends))
+        return out, solves
 
 
 def inside_window(rates: np.ndarray, window: tuple[float, float]) -> np.ndarray:

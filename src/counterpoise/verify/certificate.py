@@ -50,7 +50,7 @@ from ..model import expr as ex
 from ..model.mechanism import GROUND, Point, Rotation, Translation
 from ..model.problem import Problem
 from .checks import PRISMATIC, REVOLUTE, CoordinateCheck, Verification
-from .residuals import SubsystemResiduals, configurations
+from .residuals import SubsystemResiduals, configurations, energy_scale_if_needed
 
 if TYPE_CHECKING:
     from ..designer.solution import Solution
@@ -321,8 +321,6 @@ class Certificate:
 
     def verify(self, solution: "Solution") -> ExactVerification:
         """The certified verification of ``solution`` (whether or not it is balanced)."""
-        from .check import _energy_scale_if_needed
-
         problem = self.problem
         checks = []
         for part, bound, rs, ts, bs in self.bounds(solution):
@@ -333,7 +331,7 @@ class Certificate:
                 worst = np.argmax(np.abs(rs), axis=0)  # a NaN one first
             variables = solution.variable_values(part.scenario)
             gravity, base = solution.scenario_parameters[part.scenario]
-            scale = _energy_scale_if_needed(problem, part.subsystem, part.samples, bound, loads, variables, base, gravity)
+            scale = energy_scale_if_needed(problem, part.subsystem, part.samples, bound, loads, variables, base, gravity)
             for j, name in enumerate(part.evaluator.names):
                 checks.append(
                     CoordinateCheck(

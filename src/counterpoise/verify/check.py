@@ -17,16 +17,10 @@ from .checks import PRISMATIC, REVOLUTE, CoordinateCheck, Verification
 from ..model import expr as ex
 from ..model.tilt import tilted_directions
 from .manifold import ManifoldResiduals
-from .residuals import BOX_MAXIMUM_STARTS, BoxMaximum, SubsystemResiduals, _base_parameters, configurations, energy_scale
+from .residuals import BOX_MAXIMUM_STARTS, BoxMaximum, SubsystemResiduals, _base_parameters, configurations, energy_scale_if_needed
 
 #: Residual evaluators of the problems checked last (a study verifies one problem many times).
 _CACHE_SIZE = 4
-#: Configurations on which the energy scale of the noise floor is taken.
-ENERGY_SCALE_SAMPLES = 256
-#: The energy scale is skipped when every coordinate carries more than this share of the
-#: largest gravity torque of its subsystem and every residual is below SCALE_RESIDUAL of it.
-SCALE_LOAD_SPREAD = 1e-6
-SCALE_RESIDUAL = 1e-9
 _cache: dict[int, tuple["weakref.ref[Problem]", dict[tuple[Any, ...], list[tuple[str, str, SubsystemResiduals]]]]] = {}
 
 if TYPE_CHECKING:
@@ -132,7 +126,7 @@ def verify(solution: "Solution", samples: int | None = None, seed: int | None = 
         else:
             loads = _box_loads(problem, subsystem, scenario, evaluator, t, sampled, candidates, variables, base, gravity)
         balancers = np.array([np.abs(r[:, j] - t[:, j]).max() for j in range(r.shape[1])])
-        scale = _energy_scale_if_needed(problem, subsystem, q, residual, loads, variables, base, gravity)
+        scale = energy_scale_if_needed(problem, subsystem, q, residual, loads, variables, base, gravity)
         for j, name in enumerate(evaluator.names):
             column = columns[j]
             worst = int(np.nanargmax(column)) if not np.isnan(column).all() else 0
@@ -207,7 +201,7 @@ def _box_loads(
     balancers (a study of spring or counter-mass values) reuse it."""
     if not candidates.any() or not np.all(np.isfinite(sampled)) or isinstance(evaluator, ManifoldResiduals):
         return sampled  # on a loop's manifold the reference is the sampled maximum (docs/loops.md)
-    state = evaluator.__dict__.setdefault("_box", {})
+    state = evaluator.box_state
     if "maximum" not in state:
         used = set().union(*(e.geometry | ex.names(e.factor) for e in evaluator.elements if e.is_body))
         state["maximum"] = BoxMaximum(problem, subsystem)
@@ -236,21 +230,3 @@ def _box_loads(
             found.pop(next(iter(found)))
         found[key] = loads
     return found[key]
-
-
-def _energy_scale_if_needed(
-    problem: Problem, subsystem: str, q: np.ndarray, residual: np.ndarray, loads: np.ndarray, variables: Any, base: Any, gravity: Any
-) -> float:
-    """The energy scale of the noise floor (:mod:`.checks`), or 0 when it cannot matter.
-
-    It matters only where gravity's torque may itself be rounding noise: a coordinate that
-    gravity loads far less than the others (or not at all), or a residual that is not far
-    below the gravity torque (noise measured against noise, or a design that fails anyway).
-    A well-loaded, balanced subsystem skips it (it costs a full energy evaluation).
-    """
-    top = float(loads.max(initial=0.0))
-    if top > 0 and np.all(loads > SCALE_LOAD_SPREAD * top) and np.all(residual <= SCALE_RESIDUAL * top):
-        return 0.0
-    # the size of the terms whose rounding noise a residual that is zero in exact
-    # arithmetic keeps (a few hundred configurations show it well enough)
-    return energy_scale(problem, subsystem, q[:ENERGY_SCALE_SAMPLES], variables, base, gravity)
