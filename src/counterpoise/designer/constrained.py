@@ -12,6 +12,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -35,19 +36,16 @@ def attach_constraints(solution: Solution, rows: ConstraintRows | None, multipli
     if not problem.constraints:
         return solution
     values = evaluate(problem, solution, rows, multipliers)
-    solution.constraints = values
+    solution = replace(solution, constraints=values)
     if solution.status is not Status.OPTIMAL:
         return solution
     violated = [v for v in values if v.active == "violated"]
     if violated:
-        solution.status = Status.FAILED
-        solution.message = "constraint violated between the sampled configurations after the verification rounds: " + "; ".join(
-            describe(problem, v) for v in violated[:3]
-        )
-        return solution
+        text = "; ".join(describe(problem, v) for v in violated[:3])
+        return replace(solution, status=Status.FAILED, message=f"constraint violated between the sampled configurations after the verification rounds: {text}")
     binding = [v for v in values if v.active in ("upper", "lower")]
     if binding:
-        solution.message += "; binding: " + "; ".join(describe(problem, v) for v in binding)
+        return replace(solution, message=solution.message + "; binding: " + "; ".join(describe(problem, v) for v in binding))
     return solution
 
 

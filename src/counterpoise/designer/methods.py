@@ -22,6 +22,7 @@ reduction wraps the next) and rockit's method objects (a method attached to a pr
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import replace
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
@@ -173,10 +174,8 @@ class MultiStart(Core):
         scale = SAME_OBJECTIVE * max(1.0, abs(best.objective))
         reached = sum(1 for s in optimal if s.status is best.status and abs(s.objective - best.objective) <= scale)
         if certify:
-            self.inner.certify(best, parameters, bounds)
-        best.starts = (reached, self.starts)
-        best.solve_time = sum(s.solve_time for s in solutions)
-        return best
+            best = self.inner.certify(best, parameters, bounds)
+        return replace(best, starts=(reached, self.starts), solve_time=sum(s.solve_time for s in solutions))
 
     def certify(self, solution: Solution, parameters: Parameters | None = None, bounds: BoundsOverride | None = None) -> Solution:
         return self.inner.certify(solution, parameters, bounds)

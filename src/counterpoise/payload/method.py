@@ -2,8 +2,8 @@
 
 :class:`PayloadMethod` wraps the method of each sampled problem (one scenario per working
 mode and payload sample, :mod:`.scenarios`) and returns the shared design with its
-schedule (:func:`.design.design_payloads`): ``solution.payload`` is the
-:class:`~.design.PayloadDesign`, ``solution.verdict`` its status and message. Options act
+schedule (:func:`.design.design_payloads`): a new solution whose ``payload`` is the
+:class:`~.design.PayloadDesign` and whose verdict (source ``payload``) its status and message. Options act
 on the whole range: ``parameters`` on every sample and on every schedule payload,
 ``bounds`` on every sample (adjustments within their travel), ``initial`` on every sample.
 """
@@ -68,7 +68,7 @@ class PayloadMethod:
         certify: bool = True,
     ) -> Solution:
         outcome = self.design(parameters, bounds, initial, certify)
-        return replace(outcome.solution, verdict=(outcome.status, outcome.message), verification=outcome.verification, payload=outcome)
+        return replace(outcome.solution, verification=outcome.verification, payload=outcome).judged(outcome.status, outcome.message, "payload")
 
     def __repr__(self) -> str:
         return f"PayloadMethod({self.problem.name})"

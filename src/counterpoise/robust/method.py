@@ -139,8 +139,7 @@ class RobustMethod:
                     try:
                         self._minimax = RobustMinimax(self.decomposition, spec.mode, spec.weight, self.problem.settings.seed)
                     except ValueError as exc:  # too many corners
-                        design.verdict = (Status.FAILED, f"robust design with free geometry: {exc}; hold the geometry or tolerance fewer items")
-                        return design
+                        return design.judged(Status.FAILED, f"robust design with free geometry: {exc}; hold the geometry or tolerance fewer items", "robust")
                 mm = self._minimax.solve(z_nom, p, lbz, ubz, spec.limit)
                 z = np.clip(mm.z, lbz, ubz)
                 lp_ratio, lp_seconds = mm.ratio, mm.seconds
@@ -151,8 +150,7 @@ class RobustMethod:
                     message = self._infeasible_text(mm.solver_status) if status is Status.INFEASIBLE else f"robust minimax NLP: IPOPT {mm.solver_status}"
                 summary = f"minimax over {len(self._minimax.offsets)} corners on sampled configurations"
             elif not free:
-                design.verdict = (Status.FAILED, f"[robust] mode = \"{spec.mode}\" needs a free mass or stiffness variable: every variable is held")
-                return design
+                return design.judged(Status.FAILED, f"[robust] mode = \"{spec.mode}\" needs a free mass or stiffness variable: every variable is held", "robust")
             else:
                 z_ref = z_nom.copy()
                 z_ref[free] = 0.0
@@ -187,15 +185,14 @@ class RobustMethod:
             text += f" (nominal design {bands['nominal']['all']:.4g}); added mass {added['robust']:.6g} kg (nominal design {added['nominal']:.6g} kg)"
         if report.corners and report.tuning_status == "balanced":
             text += f"; tuned at {len(report.corners)} corners, largest residual ratio after tuning {report.tuned_residual:.2g}"
-        design.robust = report
+        design = replace(design, robust=report)
         if status is not Status.OPTIMAL:
             if key == "robust" or report.tuning_status not in ("", "balanced"):
-                design.verdict = (status, message)  # the counterpart or the tuning failed: say which
-        elif key == "robust":
-            design.verdict = (status, text)  # the counterpart may leave the nominal unbalanced by choice
-        else:
-            design.message = text  # the ordinary design: judged by its dense check as usual
-        return design
+                return design.judged(status, message, "robust")  # the counterpart or the tuning failed: say which
+            return design
+        if key == "robust":
+            return design.judged(status, text, "robust")  # the counterpart may leave the nominal unbalanced by choice
+        return replace(design, message=text)  # the ordinary design: judged by its dense check as usual
 
     # -- pieces --------------------------------------------------------------------
     def _spec(self) -> Any:

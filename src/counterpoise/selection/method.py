@@ -13,7 +13,8 @@ or a payload-range design around one of them). Each :meth:`~PartsMethod.solve`:
    a payload where a part leaves its limits joins the search's samples and the search
    runs again (at most :data:`REFINEMENTS` times).
 
-``solution.parts`` is the :class:`.parts.PartsReport`; ``solution.verdict`` the status.
+It returns a new solution whose ``parts`` is the :class:`.parts.PartsReport` and whose
+verdict (source ``parts``) the status and message.
 """
 
 from __future__ import annotations
@@ -141,7 +142,7 @@ class PartsMethod:
         elif status is Status.OPTIMAL:
             picked = ", ".join(f"{s.name}: {s.catalogue.part_number[rows[s.name]]}" for s in self.problem.slots)
             message = f"{message}; parts {picked}"
-        return replace(solution, verdict=(status, message), verification=verification, parts=chosen)
+        return replace(solution, verification=verification, parts=chosen).judged(status, message, "parts")
 
     def __repr__(self) -> str:
         return f"PartsMethod({self.inner!r})"
