@@ -34,6 +34,7 @@ from .verify.checks import Verification
 from .verify.judge import verdict
 
 if TYPE_CHECKING:
+    from .designer.minimax import MinimaxDesigner
     from .payload import OperatorSettings, PayloadDesign
     from .selection.parts import PartsReport
     from .springs.workspace import DesignedSpring
@@ -83,7 +84,7 @@ class DesignResult:
         return self.status is Status.OPTIMAL
 
 
-def build_method(problem: Problem, starts: int = 1, backend: str = "auto", designer: Any = None) -> DesignMethod:
+def build_method(problem: Problem, starts: int = 1, backend: str = "auto", designer: "Designer | MinimaxDesigner | None" = None) -> DesignMethod:
     """The design method of ``problem`` (see the module docstring), built once.
 
     ``starts`` > 1: a seeded multi-start (seed ``settings.seed``) around the innermost
@@ -147,7 +148,7 @@ def run(
     return DesignResult(solution, verification, final, values, springs)
 
 
-def design(problem: Problem, designer: Designer | Any | None = None, starts: int = 1, check: str = "dense", **solve_options: Any) -> DesignResult:
+def design(problem: Problem, designer: "Designer | MinimaxDesigner | None" = None, starts: int = 1, check: str = "dense", **solve_options: Any) -> DesignResult:
     """Solve ``problem`` (with a prebuilt ``designer`` if given), verify it, evaluate reports.
 
     ``solve_options``: ``parameters``, ``bounds``, ``initial`` (see :func:`run`); any other

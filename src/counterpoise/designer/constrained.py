@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..formulation.constraints import ConstraintRows, describe, evaluate
-from ..solvers.base import Bounds, Status
+from ..solvers.base import Bounds, SolverOutput, Status
 from .solution import Solution
 
 if TYPE_CHECKING:
@@ -100,7 +100,7 @@ def name_conflict(designer: "Designer", z: np.ndarray, p: np.ndarray, b: Bounds)
     )
 
 
-def rows_multipliers(out: Any, rows: ConstraintRows | None) -> np.ndarray | None:
+def rows_multipliers(out: SolverOutput, rows: ConstraintRows | None) -> np.ndarray | None:
     """The constraint rows' multipliers of a solver output (the rows are last in g)."""
     if rows is None or out.status is not Status.OPTIMAL or out.multipliers is None or out.multipliers.size < rows.count:
         return None

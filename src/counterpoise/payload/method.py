@@ -14,7 +14,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import replace
 from typing import Any
 
-from ..designer.methods import DesignMethod
+from ..designer.methods import BoundsOverride, DesignMethod
 from ..designer.solution import Solution
 from ..formulation.layout import Slot
 from ..model.problem import Problem
@@ -53,7 +53,7 @@ class PayloadMethod:
     def design(
         self,
         parameters: Mapping[str, float] | None = None,
-        bounds: Mapping[Any, tuple[float, float]] | None = None,
+        bounds: BoundsOverride | None = None,
         initial: Mapping[Slot, float] | None = None,
         certify: bool = True,
     ) -> PayloadDesign:
@@ -62,7 +62,7 @@ class PayloadMethod:
     def solve(
         self,
         parameters: Mapping[str, float] | None = None,
-        bounds: Mapping[Any, tuple[float, float]] | None = None,
+        bounds: BoundsOverride | None = None,
         initial: Mapping[Slot, float] | None = None,
         *,
         certify: bool = True,
