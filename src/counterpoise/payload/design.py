@@ -29,7 +29,6 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
-from typing import Any
 
 from ..designer.designer import Designer
 from ..designer.methods import BoundsOverride, DesignMethod, Plain

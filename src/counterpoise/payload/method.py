@@ -12,7 +12,6 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import replace
-from typing import Any
 
 from ..designer.methods import BoundsOverride, DesignMethod
 from ..designer.solution import Solution
