@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -33,6 +33,9 @@ from . import convex
 from ..formulation.constraints import MAX_ROUNDS, ConstraintRows, Extra, build_rows, evaluate, merge, violations
 from .constrained import BALANCEABLE_BUT_INFEASIBLE, attach_constraints, name_conflict, rows_multipliers
 from .solution import Solution, build_solution
+
+if TYPE_CHECKING:
+    from .minimax import MinimaxDesigner
 
 #: The compressed balance equalities (each coordinate's rows scaled to order one) hold when
 #: every one is at most this (see :meth:`Designer.balances`).
@@ -112,7 +115,7 @@ class Designer:
         self._feasibility: IpoptBackend | None = None
         self._residual_jacobian: Any = None
         self._settings: dict[str, tuple[Any, np.ndarray]] | None = None
-        self._minimax: Any = None  # the epigraph NLP of the closest design (built on first use)
+        self._minimax: MinimaxDesigner | None = None  # the epigraph NLP of the closest design (built on first use)
 
     def __reduce__(self) -> tuple[Any, ...]:
         """Pickle as a description; the worker rebuilds the CasADi objects."""
