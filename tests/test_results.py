@@ -205,3 +205,29 @@ def test_a_verdict_names_a_known_source():
     assert "check" in VERDICT_SOURCES and "parts" in VERDICT_SOURCES
     with pytest.raises(ValueError, match="verdict source 'somewhere'"):
         Verdict(Status.OPTIMAL, "x", "somewhere")
+
+
+# -- the innermost layers' own verdicts --------------------------------------------------
+def test_constraints_verdict_names_its_layer():
+    """test_constraints' housing: b ≤ 0.3 m needs M ≥ 2/3 kg, so a cap of 0.5 kg on the added
+    mass conflicts; the balance alone holds, and the constraints' layer says infeasible."""
+    from test_constraints import housing
+
+    from counterpoise.pipeline import design
+
+    result = design(housing(heavy={"expression": "added_mass()", "upper": "0.5 kg"}).build())
+    assert result.status is Status.INFEASIBLE
+    assert result.verdict.source == "constraints"
+    assert [v.source for v in result.solution.verdicts] == ["constraints"]
+    assert result.message == result.solution.verdict.message and "cannot all hold" in result.message
+
+
+def test_minimax_design_is_judged_by_the_minimax_rule(tmp_path):
+    """A directly attached spring (test_direct_springs' arm): no layer gives a verdict of its
+    own, the minimax rule reports the dense ratio as is."""
+    from test_direct_springs import arm
+
+    result = run(build_method(arm(tmp_path, 'stiffness = "k"\nfree_length = "50 mm"\ninitial_tension = "2 N"\nmax_length = "0.6 m"')))
+    assert result.optimal, result.message
+    assert result.solution.verdicts == () and result.verdict.source == "minimax"
+    assert "dense check: worst residual ratio" in result.message
