@@ -145,9 +145,10 @@ def test_a_probe_gets_least_squares_and_certify_upgrades_it():
     d = Designer(load_problem_text(FIXED_LEVER, "two_tips.toml"))
     probe = d.solve(certify=False)
     assert probe.status is Status.INFEASIBLE and probe.closest == designer_module.LEAST_SQUARES_CLOSEST
-    d.certify(probe)
-    assert probe.closest is not None and probe.closest.startswith("minimax")
-    assert {s.variable: v for s, v in probe.values.items()}["M"] == pytest.approx(4.5, rel=1e-6)
+    certified = d.certify(probe)  # a new solution: the probe stays as it was (Solution is frozen)
+    assert probe.closest == designer_module.LEAST_SQUARES_CLOSEST
+    assert certified.closest is not None and certified.closest.startswith("minimax")
+    assert {s.variable: v for s, v in certified.values.items()}["M"] == pytest.approx(4.5, rel=1e-6)
 
 
 def test_multistart_reports_the_minimax_closest_design():

@@ -25,16 +25,17 @@ from .designer.designer import Designer
 from .designer.methods import DesignMethod, core_method
 from .designer.minimax import has_direct_springs
 from .designer.quantities import QuantityValue, evaluate_quantities
-from .designer.solution import Solution
+from .designer.solution import Solution, Verdict
 from .formulation.layout import Slot
 from .model.problem import Problem
 from .solvers.base import Status
 from .verify.check import check as check_design
 from .verify.checks import Verification
-from .verify.judge import judge
+from .verify.judge import verdict
 
 if TYPE_CHECKING:
-    from .payload import OperatorSettings
+    from .designer.minimax import MinimaxDesigner
+    from .payload import OperatorSettings, PayloadDesign
     from .selection.parts import PartsReport
     from .springs.workspace import DesignedSpring
 
@@ -44,24 +45,46 @@ SOLVE_OPTIONS = ("parameters", "bounds", "initial")
 
 @dataclass(frozen=True)
 class DesignResult:
-    problem: Problem
-    status: Status
-    message: str
+    """The outermost method's :class:`Solution`, wrapped with what :func:`run` adds: its
+    dense verification, the final verdict, report quantities and designed springs. What
+    the solution holds (problem, payload design, parts) is read through it."""
+
     solution: Solution
     verification: Verification
-    quantities: tuple[QuantityValue, ...]
-    #: payload problems: the :class:`counterpoise.payload.PayloadDesign` (schedule, range)
-    payload: Any = None
-    parts: "PartsReport | None" = None  # chosen catalogue parts (problems with spring slots)
+    #: the final status and message, and who gave them (:func:`counterpoise.verify.judge.verdict`)
+    verdict: Verdict
+    quantities: tuple[QuantityValue, ...] = ()
     #: free-stiffness springs: the helical spring designed for each (:mod:`counterpoise.springs`)
     springs: "tuple[DesignedSpring, ...]" = ()
+
+    @property
+    def problem(self) -> Problem:
+        return self.solution.problem
+
+    @property
+    def status(self) -> Status:
+        return self.verdict.status
+
+    @property
+    def message(self) -> str:
+        return self.verdict.message
+
+    @property
+    def payload(self) -> "PayloadDesign | None":
+        """Payload problems: the schedule, samples and range."""
+        return self.solution.payload
+
+    @property
+    def parts(self) -> "PartsReport | None":
+        """Problems with spring slots: the chosen catalogue parts."""
+        return self.solution.parts
 
     @property
     def optimal(self) -> bool:
         return self.status is Status.OPTIMAL
 
 
-def build_method(problem: Problem, starts: int = 1, backend: str = "auto", designer: Any = None) -> DesignMethod:
+def build_method(problem: Problem, starts: int = 1, backend: str = "auto", designer: "Designer | MinimaxDesigner | None" = None) -> DesignMethod:
     """The design method of ``problem`` (see the module docstring), built once.
 
     ``starts`` > 1: a seeded multi-start (seed ``settings.seed``) around the innermost
@@ -115,17 +138,17 @@ def run(
     else:
         with progress.phase(f"{solution.problem.name}: verifying on {solution.problem.settings.verify_samples:,} configurations per subsystem and scenario"):
             verification = check_design(solution, check)
-    status, message = judge(solution, verification)
+    final = verdict(solution, verification)
     values = evaluate_quantities(solution) if quantities else ()
-    springs: tuple[Any, ...] = ()
+    springs: tuple[DesignedSpring, ...] = ()
     if quantities and any(s.slot is None for s in solution.problem.springs):
         from .springs.workspace import designed_springs
 
         springs = designed_springs(solution)
-    return DesignResult(solution.problem, status, message, solution, verification, values, solution.payload, solution.parts, springs)
+    return DesignResult(solution, verification, final, values, springs)
 
 
-def design(problem: Problem, designer: Designer | Any | None = None, starts: int = 1, check: str = "dense", **solve_options: Any) -> DesignResult:
+def design(problem: Problem, designer: "Designer | MinimaxDesigner | None" = None, starts: int = 1, check: str = "dense", **solve_options: Any) -> DesignResult:
     """Solve ``problem`` (with a prebuilt ``designer`` if given), verify it, evaluate reports.
 
     ``solve_options``: ``parameters``, ``bounds``, ``initial`` (see :func:`run`); any other

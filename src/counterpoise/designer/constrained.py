@@ -12,12 +12,13 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..formulation.constraints import ConstraintRows, describe, evaluate
-from ..solvers.base import Bounds, Status
+from ..solvers.base import Bounds, SolverOutput, Status
 from .solution import Solution
 
 if TYPE_CHECKING:
@@ -35,19 +36,16 @@ def attach_constraints(solution: Solution, rows: ConstraintRows | None, multipli
     if not problem.constraints:
         return solution
     values = evaluate(problem, solution, rows, multipliers)
-    solution.constraints = values
+    solution = replace(solution, constraints=values)
     if solution.status is not Status.OPTIMAL:
         return solution
     violated = [v for v in values if v.active == "violated"]
     if violated:
-        solution.status = Status.FAILED
-        solution.message = "constraint violated between the sampled configurations after the verification rounds: " + "; ".join(
-            describe(problem, v) for v in violated[:3]
-        )
-        return solution
+        text = "; ".join(describe(problem, v) for v in violated[:3])
+        return replace(solution, status=Status.FAILED, message=f"constraint violated between the sampled configurations after the verification rounds: {text}")
     binding = [v for v in values if v.active in ("upper", "lower")]
     if binding:
-        solution.message += "; binding: " + "; ".join(describe(problem, v) for v in binding)
+        return replace(solution, message=solution.message + "; binding: " + "; ".join(describe(problem, v) for v in binding))
     return solution
 
 
@@ -102,7 +100,7 @@ def name_conflict(designer: "Designer", z: np.ndarray, p: np.ndarray, b: Bounds)
     )
 
 
-def rows_multipliers(out: Any, rows: ConstraintRows | None) -> np.ndarray | None:
+def rows_multipliers(out: SolverOutput, rows: ConstraintRows | None) -> np.ndarray | None:
     """The constraint rows' multipliers of a solver output (the rows are last in g)."""
     if rows is None or out.status is not Status.OPTIMAL or out.multipliers is None or out.multipliers.size < rows.count:
         return None

@@ -16,7 +16,7 @@ Multi-start is a design method of its own (:class:`counterpoise.designer.methods
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
@@ -25,7 +25,9 @@ from ..model.problem import Problem
 from ..solvers.base import Bounds, SolverOutput, Status
 
 if TYPE_CHECKING:
+    from ..solvers.convex import ConvexBackend
     from .designer import Designer
+    from .methods import BoundsOverride
 
 
 def geometric_variables(problem: Problem) -> set[str]:
@@ -48,7 +50,7 @@ def linear_slots(designer: "Designer") -> list[int]:
     return [i for i, slot in enumerate(designer.formulation.design.slots) if slot.variable not in geometric]
 
 
-def convex_backend(designer: "Designer", choice: str) -> Any:
+def convex_backend(designer: "Designer", choice: str) -> "ConvexBackend | None":
     """The LP/QP backend when the whole problem is convex and ``choice`` allows it."""
     from ..solvers.convex import ConvexBackend, affine_variables
 
@@ -89,11 +91,14 @@ def nonlinear_constraints(designer: "Designer") -> tuple[str, ...]:
     return tuple(names)
 
 
-def solve_convex(designer: "Designer", z0: np.ndarray, p: np.ndarray, b: Bounds, bounds: Any, minimax: bool = True) -> tuple[np.ndarray, SolverOutput, str, str | None]:
+def solve_convex(designer: "Designer", z0: np.ndarray, p: np.ndarray, b: Bounds, bounds: "BoundsOverride | None", minimax: bool = True) -> tuple[np.ndarray, SolverOutput, str, str | None]:
     """The LP's optimum (variables on a bound put exactly on it), or the closest design:
     (scaled point, solver output, message, what the closest design is or None) for the
     designer to build its Solution from."""
-    out = designer.convex.solve(z0, p, b)
+    backend = designer.convex
+    if backend is None:
+        raise ValueError(f"{designer.problem.name}: solve_convex needs a designer with an LP path")
+    out = backend.solve(z0, p, b)
     if out.status is Status.OPTIMAL:
         # An interior-point LP solution meets the equalities to ~1e-8 relative: put bound
         # variables on their bounds, then Newton steps on the (linear) equalities for the
@@ -123,9 +128,9 @@ class Certificate:
         self.problem = designer.problem
         self.formulation = designer.formulation
         self.nlp = designer.nlp
-        self._lp: Any = None  # None: not built; False: no LP to compare with
+        self._lp: ConvexBackend | Literal[False] | None = None  # None: not built; False: no LP to compare with
 
-    def backend(self) -> Any:
+    def backend(self) -> "ConvexBackend | Literal[False]":
         """The LP backend over the linear slots, or False when there is none."""
         from ..solvers.convex import ConvexBackend, affine_variables
 

@@ -15,7 +15,8 @@ gets a certificate gap (:mod:`.convex`). Every polish of a solver's point (:meth
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
+from dataclasses import replace
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -32,6 +33,9 @@ from . import convex
 from ..formulation.constraints import MAX_ROUNDS, ConstraintRows, Extra, build_rows, evaluate, merge, violations
 from .constrained import BALANCEABLE_BUT_INFEASIBLE, attach_constraints, name_conflict, rows_multipliers
 from .solution import Solution, build_solution
+
+if TYPE_CHECKING:
+    from .minimax import MinimaxDesigner
 
 #: The compressed balance equalities (each coordinate's rows scaled to order one) hold when
 #: every one is at most this (see :meth:`Designer.balances`).
@@ -111,7 +115,7 @@ class Designer:
         self._feasibility: IpoptBackend | None = None
         self._residual_jacobian: Any = None
         self._settings: dict[str, tuple[Any, np.ndarray]] | None = None
-        self._minimax: Any = None  # the epigraph NLP of the closest design (built on first use)
+        self._minimax: MinimaxDesigner | None = None  # the epigraph NLP of the closest design (built on first use)
         #: designers of this problem rebuilt for other loop geometries (:func:`for_geometry`)
         self.geometries = Geometries()
 
@@ -181,11 +185,12 @@ class Designer:
             start = dict(solution.values)
             return refined.solve(start, parameters, bounds, certify)
         if certify:
-            solution.certificate_gap = self._certificate_gap(solution, p, b)
+            solution = replace(solution, certificate_gap=self._certificate_gap(solution, p, b))
         return solution
 
     def certify(self, solution: Solution, parameters: Mapping[str, float] | None = None, bounds: BoundsOverride | None = None) -> Solution:
-        """Set the certificate gap of ``solution`` (solved with these ``parameters`` and ``bounds``)."""
+        """``solution`` (solved with these ``parameters`` and ``bounds``) with its certificate
+        gap and, for an infeasible design, its minimax closest design: a new value."""
         other = for_geometry(self, parameters, lambda problem: Designer(problem, self._ipopt_options, self.backend_choice), self.geometries)
         if other is not self:
             return other.certify(solution, parameters, bounds)
@@ -194,21 +199,32 @@ class Designer:
         p = self.formulation.parameters.values(parameters) if parameters else self.parameters
         b = self.bounds(self.n_equalities, bounds)
         if solution.status is Status.INFEASIBLE and solution.closest == LEAST_SQUARES_CLOSEST:
-            self._upgrade_closest(solution, p, b)
-        solution.certificate_gap = self._certificate_gap(solution, p, b)
-        return solution
+            solution = self._upgrade_closest(solution, p, b)
+        return replace(solution, certificate_gap=self._certificate_gap(solution, p, b))
 
-    def _upgrade_closest(self, solution: Solution, p: np.ndarray, b: Bounds) -> None:
-        """Replace, in place, the least-squares closest design of a solve made with
-        ``certify=False`` by the minimax one (:meth:`closest_minimax`): the design reported."""
+    def _upgrade_closest(self, solution: Solution, p: np.ndarray, b: Bounds) -> Solution:
+        """``solution`` (a solve made with ``certify=False``) with its least-squares closest
+        design replaced by the minimax one (:meth:`closest_minimax`): the design reported."""
         d = self.formulation.design
         z, kind, seconds = self.closest_minimax(d.to_z(d.vector(solution.values)), p, b)
         if kind != LEAST_SQUARES_NO_CLOSER:
             z = self.polish_settings(z, p, b)
         out = SolverOutput(z, solution.status, solution.solver_status, solution.iterations, solution.solve_time + seconds, solution.solver)
         new = self._solution(z, p, b, out, solution.message, kind)
-        for name in ("status", "message", "values", "objective", "added_mass", "added_inertia", "solve_time", "scenario_parameters", "verdict", "constraints", "closest"):
-            setattr(solution, name, getattr(new, name))
+        return replace(
+            solution,
+            status=new.status,
+            message=new.message,
+            values=new.values,
+            objective=new.objective,
+            added_mass=new.added_mass,
+            added_inertia=new.added_inertia,
+            solve_time=new.solve_time,
+            scenario_parameters=new.scenario_parameters,
+            verdicts=new.verdicts,
+            constraints=new.constraints,
+            closest=new.closest,
+        )
 
     def closest_reported(self, z: np.ndarray, p: np.ndarray, b: Bounds, minimax: bool) -> tuple[np.ndarray, str, float]:
         """(closest design, what it is, seconds): minimax, or least squares when not ``minimax``."""
@@ -522,22 +538,22 @@ class Designer:
     def _solution(self, z: np.ndarray, parameters: np.ndarray, b: Bounds, out: SolverOutput, message: str, closest: str | None = None) -> Solution:
         """``closest``: what the reported closest design of an infeasible problem is (see
         :meth:`closest_minimax`); None for a design that balances."""
-        solution = build_solution(self.formulation, z, parameters, b.lbz, b.ubz, out, message, self.n_equalities, self.conditions.summary())
-        solution.closest = closest
+        solution = replace(build_solution(self.formulation, z, parameters, b.lbz, b.ubz, out, message, self.n_equalities, self.conditions.summary()), closest=closest)
         if self.rows is None:
             return solution
         if self.nonlinear_constraints:
-            solution.message += (
-                f"; the nonlinear constraint{'s' if len(self.nonlinear_constraints) > 1 else ''} {', '.join(self.nonlinear_constraints)} "
-                "made this LP problem an NLP (IPOPT)"
+            solution = replace(
+                solution,
+                message=solution.message
+                + f"; the nonlinear constraint{'s' if len(self.nonlinear_constraints) > 1 else ''} {', '.join(self.nonlinear_constraints)} "
+                "made this LP problem an NLP (IPOPT)",
             )
         if solution.status is Status.INFEASIBLE or out.solver_status == BALANCEABLE_BUT_INFEASIBLE:
             conflict = name_conflict(self, z, parameters, b)
             if conflict:
-                solution.status, solution.message = Status.INFEASIBLE, conflict
-                solution.verdict = (Status.INFEASIBLE, conflict)  # balanced, yet infeasible: the constraints' verdict
-                solution.constraints = evaluate(self.problem, solution, self.rows, None)
-                return solution
+                # balanced, yet infeasible: the constraints' verdict
+                solution = replace(solution, status=Status.INFEASIBLE, message=conflict).judged(Status.INFEASIBLE, conflict, "constraints")
+                return replace(solution, constraints=evaluate(self.problem, solution, self.rows, None))
         return attach_constraints(solution, self.rows, rows_multipliers(out, self.rows))
 
 

@@ -22,7 +22,8 @@ reduction wraps the next) and rockit's method objects (a method attached to a pr
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any, Protocol, runtime_checkable
+from dataclasses import replace
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -31,6 +32,10 @@ from ..formulation.layout import Slot
 from ..model.problem import Problem
 from ..solvers.base import Status
 from .solution import Solution
+
+if TYPE_CHECKING:
+    from .designer import Designer
+    from .minimax import MinimaxDesigner
 
 #: two objectives agree (multi-start) when within this relative distance
 SAME_OBJECTIVE = 1e-7
@@ -83,7 +88,7 @@ class SampledMethod(Protocol):
 class Core:
     """Shared by the innermost methods: a designer with a formulation and ``solve``."""
 
-    designer: Any
+    designer: Designer | MinimaxDesigner
 
     @property
     def problem(self) -> Problem:
@@ -103,7 +108,9 @@ class Core:
 class Plain(Core):
     """Balance conditions solved by IPOPT, or as an LP by Clarabel (see :class:`Designer`)."""
 
-    def __init__(self, designer: Any) -> None:
+    designer: Designer
+
+    def __init__(self, designer: Designer) -> None:
         self.designer = designer
 
     def solve(
@@ -118,7 +125,9 @@ class Plain(Core):
 class Minimax(Core):
     """The smallest worst residual on sampled configurations (directly attached springs)."""
 
-    def __init__(self, designer: Any) -> None:
+    designer: MinimaxDesigner
+
+    def __init__(self, designer: MinimaxDesigner) -> None:
         self.designer = designer
 
     def solve(
@@ -173,16 +182,14 @@ class MultiStart(Core):
         scale = SAME_OBJECTIVE * max(1.0, abs(best.objective))
         reached = sum(1 for s in optimal if s.status is best.status and abs(s.objective - best.objective) <= scale)
         if certify:
-            self.inner.certify(best, parameters, bounds)
-        best.starts = (reached, self.starts)
-        best.solve_time = sum(s.solve_time for s in solutions)
-        return best
+            best = self.inner.certify(best, parameters, bounds)
+        return replace(best, starts=(reached, self.starts), solve_time=sum(s.solve_time for s in solutions))
 
     def certify(self, solution: Solution, parameters: Parameters | None = None, bounds: BoundsOverride | None = None) -> Solution:
         return self.inner.certify(solution, parameters, bounds)
 
 
-def core_method(problem: Problem, starts: int = 1, backend: str = "auto", designer: Any = None) -> Plain | Minimax | MultiStart:
+def core_method(problem: Problem, starts: int = 1, backend: str = "auto", designer: Designer | MinimaxDesigner | None = None) -> Plain | Minimax | MultiStart:
     """The innermost method of ``problem``: minimax when a spring is attached directly, else
     the designer (IPOPT or LP); wrapped in :class:`MultiStart` when ``starts`` > 1.
     ``designer``: a prebuilt designer of ``problem`` to use (it must be of the right kind)."""
@@ -193,10 +200,8 @@ def core_method(problem: Problem, starts: int = 1, backend: str = "auto", design
     if has_direct_springs(problem):
         if backend not in ("auto", "ipopt"):
             raise ValueError(f"backend {backend!r}: directly attached springs are designed by IPOPT (minimax)")
-        usable = designer is not None and not isinstance(designer, Designer)
-        inner = Minimax(designer if usable else MinimaxDesigner(problem))
+        inner = Minimax(designer if designer is not None and not isinstance(designer, Designer) else MinimaxDesigner(problem))
     else:
-        # any object with the designer's solve() is used as given (a study may wrap one)
-        usable = designer is not None and not isinstance(designer, MinimaxDesigner)
-        inner = Plain(designer if usable else Designer(problem, backend=backend))
+        # an object with the designer's solve() is used as given (a study may wrap one)
+        inner = Plain(designer if designer is not None and not isinstance(designer, MinimaxDesigner) else Designer(problem, backend=backend))
     return MultiStart(inner, starts, problem.settings.seed) if starts > 1 else inner

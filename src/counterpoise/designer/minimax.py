@@ -24,6 +24,7 @@ Built once; :meth:`solve` takes parameters and bounds per call, like :class:`Des
 from __future__ import annotations
 
 from collections.abc import Collection, Mapping
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -230,9 +231,9 @@ class MinimaxDesigner:
                 # the worst residual ratio is free (t), so only the constraints can make this infeasible
                 text = "; ".join(describe(self.problem, v) for v in unmet[:3])
                 if out.status is Status.INFEASIBLE:
-                    solution.verdict = (Status.INFEASIBLE, f"infeasible: the constraints cannot all hold: at the solver's last point {text}")
+                    solution = solution.judged(Status.INFEASIBLE, f"infeasible: the constraints cannot all hold: at the solver's last point {text}", "minimax")
                 else:
-                    solution.message += f"; at the solver's last point the constraints are not met: {text}"
+                    solution = replace(solution, message=f"{solution.message}; at the solver's last point the constraints are not met: {text}")
         add = violations(self.problem, solution.constraints)
         if add and self._round < MAX_ROUNDS:
             extra = merge(self._extra, add)

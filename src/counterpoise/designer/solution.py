@@ -2,12 +2,21 @@
 
 :func:`build_solution` is the one place a :class:`Solution` is made from a solver's point
 (the designer and the minimax designer both call it).
+
+A :class:`Solution` is immutable (``frozen``): a layer that adds to a design (constraint
+values, a certificate gap, the best of several starts, a payload schedule, catalogue parts,
+a robust report) returns a new value made with :func:`dataclasses.replace` and never
+changes the one it was given, like cvxpy's reductions, whose ``invert`` maps the inner
+solution to a new outer one. A layer whose own verdict goes beyond the dense check says
+so with :meth:`Solution.judged`, which appends a :class:`Verdict` naming the layer: the
+stack :attr:`Solution.verdicts` keeps what every layer said, innermost first, and
+:func:`counterpoise.verify.judge.judge` takes the outermost as it stands.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Any
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -17,10 +26,41 @@ from ..formulation.layout import Gravity3, Slot
 from ..model.problem import Problem
 from ..solvers.base import SolverOutput, Status
 
+if TYPE_CHECKING:
+    from ..formulation.constraints import ConstraintValue
+    from ..payload.design import PayloadDesign
+    from ..robust.method import RobustReport
+    from ..selection.parts import PartsReport
+    from ..verify.checks import Verification
 
-@dataclass
+#: who gives a design its verdict (:attr:`Verdict.source`): the dense check (the rule for
+#: every design no layer judged), or a layer
+VERDICT_SOURCES = ("check", "constraints", "minimax", "robust", "payload", "parts")
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """A design's status and the one line a user reads, and who said it.
+
+    ``source`` (one of :data:`VERDICT_SOURCES`): ``check`` when the dense check judged the
+    design (:func:`counterpoise.verify.judge.judge`), else the layer whose own word goes
+    beyond it: the design constraints (balanced, yet infeasible with them), the minimax
+    designer (its constraints cannot hold; or its dense ratio reported as is), the robust
+    counterpart or its tuning, a payload range's schedule, the catalogue parts' limits."""
+
+    status: Status
+    message: str
+    source: str
+
+    def __post_init__(self) -> None:
+        if self.source not in VERDICT_SOURCES:
+            raise ValueError(f"verdict source {self.source!r}: expected one of {', '.join(VERDICT_SOURCES)}")
+
+
+@dataclass(frozen=True)
 class Solution:
-    """A design (SI values per slot) and how it was obtained."""
+    """A design (SI values per slot) and how it was obtained; immutable (see the module
+    docstring): a layer returns a new one with :func:`dataclasses.replace` or :meth:`judged`."""
 
     problem: Problem
     status: Status
@@ -44,23 +84,31 @@ class Solution:
     certificate_gap: float = float("nan")
     #: multi-start: (starts that reached the best objective, starts run); (1, 1) for one solve
     starts: tuple[int, int] = (1, 1)
-    #: an outer design method's own verdict (status, message), which goes beyond the dense
-    #: check (a payload schedule, the limits of catalogue parts); None: judge the verification
-    verdict: tuple[Status, str] | None = None
+    #: the layers' own verdicts, innermost first (:meth:`judged`); empty: the design is
+    #: judged by its dense check (:func:`counterpoise.verify.judge.judge`)
+    verdicts: tuple[Verdict, ...] = ()
     #: the dense verification, when a design method already ran it (None: not yet)
-    verification: Any = None
-    #: payload-range designs: the :class:`counterpoise.payload.PayloadDesign`
-    payload: Any = None
-    #: designs with spring slots: the :class:`counterpoise.selection.PartsReport`
-    parts: Any = None
+    verification: Verification | None = None
+    #: payload-range designs: the schedule, samples and range (:mod:`counterpoise.payload`)
+    payload: PayloadDesign | None = None
+    #: designs with spring slots: the chosen catalogue parts (:mod:`counterpoise.selection`)
+    parts: PartsReport | None = None
     #: every design constraint at this design, per scenario
-    #: (:class:`counterpoise.formulation.constraints.ConstraintValue`)
-    constraints: tuple[Any, ...] = ()
-    #: designs with [robust]: the :class:`counterpoise.robust.RobustReport`
-    robust: Any = None
+    constraints: tuple[ConstraintValue, ...] = ()
+    #: designs with [robust]: tolerance bands, counterpart and tuning (:mod:`counterpoise.robust`)
+    robust: RobustReport | None = None
     #: infeasible balance: what the reported closest design is (the smallest worst residual
     #: on sampled configurations, or least squares on the compressed conditions); None otherwise
     closest: str | None = None
+
+    @property
+    def verdict(self) -> Verdict | None:
+        """The outermost layer's own verdict (None: judge the dense check)."""
+        return self.verdicts[-1] if self.verdicts else None
+
+    def judged(self, status: Status, message: str, source: str) -> Solution:
+        """A new solution with the verdict of layer ``source`` on top; this one is left as it is."""
+        return replace(self, verdicts=(*self.verdicts, Verdict(status, message, source)))
 
     def variable_values(self, scenario: str) -> dict[str, float]:
         """Value of every variable as seen by ``scenario``."""

@@ -29,10 +29,9 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
-from typing import Any
 
 from ..designer.designer import Designer
-from ..designer.methods import DesignMethod, Plain
+from ..designer.methods import BoundsOverride, DesignMethod, Plain
 from ..designer.solution import Solution
 from ..errors import SolverError
 from ..model import expr as ex
@@ -147,7 +146,7 @@ def design_payloads(
     problem: Problem,
     core: "Callable[[Problem], DesignMethod] | None" = None,
     parameters: Mapping[str, float] | None = None,
-    bounds: Mapping[Any, tuple[float, float]] | None = None,
+    bounds: BoundsOverride | None = None,
     initial: Mapping[Slot, float] | None = None,
     certify: bool = True,
     adjusters: Adjusters | None = None,
@@ -213,7 +212,7 @@ def _solve_samples(
     core: "Callable[[Problem], DesignMethod]",
     masses: set[float],
     parameters: Mapping[str, float] | None,
-    bounds: Mapping[Any, tuple[float, float]] | None,
+    bounds: BoundsOverride | None,
     initial: Mapping[Slot, float] | None,
     certify: bool = True,
 ) -> tuple[Sampled, Solution, Verification, Status, str]:
@@ -229,7 +228,7 @@ def _narrowed(
     problem: Problem,
     core: "Callable[[Problem], DesignMethod]",
     parameters: Mapping[str, float] | None,
-    bounds: Mapping[Any, tuple[float, float]] | None,
+    bounds: BoundsOverride | None,
     initial: Mapping[Slot, float] | None,
 ) -> tuple[Sampled, Solution, Verification] | None:
     """A declared range too wide to balance: the design of the widest sub-range around the

@@ -2,8 +2,8 @@
 
 :class:`PayloadMethod` wraps the method of each sampled problem (one scenario per working
 mode and payload sample, :mod:`.scenarios`) and returns the shared design with its
-schedule (:func:`.design.design_payloads`): ``solution.payload`` is the
-:class:`~.design.PayloadDesign`, ``solution.verdict`` its status and message. Options act
+schedule (:func:`.design.design_payloads`): a new solution whose ``payload`` is the
+:class:`~.design.PayloadDesign` and whose verdict (source ``payload``) its status and message. Options act
 on the whole range: ``parameters`` on every sample and on every schedule payload,
 ``bounds`` on every sample (adjustments within their travel), ``initial`` on every sample.
 """
@@ -12,9 +12,8 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import replace
-from typing import Any
 
-from ..designer.methods import DesignMethod
+from ..designer.methods import BoundsOverride, DesignMethod
 from ..designer.solution import Solution
 from ..formulation.layout import Slot
 from ..model.problem import Problem
@@ -56,7 +55,7 @@ class PayloadMethod:
     def design(
         self,
         parameters: Mapping[str, float] | None = None,
-        bounds: Mapping[Any, tuple[float, float]] | None = None,
+        bounds: BoundsOverride | None = None,
         initial: Mapping[Slot, float] | None = None,
         certify: bool = True,
     ) -> PayloadDesign:
@@ -65,13 +64,13 @@ class PayloadMethod:
     def solve(
         self,
         parameters: Mapping[str, float] | None = None,
-        bounds: Mapping[Any, tuple[float, float]] | None = None,
+        bounds: BoundsOverride | None = None,
         initial: Mapping[Slot, float] | None = None,
         *,
         certify: bool = True,
     ) -> Solution:
         outcome = self.design(parameters, bounds, initial, certify)
-        return replace(outcome.solution, verdict=(outcome.status, outcome.message), verification=outcome.verification, payload=outcome)
+        return replace(outcome.solution, verification=outcome.verification, payload=outcome).judged(outcome.status, outcome.message, "payload")
 
     def __repr__(self) -> str:
         return f"PayloadMethod({self.problem.name})"

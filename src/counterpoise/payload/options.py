@@ -8,15 +8,15 @@ adjustments, ``initial`` (by slot or variable name) on every sample's slots.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
 
 from ..errors import ProblemFileError
+from ..designer.methods import BoundsOverride
 from ..formulation.layout import Slot
 from ..model.problem import Problem
 from .scenarios import Sampled, design_bounds, payload_of
 
 
-def check_options(problem: Problem, parameters: Mapping[str, float] | None, bounds: Mapping[Any, tuple[float, float]] | None) -> None:
+def check_options(problem: Problem, parameters: Mapping[str, float] | None, bounds: BoundsOverride | None) -> None:
     """The payload's own mass is set by the range, not by ``parameters``; bounds name variables."""
     payload = payload_of(problem)
     if parameters and payload.name in parameters:
@@ -37,11 +37,11 @@ def _within_travel(problem: Problem, name: str, bounds: tuple[float, float]) -> 
     return lo, hi
 
 
-def merged_bounds(sampled: Sampled, bounds: Mapping[Any, tuple[float, float]] | None) -> dict[Slot | str, tuple[float, float]]:
+def merged_bounds(sampled: Sampled, bounds: BoundsOverride | None) -> dict[Slot | str, tuple[float, float]]:
     """The call's bounds (by variable, on every sample) with the adjustments' pins and travel
     windows (:func:`.scenarios.design_bounds`) inside them."""
     given = {(k.variable if isinstance(k, Slot) else k): v for k, v in (bounds or {}).items()}
-    out: dict[Slot | str, tuple[float, float]] = dict(given)
+    out: dict[Slot | str, tuple[float, float]] = {name: window for name, window in given.items()}
     for slot, (lo, hi) in design_bounds(sampled).items():
         if slot.variable in given and lo != hi:
             lo, hi = _within_travel(sampled.problem, slot.variable, given[slot.variable])
@@ -49,7 +49,7 @@ def merged_bounds(sampled: Sampled, bounds: Mapping[Any, tuple[float, float]] | 
     return out
 
 
-def adjustment_bounds(problem: Problem, bounds: Mapping[Any, tuple[float, float]] | None) -> dict[str, tuple[float, float]]:
+def adjustment_bounds(problem: Problem, bounds: BoundsOverride | None) -> dict[str, tuple[float, float]]:
     """The call's bounds on adjustable variables, for the schedule's adjustment solves: the
     same bounds the samples were designed with (:func:`merged_bounds`)."""
     out = {}
@@ -60,7 +60,7 @@ def adjustment_bounds(problem: Problem, bounds: Mapping[Any, tuple[float, float]
     return out
 
 
-def sampled_initial(sampled: Sampled, initial: Mapping[Any, float] | None) -> dict[Slot, float] | None:
+def sampled_initial(sampled: Sampled, initial: Mapping[Slot, float] | Mapping[str, float] | None) -> dict[Slot, float] | None:
     """Initial values given for ``problem``'s slots (or variable names), on every sample's slot."""
     if not initial:
         return None

@@ -19,6 +19,8 @@ def _header(name: str, label: str) -> str:
 
 def schedule_columns(result: DesignResult) -> list[str]:
     outcome = result.payload
+    if outcome is None:  # not a payload-range design: no schedule.csv
+        return []
     names = [_header("payload", outcome.payload.unit.label)]
     names += [_header(v.name, v.unit.label) for v in _adjustables(result)]
     return names + ["residual_ratio", "feasible"]

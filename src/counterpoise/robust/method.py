@@ -23,18 +23,23 @@ import copy
 import itertools
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..designer.convex import geometric_variables
 from ..designer.methods import DesignMethod
 from ..designer.solution import Solution, build_solution
-from ..formulation.layout import Slot
+from ..formulation.layout import Gravity3, Slot
 from ..model.problem import Problem
+from ..model.robust import RobustSpec
 from ..solvers.base import SolverOutput, Status
 from .affine import LP_CONFIGURATIONS, Decomposition, Rows, worst
 from .perturb import Deviation, corner_name, corner_text, perturbed
+
+if TYPE_CHECKING:
+    from ..designer.designer import Designer
+    from .minimax import RobustMinimax
 
 #: configurations per block on which the worst case of a design is measured
 BAND_CONFIGURATIONS = 10_000
@@ -90,11 +95,11 @@ class RobustMethod:
         self.inner = inner
         self.perturbed, self.deviations = perturbed(problem)
         self.decomposition = Decomposition(self.perturbed, self.deviations, problem)
-        self._nonnegative: Any = None
-        self._tuner: Any = None  # the designer of the tuning, built on first use
-        self._minimax: Any = None  # the minimax NLP (free geometry), built on first use
+        self._nonnegative: Any = None  # a CasADi Function (casadi ships no type information)
+        self._tuner: Designer | None = None  # the designer of the tuning, built on first use
+        self._minimax: RobustMinimax | None = None  # the minimax NLP (free geometry), built on first use
 
-    def with_spec(self, spec: Any) -> "RobustMethod":
+    def with_spec(self, spec: RobustSpec) -> "RobustMethod":
         """The same method (its inner method and decomposition shared) for another ``[robust]``
         table of the same tolerances: a trade-off study varies the limit or the weight."""
         if spec.tolerances != self._spec().tolerances:
@@ -115,7 +120,8 @@ class RobustMethod:
         certify: bool = True,
     ) -> Solution:
         spec = self._spec()
-        held = {**(bounds or {}), **{name: (self.problem.variable[name].initial,) * 2 for name in spec.tune}}
+        held: dict[Slot | str, tuple[float, float]] = {**(bounds or {})}
+        held.update({name: (self.problem.variable[name].initial, self.problem.variable[name].initial) for name in spec.tune})
         nominal = self.inner.solve(parameters, held, initial, certify=certify)
         f = self.decomposition.formulation
         d = f.design
@@ -139,8 +145,7 @@ class RobustMethod:
                     try:
                         self._minimax = RobustMinimax(self.decomposition, spec.mode, spec.weight, self.problem.settings.seed)
                     except ValueError as exc:  # too many corners
-                        design.verdict = (Status.FAILED, f"robust design with free geometry: {exc}; hold the geometry or tolerance fewer items")
-                        return design
+                        return design.judged(Status.FAILED, f"robust design with free geometry: {exc}; hold the geometry or tolerance fewer items", "robust")
                 mm = self._minimax.solve(z_nom, p, lbz, ubz, spec.limit)
                 z = np.clip(mm.z, lbz, ubz)
                 lp_ratio, lp_seconds = mm.ratio, mm.seconds
@@ -151,8 +156,7 @@ class RobustMethod:
                     message = self._infeasible_text(mm.solver_status) if status is Status.INFEASIBLE else f"robust minimax NLP: IPOPT {mm.solver_status}"
                 summary = f"minimax over {len(self._minimax.offsets)} corners on sampled configurations"
             elif not free:
-                design.verdict = (Status.FAILED, f"[robust] mode = \"{spec.mode}\" needs a free mass or stiffness variable: every variable is held")
-                return design
+                return design.judged(Status.FAILED, f"[robust] mode = \"{spec.mode}\" needs a free mass or stiffness variable: every variable is held", "robust")
             else:
                 z_ref = z_nom.copy()
                 z_ref[free] = 0.0
@@ -187,18 +191,17 @@ class RobustMethod:
             text += f" (nominal design {bands['nominal']['all']:.4g}); added mass {added['robust']:.6g} kg (nominal design {added['nominal']:.6g} kg)"
         if report.corners and report.tuning_status == "balanced":
             text += f"; tuned at {len(report.corners)} corners, largest residual ratio after tuning {report.tuned_residual:.2g}"
-        design.robust = report
+        design = replace(design, robust=report)
         if status is not Status.OPTIMAL:
             if key == "robust" or report.tuning_status not in ("", "balanced"):
-                design.verdict = (status, message)  # the counterpart or the tuning failed: say which
-        elif key == "robust":
-            design.verdict = (status, text)  # the counterpart may leave the nominal unbalanced by choice
-        else:
-            design.message = text  # the ordinary design: judged by its dense check as usual
-        return design
+                return design.judged(status, message, "robust")  # the counterpart or the tuning failed: say which
+            return design
+        if key == "robust":
+            return design.judged(status, text, "robust")  # the counterpart may leave the nominal unbalanced by choice
+        return replace(design, message=text)  # the ordinary design: judged by its dense check as usual
 
     # -- pieces --------------------------------------------------------------------
-    def _spec(self) -> Any:
+    def _spec(self) -> RobustSpec:
         if self.problem.robust is None:
             raise ValueError(f"{self.problem.name}: no [robust] table")
         return self.problem.robust
@@ -261,7 +264,7 @@ class RobustMethod:
             for i, sign in zip(active, signs):
                 full[i] = sign
             corners.append(tuple(full))
-        held = {slot: (value, value) for slot, value in design.values.items() if slot.variable not in spec.tune}
+        held: dict[Slot | str, tuple[float, float]] = {slot: (value, value) for slot, value in design.values.items() if slot.variable not in spec.tune}
         if self._tuner is None:
             width = {d.parameter: d.half_width for d in self.deviations}
             built = replace(
@@ -297,6 +300,8 @@ class RobustMethod:
         return replace(report, corners=tuple(out), tuning_range=tuning_range, tuning_status=status)
 
 
-def _without_deviations(values: Mapping[str, Any], deviations: tuple[Deviation, ...]) -> dict[str, Any]:
+def _without_deviations(
+    values: Mapping[str, tuple[Gravity3, dict[str, float]]], deviations: tuple[Deviation, ...]
+) -> dict[str, tuple[Gravity3, dict[str, float]]]:
     names = {d.parameter for d in deviations}
     return {s: (g, {k: v for k, v in base.items() if k not in names}) for s, (g, base) in values.items()}

@@ -34,13 +34,13 @@ import math
 import sys
 import time
 from collections.abc import Callable
-from typing import Any
 
 import numpy as np
 
 from ..designer.minimax import MinimaxDesigner
 from ..errors import ProblemFileError
 from ..formulation.layout import Slot
+from ..model.parts import SpringSlot
 from ..model.problem import Problem
 from ..solvers.base import Status
 from .results import Choice, SearchResult, SlotCount
@@ -133,7 +133,7 @@ def search_direct(problem: Problem, designer: MinimaxDesigner, progress: Progres
 def _search_slot(
     problem: Problem,
     designer: MinimaxDesigner,
-    slot: Any,
+    slot: SpringSlot,
     progress: Progress,
     t0: float,
     group: DirectGroup | None = None,
@@ -164,7 +164,7 @@ def _search_group(problem: Problem, designer: MinimaxDesigner, group: DirectGrou
     return _search_coupled(problem, designer, group, slots, exclude, progress, t0)
 
 
-def refusal(problem: Problem, slots: list[Any], total: int, why: str) -> ProblemFileError:
+def refusal(problem: Problem, slots: list[SpringSlot], total: int, why: str) -> ProblemFileError:
     """The input limit of a search that can neither enumerate nor screen: exit status 2."""
     largest = max(slots, key=lambda s: len(s.catalogue))
     names = ", ".join(s.name for s in slots)
@@ -178,7 +178,7 @@ def refusal(problem: Problem, slots: list[Any], total: int, why: str) -> Problem
     )
 
 
-def _enumerate(problem: Problem, designer: MinimaxDesigner, progress: Progress, t0: float, note: str, slots: list[Any] | None = None, reason_of_size: str = "") -> SearchResult:
+def _enumerate(problem: Problem, designer: MinimaxDesigner, progress: Progress, t0: float, note: str, slots: list[SpringSlot] | None = None, reason_of_size: str = "") -> SearchResult:
     """Every combination of parts of ``slots`` (default: the problem's) designed."""
     slots = list(problem.slots) if slots is None else slots
     sizes = [len(s.catalogue) for s in slots]
@@ -210,7 +210,7 @@ def _enumerate(problem: Problem, designer: MinimaxDesigner, progress: Progress, 
     return SearchResult(found[0] if found else None, counts, [tuple(s.name for s in slots)], ["enumeration"], [], solves, time.perf_counter() - t0, message, found, evidence=evidence)
 
 
-def _search_screened(problem: Problem, designer: MinimaxDesigner, screened: Screen, progress: Progress, t0: float, slot: Any, budget_of_bound: int = BOUND_EVALUATIONS) -> SearchResult:
+def _search_screened(problem: Problem, designer: MinimaxDesigner, screened: Screen, progress: Progress, t0: float, slot: SpringSlot, budget_of_bound: int = BOUND_EVALUATIONS) -> SearchResult:
     count = SlotCount(slot.name, len(slot.catalogue), (math.nan, math.nan))
     order = screened_order(screened)
     count.pruned = len(slot.catalogue) - len(order)  # no grid geometry keeps the spring within its lengths
@@ -293,7 +293,7 @@ def _search_screened(problem: Problem, designer: MinimaxDesigner, screened: Scre
     return SearchResult(found[0] if found else None, [count], [(slot.name,)], ["screening"], [], solves, time.perf_counter() - t0, message, found, lower_bound_ratio=lower, evidence=tuple(evidence))
 
 
-def _search_coupled(problem: Problem, designer: MinimaxDesigner, group: DirectGroup, slots: list[Any], exclude: frozenset[str], progress: Progress, t0: float) -> SearchResult:
+def _search_coupled(problem: Problem, designer: MinimaxDesigner, group: DirectGroup, slots: list[SpringSlot], exclude: frozenset[str], progress: Progress, t0: float) -> SearchResult:
     """Interacting slots with too many combinations to design: each slot screened in turn
     (the others at their best screened part so far, starting from their median-rate part),
     then every combination of the best screened parts of each slot designed."""

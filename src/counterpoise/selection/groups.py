@@ -16,6 +16,7 @@ import numpy as np
 from ..designer.designer import Designer
 from ..formulation.layout import Slot
 from ..model import expr as ex
+from ..model.elements import ZeroFreeLengthSpring
 from ..model.problem import Problem
 from ..verify.residuals import frame_names
 
@@ -149,7 +150,7 @@ class DirectGroup:
     variables: frozenset[str]  # the design variables the group's rows involve
 
 
-def _variables_of(problem: Problem, spring: Any, frames: Mapping[str, frozenset[str]]) -> set[str]:
+def _variables_of(problem: Problem, spring: ZeroFreeLengthSpring, frames: Mapping[str, frozenset[str]]) -> set[str]:
     names = set(ex.names(spring.stiffness)) if spring.stiffness is not None else set()
     for point in spring.ends:
         names |= set().union(*(ex.names(t) for t in point.position)) | set(frames[point.frame])

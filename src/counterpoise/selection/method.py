@@ -13,16 +13,17 @@ or a payload-range design around one of them). Each :meth:`~PartsMethod.solve`:
    a payload where a part leaves its limits joins the search's samples and the search
    runs again (at most :data:`REFINEMENTS` times).
 
-``solution.parts`` is the :class:`.parts.PartsReport`; ``solution.verdict`` the status.
+It returns a new solution whose ``parts`` is the :class:`.parts.PartsReport` and whose
+verdict (source ``parts``) the status and message.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from dataclasses import replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from ..designer.methods import DesignMethod, SampledMethod
+from ..designer.methods import BoundsOverride, DesignMethod, SampledMethod
 from ..designer.solution import Solution
 from ..errors import ProblemFileError
 from ..formulation.layout import Slot
@@ -34,11 +35,14 @@ from . import parts
 from .direct import part_parameters, search_direct
 from .search import SearchModels
 
+if TYPE_CHECKING:
+    from ..designer.minimax import MinimaxDesigner
+
 #: searches re-run with a payload added where a part left its limits
 REFINEMENTS = 2
 
 
-def with_options(problem: Problem, parameters: Mapping[str, float] | None, bounds: Mapping[Any, tuple[float, float]] | None) -> Problem:
+def with_options(problem: Problem, parameters: Mapping[str, float] | None, bounds: BoundsOverride | None) -> Problem:
     """``problem`` with these base-parameter values (in every scenario) and variable bounds,
     so that a part search sees the same problem as the solve after it."""
     if not parameters and not bounds:
@@ -54,7 +58,7 @@ def with_options(problem: Problem, parameters: Mapping[str, float] | None, bound
 class _Given:
     """A designer seen through the call's parameters and bounds (for :func:`search_direct`)."""
 
-    def __init__(self, designer: Any, parameters: Mapping[str, float] | None, bounds: Mapping[Any, tuple[float, float]] | None) -> None:
+    def __init__(self, designer: MinimaxDesigner, parameters: Mapping[str, float] | None, bounds: BoundsOverride | None) -> None:
         self.designer = designer
         self.parameters = dict(parameters or {})
         self.bounds = bounds
@@ -63,11 +67,11 @@ class _Given:
         # the screening reads the designer's formulation, reference and samples
         return getattr(self.designer, name)
 
-    def restricted(self, coordinates: Any, springs: Any) -> _Given:
+    def restricted(self, coordinates: Collection[str], springs: Collection[str]) -> _Given:
         """The designer of these rows alone (:meth:`MinimaxDesigner.restricted`), seen the same way."""
         return _Given(self.designer.restricted(coordinates, springs), self.parameters, self.bounds)
 
-    def solve(self, initial: Any = None, parameters: Mapping[str, float] | None = None, bounds: Any = None) -> Solution:
+    def solve(self, initial: Mapping[Slot, float] | None = None, parameters: Mapping[str, float] | None = None, bounds: BoundsOverride | None = None) -> Solution:
         merged = {**self.parameters, **(parameters or {})}
         return self.designer.solve(initial=initial, parameters=merged, bounds=bounds or self.bounds)
 
@@ -98,7 +102,7 @@ class PartsMethod:
     def solve(
         self,
         parameters: Mapping[str, float] | None = None,
-        bounds: Mapping[Any, tuple[float, float]] | None = None,
+        bounds: BoundsOverride | None = None,
         initial: Mapping[Slot, float] | None = None,
         *,
         certify: bool = True,
@@ -145,7 +149,7 @@ class PartsMethod:
         elif status is Status.OPTIMAL:
             picked = ", ".join(f"{s.name}: {s.catalogue.part_number[rows[s.name]]}" for s in self.problem.slots)
             message = f"{message}; parts {picked}"
-        return replace(solution, verdict=(status, message), verification=verification, parts=chosen)
+        return replace(solution, verification=verification, parts=chosen).judged(status, message, "parts")
 
     def __repr__(self) -> str:
         return f"PartsMethod({self.inner!r})"

@@ -8,6 +8,7 @@ import itertools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -16,6 +17,8 @@ from ..catalogue.limits import margins
 from ..designer.solution import Solution
 from ..formulation.layout import Slot
 from ..mechanics import Mechanics
+from ..model.elements import ZeroFreeLengthSpring
+from ..model.parts import SpringSlot
 from ..model.problem import Problem
 from ..solvers.base import Status
 from ..verify.check import verify
@@ -177,7 +180,7 @@ def report(
     return PartsReport(search, dict(rows), tuple(uses), tuple(bill.values()), tolerance, corners, tuple(by_scenario))
 
 
-def spring_extremes(solution: Solution, springs: list[Any]) -> tuple[dict[str, dict[str, tuple[float, float]]], dict[str, float]]:
+def spring_extremes(solution: Solution, springs: list[ZeroFreeLengthSpring]) -> tuple[dict[str, dict[str, tuple[float, float]]], dict[str, float]]:
     """Per scenario and spring: the smallest and largest distance between its ends over the
     dense sample (minus the cable of a directly attached spring); and each spring's cable."""
     problem = solution.problem
@@ -199,21 +202,30 @@ def spring_extremes(solution: Solution, springs: list[Any]) -> tuple[dict[str, d
     return out, cable
 
 
-def use(slots: dict[str, Any], rows: dict[str, int], s: Any, lo: float, hi: float, cable: float, scenario: str) -> SpringUse:
+def use(slots: Mapping[str, SpringSlot], rows: dict[str, int], s: ZeroFreeLengthSpring, lo: float, hi: float, cable: float, scenario: str) -> SpringUse:
     """How spring ``s`` uses its part when the distance of its ends spans [lo, hi] (SI)."""
-    cat = slots[s.slot].catalogue
-    i = rows[s.slot]
+    slot = _slot_of(s)
+    cat = slots[slot].catalogue
+    i = rows[slot]
     k, l0, f0, fmax, lmax = cat.rate[i], cat.free_length[i], cat.initial_tension[i], cat.max_load[i], cat.max_length[i]
     if s.direct is None:  # behind a string: length d + L0 − F0/k, force k·d
         m = margins(np.array(lo), np.array(hi), k, l0, f0, fmax, lmax)
         v = (lo, hi, lo + l0 - f0 / k, hi + l0 - f0 / k, k * lo, k * hi, float(m.slack), float(m.length), float(m.load))
     else:  # attached directly: length d − c, force F0 + k (d − c − L0)
         v = (lo + cable, hi + cable, lo, hi, f0 + k * (lo - l0), f0 + k * (hi - l0), lo - l0, lmax - hi, fmax - (f0 + k * (hi - l0)))
-    return SpringUse(s.name, s.slot, cat.part_number[i], *v[:6], l0, lmax, f0, fmax, *v[6:], scenario=scenario)
+    return SpringUse(s.name, slot, cat.part_number[i], *v[:6], l0, lmax, f0, fmax, *v[6:], scenario=scenario)
 
 
-def rows_free_length(slots: dict, rows: dict[str, int], spring: Any) -> float:
-    return float(slots[spring.slot].catalogue.free_length[rows[spring.slot]])
+def rows_free_length(slots: Mapping[str, SpringSlot], rows: dict[str, int], spring: ZeroFreeLengthSpring) -> float:
+    slot = _slot_of(spring)
+    return float(slots[slot].catalogue.free_length[rows[slot]])
+
+
+def _slot_of(spring: ZeroFreeLengthSpring) -> str:
+    """The slot of a spring whose part is chosen from a catalogue (callers pass only those)."""
+    if spring.slot is None:
+        raise ValueError(f"spring {spring.name} takes no catalogue part (no slot)")
+    return spring.slot
 
 
 def adjust_corners(problem: Problem, designer: Any, solution: Solution, rows: dict[str, int]) -> tuple[Corner, ...]:
@@ -238,7 +250,7 @@ def adjust_corners(problem: Problem, designer: Any, solution: Solution, rows: di
         adjusted_ratio = math.nan
         changes: list[tuple[str, float, float]] = []
         if adjust:
-            bounds: dict[Any, tuple[float, float]] = {
+            bounds: dict[Slot | str, tuple[float, float]] = {
                 slot: (value, value) for slot, value in solution.values.items() if slot.variable not in adjust
             }
             again = designer.solve(initial=solution.values, parameters=rates, bounds=bounds, certify=False)

@@ -42,6 +42,8 @@ from numpy.typing import ArrayLike
 from ..mechanics import NUMPY_FUNCTIONS, Mechanics
 from ..mechanics.kinematics import dot, sub
 from ..model import expr as ex
+from ..model.elements import ZeroFreeLengthSpring
+from ..model.parts import SpringSlot
 from ..model.problem import Problem
 from ..mechanics.sampling import STEP
 from ..verify.residuals import frame_names
@@ -87,7 +89,7 @@ def _names_of(problem: Problem, point: Any, frames: Mapping[str, frozenset[str]]
     return set().union(*(ex.names(t) for t in point.position)) | set(frames[point.frame])
 
 
-def _structure(problem: Problem, slot: Any, exclude: frozenset[str], grid_only: frozenset[str] | None) -> tuple[str, list[Any], dict[str, str], list[str], list[set[str]], set[str]] | str:
+def _structure(problem: Problem, slot: SpringSlot, exclude: frozenset[str], grid_only: frozenset[str] | None) -> tuple[str, list[Any], dict[str, str], list[str], list[set[str]], set[str]] | str:
     """(slot, its springs, spring -> cable variable, grid variables, per-spring geometry
     variables, variables the rest of the mechanism depends on),
     or the reason screening does not apply. ``exclude``: springs left out of the rest (they
@@ -215,7 +217,7 @@ def best_offset(a: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray) ->
     return t, np.abs(a - t[:, None] * b).max(axis=1)
 
 
-def _part_arrays(slot: Any) -> dict[str, np.ndarray]:
+def _part_arrays(slot: SpringSlot) -> dict[str, np.ndarray]:
     a = slot.catalogue.arrays
     k, l0, f0 = a["rate"], a["free_length"], a["initial_tension"]
     lmax = np.minimum(a["max_length"], l0 + (a["max_load"] - f0) / k)

@@ -9,17 +9,29 @@ from ..solvers.base import Status
 from .checks import FORCE_NAME, CoordinateCheck, Verification
 
 if TYPE_CHECKING:
-    from ..designer.solution import Solution
+    from ..designer.solution import Solution, Verdict
+
+
+def verdict(solution: "Solution", verification: Verification) -> "Verdict":
+    """The final :class:`~counterpoise.designer.solution.Verdict` of a design: the outermost
+    layer's own (its ``source`` names the layer), the minimax rule for a minimax design, else
+    the dense check's (source ``check``, :func:`judge`)."""
+    from ..designer.solution import Verdict
+
+    if solution.verdict is not None:
+        return solution.verdict
+    status, message = judge(solution, verification)
+    return Verdict(status, message, "minimax" if solution.sampled_ratio is not None else "check")
 
 
 def judge(solution: "Solution", verification: Verification) -> tuple[Status, str]:
     """``optimal`` needs the solver's optimum *and* the dense check; otherwise say why not.
 
-    A design method's own verdict (``solution.verdict``: a payload schedule, catalogue
-    limits) stands as given; a minimax design (directly attached springs) is judged by
-    :func:`judge_minimax`."""
+    The outermost layer's own verdict (``solution.verdict``, which names its layer: a payload
+    schedule, catalogue limits, the robust counterpart, the design constraints) stands as
+    given; a minimax design (directly attached springs) is judged by :func:`judge_minimax`."""
     if solution.verdict is not None:
-        return solution.verdict
+        return solution.verdict.status, solution.verdict.message
     if solution.sampled_ratio is not None:
         return judge_minimax(solution, verification)
     if solution.status is Status.OPTIMAL:
