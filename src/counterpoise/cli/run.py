@@ -36,7 +36,7 @@ def load_all(files: list[Path], overrides: Mapping[str, object], err: Err) -> li
     """Every file loaded and checked (closed loops assemble), or None after printing every
     error (the caller exits 2); a problem with nothing to balance gets a warning line."""
     from ..errors import ProblemFileError
-    from ..io.loader import load_problem
+    from ..io.cache import load as load_problem  # the loader, or the console script's cache of loaded problems
     from ..mechanics.closure import check_assembly
 
     problems, errors = [], []
