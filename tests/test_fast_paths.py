@@ -208,3 +208,23 @@ def test_console_script_keeps_the_problem_and_then_imports_neither_pint_nor_pyda
     assert len(list((tmp_path / "cache").glob("*.pickle"))) == 1
     for f in ("design.csv", "status.txt", "build.csv"):
         assert (tmp_path / "first" / "yasir2019_counter_mass" / f).read_text() == (tmp_path / "second" / "yasir2019_counter_mass" / f).read_text()
+
+
+def test_cache_keeps_at_most_max_entries_and_drops_stale_temporaries(tmp_path, cache_on, monkeypatch):
+    """Writing an entry removes the oldest beyond MAX_ENTRIES (here 2) and temporary files
+    of killed writers older than STALE_SECONDS; without a known home folder (and no
+    XDG_CACHE_HOME) the cache is off rather than relative to the working folder."""
+    from counterpoise.io import cache
+
+    monkeypatch.setattr(cache, "MAX_ENTRIES", 2)
+    cache_on.mkdir()
+    stale = cache_on / ".abc.tmp"
+    stale.write_bytes(b"")
+    os.utime(stale, (0, 0))
+    for g in (500, 600, 700):
+        cache.load(PROBLEMS / "yasir2019_counter_mass.toml", {"parameters.m_c": f"{g} g"})
+    assert len(list(cache_on.glob("*.pickle"))) == 2 and not stale.exists()
+    monkeypatch.delenv(cache.ENVIRONMENT)
+    monkeypatch.delenv("XDG_CACHE_HOME", raising=False)
+    monkeypatch.setattr(os.path, "expanduser", lambda path: path)  # as when HOME is unset and no user entry exists
+    assert cache.folder() is None

@@ -50,6 +50,8 @@ ENVIRONMENT = "COUNTERPOISE_CACHE"
 FILE_TABLES = ("robot", "catalogues")
 #: entries kept; the oldest beyond this are removed when one is written
 MAX_ENTRIES = 256
+#: a temporary file older than this (seconds) was left by a killed process: removed
+STALE_SECONDS = 3600
 #: libraries whose versions change what a load gives (besides counterpoise itself)
 LIBRARIES = ("pint", "pydantic", "pydantic_core", "numpy")
 _OFF = ("off", "0", "no", "false", "none")
@@ -73,6 +75,8 @@ def folder() -> Path | None:
     if setting:
         return Path(setting)
     base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    if not os.path.isabs(base):  # no home folder known: never a folder relative to the working one
+        return None
     return Path(base) / "counterpoise" / "problems"
 
 
@@ -176,7 +180,7 @@ def _write(entry: Path, problem: Problem) -> None:
     """Keep ``problem`` under ``entry`` (a temporary file renamed into place); a cache that
     cannot be written is left alone (the next run loads the file again)."""
     try:
-        entry.parent.mkdir(parents=True, exist_ok=True)
+        entry.parent.mkdir(mode=0o700, parents=True, exist_ok=True)  # the user's own: problems may be private
         fd, tmp = tempfile.mkstemp(prefix=f".{entry.stem[:12]}.", suffix=".tmp", dir=entry.parent)
         try:
             with os.fdopen(fd, "wb") as handle:
@@ -191,15 +195,23 @@ def _write(entry: Path, problem: Problem) -> None:
 
 
 def _prune(where: Path) -> None:
-    """Remove the oldest entries beyond :data:`MAX_ENTRIES`."""
-    entries = []
+    """Remove the oldest entries beyond :data:`MAX_ENTRIES`, and temporary files older than
+    :data:`STALE_SECONDS` (left by a process killed while writing)."""
+    import time
+
+    entries, stale = [], []
+    now = time.time()
     for item in os.scandir(where):
-        if item.name.endswith(".pickle"):
-            try:
+        try:
+            if item.name.endswith(".pickle"):
                 entries.append((item.stat().st_mtime_ns, item.path))
-            except OSError:
-                continue
+            elif item.name.endswith(".tmp") and now - item.stat().st_mtime > STALE_SECONDS:
+                stale.append(item.path)
+        except OSError:
+            continue
     for _, name in sorted(entries)[: max(0, len(entries) - MAX_ENTRIES)]:
+        stale.append(name)
+    for name in stale:
         try:
             os.unlink(name)
         except OSError:
