@@ -12,6 +12,10 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PROBLEMS = ROOT / "problems"
 
+# the console script's cache of loaded problems (counterpoise.io.cache) stays off in the
+# processes tests start: each test says whether it wants it (tests/test_fast_paths.py)
+os.environ.setdefault("COUNTERPOISE_CACHE", "off")
+
 try:
     from hypothesis import HealthCheck, settings
     from hypothesis.configuration import set_hypothesis_home_dir

@@ -38,7 +38,7 @@ def load_all(files: list[Path], overrides: Mapping[str, object], err: Err, warni
     ``warnings``: filled with each problem's warnings (:func:`~counterpoise.formulation.assumptions.degeneracies`)
     by problem name (unique here), for :func:`solve_all` to pass on to the reports."""
     from ..errors import ProblemFileError
-    from ..io.loader import load_problem
+    from ..io.cache import load as load_problem  # the loader, or the console script's cache of loaded problems
     from ..mechanics.closure import check_assembly
 
     problems, errors = [], []

@@ -11,6 +11,7 @@ that tree into frames, coordinates and bodies (docs/robots.md).
 from __future__ import annotations
 
 import math
+import types
 from dataclasses import dataclass
 from pathlib import Path
 from collections.abc import Iterable, Sequence
@@ -161,12 +162,73 @@ def _xacro_hint(path: Path) -> str:
     return f"{path.name} is a xacro file (ROS macros, not plain URDF): expand it first, `xacro {path.name} > {plain}`, and give {plain}"
 
 
+class _DeferredTrimesh(types.ModuleType):
+    """Stands for the ``trimesh`` package while yourdfpy is imported (:func:`import_yourdfpy`).
+
+    Its submodules are trimesh's own files (``__path__`` is the package's folder), so
+    ``trimesh.transformations``, which yourdfpy uses to read origins, is the real one; its
+    ``__init__`` (which imports scipy, networkx, rtree, shapely: ~0.6–1 s) is not run. Any
+    other attribute imports the real package then and is taken from it; while yourdfpy's
+    module is executed, the names its annotations use (``trimesh.Trimesh``,
+    ``trimesh.Scene``) get placeholder classes instead, since annotations are evaluated
+    when a function is defined.
+    """
+
+    def __init__(self, locations: list[str]) -> None:
+        super().__init__("trimesh")
+        self.__path__ = locations
+        self._importing = True
+
+    def __getattr__(self, name: str) -> Any:
+        if name.startswith("__"):
+            raise AttributeError(name)
+        if self.__dict__.get("_importing"):
+            return type(name, (), {"__module__": "trimesh"})
+        import importlib
+
+        return getattr(importlib.import_module("trimesh"), name)
+
+
+def import_yourdfpy() -> Any:  # Any: the yourdfpy module (it ships no type information)
+    """yourdfpy, imported without running trimesh's ``__init__`` (see :class:`_DeferredTrimesh`).
+
+    counterpoise reads a URDF's links, joints and inertials only (no meshes, no scene
+    graph), and ``import trimesh`` was ~90 % of the time to read a robot model. trimesh stays
+    importable: ``import trimesh`` afterwards imports the whole package as usual, and what
+    yourdfpy does with meshes, if it is ever asked to, goes to the real package. Should
+    yourdfpy not import this way (another version), it is imported plainly.
+    """
+    import importlib
+    import importlib.util
+    import sys
+
+    if "yourdfpy" in sys.modules or "trimesh" in sys.modules:
+        return importlib.import_module("yourdfpy")
+    spec = importlib.util.find_spec("trimesh")
+    if spec is None or not spec.submodule_search_locations:
+        return importlib.import_module("yourdfpy")
+    stand_in = _DeferredTrimesh(list(spec.submodule_search_locations))
+    sys.modules["trimesh"] = stand_in
+    try:
+        module = importlib.import_module("yourdfpy")
+    except Exception:  # noqa: BLE001 - any failure this way: forget it and import plainly below
+        for name in [n for n in sys.modules if n == "yourdfpy" or n.startswith("yourdfpy.")]:
+            del sys.modules[name]
+        module = None
+    finally:
+        stand_in._importing = False
+        if sys.modules.get("trimesh") is stand_in:
+            del sys.modules["trimesh"]
+    return module if module is not None else importlib.import_module("yourdfpy")
+
+
 def _read_urdf(path: Path) -> RobotModel:
     import io
     import logging
 
-    import yourdfpy
     from lxml import etree
+
+    yourdfpy = import_yourdfpy()
 
     logger = logging.getLogger("yourdfpy")
     level = logger.level
