@@ -149,6 +149,21 @@ def test_adjustment_per_tolerance_corner(tmp_path):
     assert all(c.adjusted_ratio < 1e-9 for c in corners)
 
 
+def test_tolerance_corners_keep_the_calls_parameters(tmp_path):
+    """A study point solves with its own values (``parameters=``), not the file's: the rate
+    corners must keep them. With m' = 1.5 m the design is h = m' g r/(k b) = 0.15 m, the
+    rate corners leave exactly 10 % of m' g r, and re-setting h gives 0.15/(1 ± 0.1) m. (They
+    were taken with the file's m, which reported 35-65 % instead.)"""
+    mass = 2.0 / (9.81 * 0.2)
+    problem = pendulum(tmp_path, ["P-1,200,0.05,1,50,0.3,0.01,0.001,x"], mass, extra='\n[selection]\nadjust = ["h"]\n')
+    result = design(problem, parameters={"m": 1.5 * mass})
+    assert result.status is Status.OPTIMAL, result.message
+    corners = result.parts.corners
+    assert [c.ratio for c in corners] == pytest.approx([0.1, 0.1], rel=1e-6)
+    assert [c.adjustment[0][2] for c in corners] == pytest.approx([0.15 / 0.9, 0.15 / 1.1], rel=1e-9)
+    assert all(c.adjusted_ratio < 1e-9 for c in corners)
+
+
 def test_part_limits_decide_and_nearest_is_reported(tmp_path):
     """Three parts of the same rate: one whose initial tension exceeds k·d_min (the string
     would go slack), one too short, one that fits. Then without the fitting one: the

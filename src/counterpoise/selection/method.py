@@ -126,7 +126,7 @@ class PartsMethod:
             solution = self.inner.solve({**given, **part_parameters(self.problem, rows)}, bounds, start, certify=certify)
             outcome = solution.payload
             checked = outcome.schedule_solution() if outcome is not None and outcome.schedule is not None else None
-            chosen = parts.report(solution.problem, self._designer_of(solution), solution, search, rows, checked)
+            chosen = parts.report(solution.problem, self._designer_of(solution), solution, search, rows, checked, given)
             misfit = chosen.first_misfit()
             if outcome is None or misfit is None or search.choice is None or checked is None:
                 break

@@ -8,7 +8,6 @@ import itertools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
-from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -137,13 +136,20 @@ def choose(
 
 
 def report(
-    problem: Problem, designer: Any, solution: Solution, search: SearchResult, rows: dict[str, int], checked: Solution | None = None
+    problem: Problem,
+    designer: Any,
+    solution: Solution,
+    search: SearchResult,
+    rows: dict[str, int],
+    checked: Solution | None = None,
+    parameters: Mapping[str, float] | None = None,
 ) -> PartsReport:
     """Dense limit check, bill of materials and tolerance report of the chosen parts.
 
     ``checked``: the design on every scenario whose limits must hold (a payload range: one
     scenario per payload of its schedule); default ``solution``. The tolerance report and
-    the corners are taken on ``solution`` (solved by ``designer``)."""
+    the corners are taken on ``solution`` (solved by ``designer`` with the call's
+    ``parameters``, which the corners keep: a study point's values, not the file's)."""
     checked = checked or solution
     slots = {s.name: s for s in problem.slots}
     springs = [s for s in checked.problem.springs if s.slot is not None]
@@ -176,7 +182,7 @@ def report(
         rate_tol = {u.spring: slots[u.slot].rate_tolerance for u in uses}
         tension_tol = {u.spring: slots[u.slot].initial_tension_tolerance for u in uses}
         tolerance = tolerance_band(problem, per_design, tension, rate_tol, tension_tol, tq, offsets)
-        corners = adjust_corners(problem, designer, solution, rows)
+        corners = adjust_corners(problem, designer, solution, rows, parameters)
     return PartsReport(search, dict(rows), tuple(uses), tuple(bill.values()), tolerance, corners, tuple(by_scenario))
 
 
@@ -228,9 +234,13 @@ def _slot_of(spring: ZeroFreeLengthSpring) -> str:
     return spring.slot
 
 
-def adjust_corners(problem: Problem, designer: Any, solution: Solution, rows: dict[str, int]) -> tuple[Corner, ...]:
+def adjust_corners(
+    problem: Problem, designer: Any, solution: Solution, rows: dict[str, int], parameters: Mapping[str, float] | None = None
+) -> tuple[Corner, ...]:
     """Each combination of slot rates at ±tolerance: the residual left, and, with
-    ``selection.adjust`` variables, what they must be re-set to (the others kept)."""
+    ``selection.adjust`` variables, what they must be re-set to (the others kept).
+    ``parameters``: the call's values the design was solved with (a study point's), kept at
+    every corner; the slots' rates are the parts' own."""
     slots = [s for s in problem.slots if s.rate_tolerance > 0]
     if not slots or 2 ** len(slots) > MAX_CORNERS:
         return ()
@@ -239,7 +249,7 @@ def adjust_corners(problem: Problem, designer: Any, solution: Solution, rows: di
     out = []
     samples = min(problem.settings.verify_samples, 2000)
     for signs in itertools.product((-1.0, 1.0), repeat=len(slots)):
-        rates = dict(nominal)
+        rates = {**(parameters or {}), **nominal}
         deviation = []
         for s, sign in zip(slots, signs):
             rates[s.name] = nominal[s.name] * (1 + sign * s.rate_tolerance)
