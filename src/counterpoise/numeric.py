@@ -56,9 +56,9 @@ class NumericFunction:
             inputs = [np.zeros(n) for n in self._in_sizes]
             outputs = [np.zeros(n) for n in self._out_nnz]
             for i, a in enumerate(inputs):
-                buffer.set_arg(i, memoryview(a))
+                buffer.set_arg(i, a.data)  # a memoryview of the array
             for i, r in enumerate(outputs):
-                buffer.set_res(i, memoryview(r))
+                buffer.set_res(i, r.data)
             found = self._local.buffers = (evaluate, inputs, outputs, buffer)
         return found[0], found[1], found[2]
 
