@@ -48,3 +48,36 @@ def test_pool_study_with_plot_matches_the_serial_study(tmp_path, capsys):
     for row in serial + pooled:
         row.pop("solve_time_s")
     assert serial == pooled
+
+
+def test_pool_workers_inherit_the_method_built_before_the_fork(tmp_path, capsys, monkeypatch):
+    """A --jobs 2 study builds its designer once, in the study's process, before the pool
+    forks (each worker built its own before); a weight study still builds in the workers."""
+    import multiprocessing
+    import os
+
+    from collections import OrderedDict
+
+    from counterpoise.designer import designer as designer_module
+    from counterpoise.studies import runners
+
+    if multiprocessing.get_start_method() != "fork":
+        pytest.skip("the method is built before the fork only for a fork pool")
+    log = tmp_path / "built.txt"
+    original = designer_module.Designer.__init__
+
+    def counting(self, *args, **kwargs):
+        with open(log, "a", encoding="utf-8") as handle:  # the forked workers write here too
+            handle.write(f"{os.getpid()}\n")
+        original(self, *args, **kwargs)
+
+    monkeypatch.setattr(designer_module.Designer, "__init__", counting)
+    monkeypatch.setattr(runners._WORKER, "methods", OrderedDict(), raising=False)  # none kept from another test
+    file = str(PROBLEMS / "yasir2019_counter_mass.toml")
+    code, printed = _cli(["study", file, "--vary", "m_c=300 g:500 g:6", "--out", str(tmp_path / "mass"), "--jobs", "2", "--batch-size", "2", "--no-plot"], capsys)
+    assert code == 0 and "6 points run (6 optimal)" in printed.out
+    assert log.read_text(encoding="utf-8").split() == [str(os.getpid())]  # one build, here
+    log.unlink()
+    code, printed = _cli(["study", file, "--vary", "inertia_weight=0 1/m^2:10 1/m^2:2", "--out", str(tmp_path / "weight"), "--jobs", "2", "--batch-size", "1", "--no-plot"], capsys)
+    assert code == 0
+    assert str(os.getpid()) not in log.read_text(encoding="utf-8").split()  # built per weight in the workers

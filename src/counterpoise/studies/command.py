@@ -97,6 +97,30 @@ def check_varied_values(problem: Problem, plan: StudyPlan, overrides: dict[str, 
                 raise ProblemFileError(label, f"--vary {v.key}", f"'{text}' is not allowed: {exc.key}: {exc.message}") from None
 
 
+def build_before_fork(task: StudyTask, plan: StudyPlan, runner: Runner) -> bool:
+    """Build the design method (and the certificate) of ``task`` in this process before a
+    process pool forks its workers, which then inherit it instead of each building its own
+    (≈ 0.15 s of CPU per worker for ``yasir2019_hybrid``): the same construction from the
+    same problem, kept under the same key (:func:`.runners._method_for`), so the workers'
+    results are those they would have had. Only for a ``fork`` pool, and only when the
+    points keep the file's objective weights (a weight study builds one per weight in the
+    workers). True if built."""
+    import multiprocessing
+
+    if not isinstance(runner, ProcessRunner) or multiprocessing.get_start_method() != "fork":
+        return False
+    if any(key.startswith("objective.") for point in plan.points for key in point):
+        return False
+    from .runners import _method_for
+
+    method = _method_for(task, {})
+    if task.check == "auto":
+        from ..verify.certificate import certificate
+
+        certificate(getattr(method, "problem", task.problem))
+    return True
+
+
 class StudyTerminated(KeyboardInterrupt):
     """SIGTERM during a study: handled like Ctrl-C (workers stopped, finished batches kept)."""
 
@@ -135,6 +159,7 @@ def run_study_command(problem: Problem, options: StudyOptions, console: Any) -> 
         raise ProblemFileError(label, "--batch-size", f"must be at least 1, got {options.batch_size}")
     runner = make_runner(options, label)
     task = StudyTask(problem, time_limit=options.time_limit, check=options.check)
+    build_before_fork(task, plan, runner)
     try:
         with terminate_as_interrupt():
             outcome = _run(problem, plan, options, runner, task, console)
