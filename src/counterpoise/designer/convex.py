@@ -158,5 +158,5 @@ class Certificate:
             return float("nan")
         if cert.status is not Status.OPTIMAL:
             return float("nan")
-        best = float(self.formulation.report_function(cert.z, p)[0])
+        best = float(self.formulation.report_values(cert.z, p)[0][0, 0])
         return objective - best

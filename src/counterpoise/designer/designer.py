@@ -28,6 +28,7 @@ from ..model.problem import BOUND_TOLERANCE, Problem
 from ..solvers.base import Bounds, SolverOutput, Status
 from ..solvers.gauss_newton import Evaluate, Evaluation, gauss_newton, worst
 from ..solvers.ipopt import IPOPT_DEFAULTS, IpoptBackend
+from ..numeric import NumericFunction
 from ..threads import limit_blas_threads
 from . import convex
 from ..formulation.constraints import MAX_ROUNDS, ConstraintRows, Extra, build_rows, evaluate, merge, violations
@@ -113,7 +114,7 @@ class Designer:
         #: the LP over the linear variables at a fixed geometry (built on first use)
         self.certificate = convex.Certificate(self)
         self._feasibility: IpoptBackend | None = None
-        self._residual_jacobian: Any = None
+        self._residual_jacobian: NumericFunction | None = None
         self._settings: dict[str, tuple[Any, np.ndarray]] | None = None
         self._minimax: MinimaxDesigner | None = None  # the epigraph NLP of the closest design (built on first use)
         #: designers of this problem rebuilt for other loop geometries (:func:`for_geometry`)
@@ -278,15 +279,16 @@ class Designer:
         return bool(g.size == 0 or np.abs(g).max() <= tolerance)
 
     # -- helpers -------------------------------------------------------------------
-    def residual_jacobian(self) -> Any:
-        """CasADi function (z, p) -> (balance equalities, their Jacobian, sign constraints), built once."""
+    def residual_jacobian(self) -> NumericFunction:
+        """(z, p) -> (balance equalities, their Jacobian, sign constraints) as arrays: a CasADi
+        function evaluated through its buffers (:class:`~counterpoise.numeric.NumericFunction`), built once."""
         import casadi as ca
 
         if self._residual_jacobian is None:
             f = self.formulation
             eq = self.conditions.equalities
             signs = ca.vertcat(f.nonnegative, self.rows.margins()) if self.rows is not None else f.nonnegative
-            self._residual_jacobian = ca.Function("gJ", [f.z, f.p], [eq, ca.jacobian(eq, f.z), signs])
+            self._residual_jacobian = NumericFunction(ca.Function("gJ", [f.z, f.p], [eq, ca.jacobian(eq, f.z), signs]))
         return self._residual_jacobian
 
     def _balance_evaluation(self, p: np.ndarray) -> Evaluate:
@@ -327,7 +329,7 @@ class Designer:
                 on_lo[i] = True
             else:
                 on_hi[i] = True
-            f0 = float(self.formulation.report_function(z, p)[0])
+            f0 = float(self.formulation.report_values(z, p)[0][0, 0])
             z = self._snap(z, p, bounds, on_lo, on_hi, iterations, f0 + OBJECTIVE_ROUNDING * max(1.0, abs(f0)))
         return self.finish(z, p, bounds, iterations)
 
@@ -365,7 +367,7 @@ class Designer:
         worst_old = np.abs(g_old).max(initial=0.0)
         if not (worst_new <= max(worst_old, ROUNDING_FLOOR) and _admissible(signs)):
             return z
-        if objective_limit is not None and not float(self.formulation.report_function(candidate, p)[0]) <= objective_limit:
+        if objective_limit is not None and not float(self.formulation.report_values(candidate, p)[0][0, 0]) <= objective_limit:
             return z
         return candidate
 

@@ -134,7 +134,7 @@ def build_solution(
     x = f.design.to_x(z)
     if not np.all(np.isfinite(x)):
         raise SolverError(f"{f.problem.name}: the solver returned non-finite values")
-    objective, mass, inertia = (float(v) for v in f.report_function(z, parameters))
+    objective, mass, inertia = (float(v[0, 0]) for v in f.report_values(z, parameters))
     return Solution(
         problem=f.problem,
         status=out.status,

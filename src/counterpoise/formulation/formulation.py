@@ -14,6 +14,7 @@ from typing import Any
 from ..mechanics import Mechanics, casadi_functions
 from ..model import expr as ex
 from ..model.problem import Problem
+from ..numeric import NumericFunction
 from .layout import DesignLayout, ParameterLayout
 
 
@@ -81,6 +82,8 @@ class Formulation:
             self.objective = self.objective + w.stiffness_weight * self.added_stiffness
         self.nonnegative = ca.vertcat(*nonnegative.values()) if nonnegative else ca.SX(0, 1)
         self.report_function = ca.Function("mass_report", [self.z, self.p], [self.objective, self.added_mass, self.added_inertia])
+        #: the same evaluated on arrays (z, p) -> ((1, 1) objective, mass, inertia), fast (:mod:`counterpoise.numeric`)
+        self.report_values = NumericFunction(self.report_function)
 
     def _sign_constraints(self, mech: Mechanics) -> list[Any]:
         """Masses and stiffnesses that depend on variables must stay ≥ 0 (≥ 0 rows of g)."""

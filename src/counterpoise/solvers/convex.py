@@ -35,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+from ..numeric import NumericFunction
 from .base import Bounds, SolverOutput, Status
 
 #: Clarabel's statuses (``str(solution.status)``) and what they mean for a design; the
@@ -169,7 +170,7 @@ class ConvexBackend:
         grad = ca.gradient(nlp["f"], zl)
         hess = ca.jacobian(grad, zl)
         # everything the LP needs, evaluated at one point with the other variables fixed
-        self._data = ca.Function("lp_data", [z, p], [nlp["f"], grad, g, ca.jacobian(g, zl) if g.numel() else ca.SX(0, zl.numel())])
+        self._data = NumericFunction(ca.Function("lp_data", [z, p], [nlp["f"], grad, g, ca.jacobian(g, zl) if g.numel() else ca.SX(0, zl.numel())]))
         h = np.array(ca.Function("lp_hess", [z, p], [hess])(np.zeros(self.n), np.zeros(int(p.numel()))), dtype=float)
         self.hessian = 0.5 * (h + h.T)
         scale = np.abs(self.hessian).max(initial=0.0)

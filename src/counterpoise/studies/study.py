@@ -193,8 +193,10 @@ def _fmt(value: object) -> str:
     return str(value)
 
 
-def result_row(problem: Problem, plan: StudyPlan, index: int, r: PointResult) -> dict[str, str]:
-    """One CSV row (strings) of point ``index``: display units throughout."""
+def result_row(problem: Problem, plan: StudyPlan, index: int, r: PointResult,
+               variables: Sequence[tuple[str, str, float]] | None = None) -> dict[str, str]:
+    """One CSV row (strings) of point ``index``: display units throughout (``variables``:
+    :func:`variable_columns` of ``problem``, when the caller has them)."""
     row = {"point": str(index)}
     for v in plan.varies:
         row[v.header] = _fmt(v.unit.from_si(plan.points[index][v.key]))
@@ -210,20 +212,35 @@ def result_row(problem: Problem, plan: StudyPlan, index: int, r: PointResult) ->
         solver=r.solver,
         message=r.message,
     )
-    for key, header, size in variable_columns(problem):
+    for key, header, size in variable_columns(problem) if variables is None else variables:
         row[header] = _fmt(r.values[key] / size) if key in r.values else ""
     return row
 
 
-def _csv(rows: Sequence[dict[str, str]], cols: list[str]) -> str:
-    import io
+class _CsvLines:
+    """``study.csv`` lines, each formatted once: the file is written again after every
+    flush (whole, through a rename), and formatting every row each time made the
+    study's own process a cost that grows with the square of the points."""
 
-    buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(cols)
-    for row in rows:
-        writer.writerow([row.get(c, "") for c in cols])
-    return buffer.getvalue()
+    def __init__(self, cols: list[str]) -> None:
+        import io
+
+        self.cols = cols
+        self._buffer = io.StringIO()
+        self._writer = csv.writer(self._buffer, lineterminator="\n")
+        self.header = self._format(cols)
+
+    def _format(self, values: Sequence[str]) -> str:
+        self._buffer.seek(0)
+        self._buffer.truncate()
+        self._writer.writerow(values)
+        return self._buffer.getvalue()
+
+    def line(self, row: Mapping[str, str]) -> str:
+        return self._format([row.get(c, "") for c in self.cols])
+
+    def text(self, lines: Mapping[int, str]) -> str:
+        return self.header + "".join(lines[i] for i in sorted(lines))
 
 
 def read_rows(path: Path) -> list[dict[str, str]]:
@@ -322,8 +339,10 @@ def _run_points(
     atomic_write_text(meta_path, json.dumps(meta, indent=2) + "\n")
     todo = [i for i in range(len(plan.points)) if i not in done]
     outcome = StudyOutcome(folder, len(plan.points), len(done))
-    rows = dict(done)
-    atomic_write_text(csv_path, _csv([rows[i] for i in sorted(rows)], cols))
+    csv_lines = _CsvLines(cols)
+    lines = {i: csv_lines.line(row) for i, row in done.items()}  # each row formatted once
+    atomic_write_text(csv_path, csv_lines.text(lines))
+    slots = variable_columns(problem)
     task = task or StudyTask(problem)
     task.key  # the content digest, computed once here: it travels with the task to every worker
     if started is not None:
@@ -334,13 +353,13 @@ def _run_points(
     try:
         for indices, results in zip(batches, (runner or SerialRunner()).map_batches(task, point_batches)):
             for i, r in zip(indices, results):
-                rows[i] = result_row(problem, plan, i, r)
+                lines[i] = csv_lines.line(result_row(problem, plan, i, r, slots))
                 outcome.counts[r.status] = outcome.counts.get(r.status, 0) + 1
             if time.perf_counter() - last_flush >= flush_seconds:  # whole batches, at most once per flush_seconds
-                atomic_write_text(csv_path, _csv([rows[i] for i in sorted(rows)], cols))
+                atomic_write_text(csv_path, csv_lines.text(lines))
                 last_flush = time.perf_counter()
             if progress is not None:
                 progress(results)
     finally:  # also when interrupted: keep every finished batch
-        atomic_write_text(csv_path, _csv([rows[i] for i in sorted(rows)], cols))
+        atomic_write_text(csv_path, csv_lines.text(lines))
     return outcome

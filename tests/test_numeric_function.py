@@ -1,0 +1,71 @@
+"""The buffered CasADi evaluation (counterpoise.numeric) gives the ordinary call's numbers, bit for bit."""
+
+import threading
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from counterpoise.numeric import NumericFunction
+
+
+@pytest.fixture(scope="module")
+def function():
+    """A function with a dense and a sparse output, a matrix output and a scalar one."""
+    x, p = ca.SX.sym("x", 3), ca.SX.sym("p", 2)
+    g = ca.vertcat(ca.sin(x[0]) * p[0], x[1] * x[2] - p[1], ca.exp(-x[2]))
+    return ca.Function("f", [x, p], [g, ca.jacobian(g, x), ca.sumsqr(x) * p[1]])
+
+
+def _ordinary(function, *args):
+    return [np.array(v) for v in function.call(list(args))]
+
+
+def test_same_numbers_as_the_ordinary_call(function):
+    fast = NumericFunction(function)
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        x, p = rng.normal(size=3), rng.normal(size=2)
+        got, want = fast(x, p), _ordinary(function, x, p)
+        assert len(got) == 3
+        for a, b in zip(got, want):
+            assert a.shape == b.shape  # 2-D, as DM.full() gives: (3, 1), (3, 3) and (1, 1)
+            assert np.array_equal(a, b)  # identical arithmetic: no tolerance
+            assert a.flags["C_CONTIGUOUS"] and b.flags["C_CONTIGUOUS"]  # the memory order too: a product rounds by it
+    assert function.sparsity_out(1).nnz() < 9  # the Jacobian is sparse: structural zeros are 0.0 in the dense output
+
+
+def test_results_are_copies_and_inputs_any_shape(function):
+    fast = NumericFunction(function)
+    first = fast(np.ones((3, 1)), [1.0, 2.0])[0]
+    fast(np.zeros(3), [1.0, 2.0])
+    assert np.array_equal(first, _ordinary(function, np.ones(3), np.array([1.0, 2.0]))[0])  # not overwritten by the next call
+
+
+def test_wrong_sizes_raise_as_casadi_does(function):
+    fast = NumericFunction(function)
+    with pytest.raises(RuntimeError):
+        fast(np.ones(4), np.ones(2))
+
+
+def test_each_thread_its_own_buffers(function):
+    """Threads evaluating at once each get their own work memory (and the right answers)."""
+    fast = NumericFunction(function)
+    rng = np.random.default_rng(5)
+    inputs = [(rng.normal(size=3), rng.normal(size=2)) for _ in range(4)]
+    wrong: list[int] = []
+
+    def work(i: int) -> None:
+        x, p = inputs[i]
+        want = _ordinary(function, x, p)
+        for _ in range(200):
+            if not all(np.array_equal(a, b) for a, b in zip(fast(x, p), want)):
+                wrong.append(i)
+                return
+
+    threads = [threading.Thread(target=work, args=(i,)) for i in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not wrong
