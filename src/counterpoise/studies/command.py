@@ -101,7 +101,7 @@ def build_before_fork(task: StudyTask, plan: StudyPlan, runner: Runner) -> bool:
     """Build the design method (and the certificate) of ``task`` in this process before a
     process pool forks its workers, which then inherit it instead of each building its own
     (≈ 0.15 s of CPU per worker for ``yasir2019_hybrid``): the same construction from the
-    same problem, kept under the same key (:func:`.runners._method_for`), so the workers'
+    same problem, kept under the same key (:func:`.runners.method_for`), so the workers'
     results are those they would have had. Only for a ``fork`` pool, and only when the
     points keep the file's objective weights (a weight study builds one per weight in the
     workers). True if built."""
@@ -111,9 +111,9 @@ def build_before_fork(task: StudyTask, plan: StudyPlan, runner: Runner) -> bool:
         return False
     if any(key.startswith("objective.") for point in plan.points for key in point):
         return False
-    from .runners import _method_for
+    from .runners import method_for
 
-    method = _method_for(task, {})
+    method = method_for(task, {})
     if task.check == "auto":
         from ..verify.certificate import certificate
 

@@ -129,7 +129,7 @@ class PointTimeout(Exception):
     """Raised by the interval timer when a point runs past the study's time limit."""
 
 
-def _method_for(task: StudyTask, weights: Mapping[str, float]) -> DesignMethod:
+def method_for(task: StudyTask, weights: Mapping[str, float]) -> DesignMethod:
     """The design method of this task (and objective weights, which are built into the NLP),
     kept per worker under the problem's content (:attr:`StudyTask.key`)."""
     problem = task.problem
@@ -190,7 +190,7 @@ def solve_point(task: StudyTask, point: Point, initial: Mapping[Any, float] | No
     t0 = time.perf_counter()
     try:
         with _time_limit(task.time_limit):
-            method = _method_for(task, weights)
+            method = method_for(task, weights)
             result = run_method(method, parameters=parameters, bounds=_bounds(task.problem, sides) or None, initial=initial, quantities=False, check=task.check)
     except PointTimeout:
         return _failed(point, TIMEOUT, f"no result within the time limit of {task.time_limit:g} s", time.perf_counter() - t0), None
