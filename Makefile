@@ -29,6 +29,10 @@ $(STAMP): pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv --without-pip $(VENV)
 	@$(call install,-e . pip)
 	$(BIN)/python -m compileall -q src   # an editable install compiles nothing: ~0.1 s per CLI run otherwise
+	@# the libraries of a solve (numpy, matplotlib, pint, pydantic, casadi...) compiled by one small
+	@# solve that keeps its .pyc: uv compiles nothing, and where PYTHONDONTWRITEBYTECODE is set every
+	@# later process would compile them again (a single solve 1.9x the CPU; docs/performance.md)
+	@tmp=$$(mktemp -d) && PYTHONDONTWRITEBYTECODE= $(BIN)/counterpoise solve problems/fourbar_springs.toml --out "$$tmp" --plot >/dev/null 2>&1; rm -rf "$$tmp"
 	@touch $(STAMP)
 
 # make test: the [test] extra (pytest, hypothesis, mypy and its stubs) on top of the runtime
@@ -39,9 +43,8 @@ $(TESTSTAMP): $(STAMP)
 # exit 1 from solve means "some design is not optimal": two examples are infeasible on purpose
 # (tilt_spring_arm: springs cannot follow a tilting base; yasir2019_holder: the paper's design
 # of the whole holder), and their reports say why; any other status stops make
-# PYTHONDONTWRITEBYTECODE= : neither uv nor an editable install compiles the libraries; the
-# demo's processes keep the .pyc of what they import (in .venv), so that later runs start
-# without compiling pandas, matplotlib... again where that variable is set (~1.5 s CPU each)
+# PYTHONDONTWRITEBYTECODE= : the demo's processes keep the .pyc of the libraries they import
+# beyond the set-up's small solve (cvxpy, scipy, mujoco, yourdfpy, pandas...), in .venv
 demo: $(STAMP)
 	PYTHONDONTWRITEBYTECODE= $(BIN)/counterpoise solve problems/*.toml --out results --plot --jobs $(JOBS) || [ $$? -eq 1 ]
 
