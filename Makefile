@@ -13,9 +13,9 @@ JOBS   ?= 2
 
 # $(call install,ARGS): `pip install ARGS` into the venv, by uv where it can be had (uv on the
 # PATH, else uv from PyPI put into the venv by $(PYTHON)'s pip): it resolves and installs in
-# parallel and compiles nothing, ~6x faster than pip on a fresh clone (benchmarks/README.md).
+# parallel and compiles nothing: a fresh clone installs ~8x faster than with pip (benchmarks/README.md).
 # If uv cannot be had or fails, pip does the same install (pip put into the venv first), also
-# without compiling (all of site-packages, 10,900 files, took 41 s CPU to compile; see demo:).
+# without compiling (all of site-packages, 10,900 files, took 45 s CPU to compile; see demo:).
 install = UV=$$(command -v uv || echo $(BIN)/uv); \
 	{ test -x "$$UV" || $(PYTHON) -m pip --python $(BIN)/python install --quiet uv; } \
 	&& "$$UV" pip install --quiet --python $(BIN)/python $(1) \
