@@ -3,24 +3,50 @@
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
+# set-up stamps: the runtime (make demo) and the test tools on top of it (make test)
 STAMP  := $(VENV)/.installed
+TESTSTAMP := $(VENV)/.installed-test
 # worker processes of `make demo`'s solve (the problems are independent)
 JOBS   ?= 2
 
 .PHONY: demo studies test bench clean
 
+# $(call install,ARGS): `pip install ARGS` into the venv, by uv where it can be had (uv on the
+# PATH, else uv from PyPI put into the venv by $(PYTHON)'s pip): it resolves and installs in
+# parallel and compiles nothing: a fresh clone installs ~8x faster than with pip (benchmarks/README.md).
+# If uv cannot be had or fails, pip does the same install (pip put into the venv first), also
+# without compiling (all of site-packages, 10,900 files, took 45 s CPU to compile; see demo:).
+install = UV=$$(command -v uv || echo $(BIN)/uv); \
+	{ test -x "$$UV" || $(PYTHON) -m pip --python $(BIN)/python install --quiet uv; } \
+	&& "$$UV" pip install --quiet --python $(BIN)/python $(1) \
+	|| { echo "make: uv could not be used; installing with pip (slower)" >&2; \
+	     { $(BIN)/python -m pip --version >/dev/null 2>&1 || $(BIN)/python -m ensurepip --upgrade >/dev/null; } \
+	     && $(BIN)/python -m pip install --quiet --no-compile $(1); }
+
+# the runtime only (no [test] tools): a normal venv, pip included; the venv is made without
+# pip (ensurepip alone takes ~15 s) and uv installs pip with the rest
 $(STAMP): pyproject.toml
-	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test]'
+	@test -x $(BIN)/python || $(PYTHON) -m venv --without-pip $(VENV)
+	@$(call install,-e . pip)
 	$(BIN)/python -m compileall -q src   # an editable install compiles nothing: ~0.1 s per CLI run otherwise
+	@# the libraries of a solve (numpy, matplotlib, pint, pydantic, casadi...) compiled by one small
+	@# solve that keeps its .pyc: uv compiles nothing, and where PYTHONDONTWRITEBYTECODE is set every
+	@# later process would compile them again (a single solve 1.9x the CPU; docs/performance.md)
+	@tmp=$$(mktemp -d) && PYTHONDONTWRITEBYTECODE= $(BIN)/counterpoise solve problems/fourbar_springs.toml --out "$$tmp" --plot >/dev/null 2>&1; rm -rf "$$tmp"
 	@touch $(STAMP)
+
+# make test: the [test] extra (pytest, hypothesis, mypy and its stubs) on top of the runtime
+$(TESTSTAMP): $(STAMP)
+	@$(call install,-e '.[test]')
+	@touch $(TESTSTAMP)
 
 # exit 1 from solve means "some design is not optimal": two examples are infeasible on purpose
 # (tilt_spring_arm: springs cannot follow a tilting base; yasir2019_holder: the paper's design
 # of the whole holder), and their reports say why; any other status stops make
+# PYTHONDONTWRITEBYTECODE= : the demo's processes keep the .pyc of the libraries they import
+# beyond the set-up's small solve (cvxpy, scipy, mujoco, yourdfpy, pandas...), in .venv
 demo: $(STAMP)
-	$(BIN)/counterpoise solve problems/*.toml --out results --plot --jobs $(JOBS) || [ $$? -eq 1 ]
+	PYTHONDONTWRITEBYTECODE= $(BIN)/counterpoise solve problems/*.toml --out results --plot --jobs $(JOBS) || [ $$? -eq 1 ]
 
 # the committed studies in results/: the Pareto front of the free-extensions leg, a
 # 1000-point payload sweep of the hybrid (docs/studies.md), the tilting-base trade-off
@@ -33,7 +59,7 @@ studies: $(STAMP)
 	$(BIN)/counterpoise study problems/yasir2019_holder.toml --vary 'tilt=1 deg:15 deg:8' --out results
 
 # type check first (docs/development.md: the settings are [tool.mypy] in pyproject.toml), then the suite
-test: $(STAMP)
+test: $(TESTSTAMP)
 	$(BIN)/python -m mypy
 	$(BIN)/python -m pytest -q
 
