@@ -16,8 +16,10 @@ try:
     from hypothesis import HealthCheck, settings
     from hypothesis.configuration import set_hypothesis_home_dir
 
-    # hypothesis keeps its files (example database, constants cache) outside the repository
-    set_hypothesis_home_dir(os.path.join(tempfile.gettempdir(), "counterpoise-hypothesis"))
+    # hypothesis keeps its files (example database, constants cache) outside the repository,
+    # one home per pytest-xdist worker (PYTEST_XDIST_WORKER is set before this file is
+    # imported), so that parallel workers never write the same files
+    set_hypothesis_home_dir(os.path.join(tempfile.gettempdir(), "counterpoise-hypothesis", os.environ.get("PYTEST_XDIST_WORKER", "main")))
 
     # CI (the CI variable is set) replays the same examples on every run; locally the
     # property tests keep exploring new ones. HYPOTHESIS_PROFILE chooses explicitly.
