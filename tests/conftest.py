@@ -146,3 +146,30 @@ def run_cli(*args: str, cwd: "Path | None" = None) -> CliRun:
     finally:
         os.chdir(here)
     return CliRun(code, out.getvalue(), err.getvalue())
+
+
+#: the test files that take the most CPU (measured with two pytest-xdist workers,
+#: benchmarks/README.md#the-test-suite), heaviest first. With ``--dist loadfile`` a file runs
+#: on one worker, so a heavy file handed out last would keep one worker busy while the other
+#: idles; ``make test`` hands these out first (``--no-loadscope-reorder`` keeps this order
+#: instead of xdist's own, by number of tests) and the many light files fill in behind them.
+#: A file missing here only runs later; the order changes no test's outcome.
+HEAVY_FILES = (
+    "test_payload.py",
+    "test_build_sheet.py",
+    "test_methods.py",
+    "test_cli_options.py",
+    "test_loops_whole.py",
+    "test_direct_search.py",
+    "test_report_html.py",
+    "test_search_screening.py",
+    "test_speed.py",
+    "test_studies.py",
+)
+
+
+def pytest_collection_modifyitems(session, config, items):
+    """The files of :data:`HEAVY_FILES` first, in that order; every other file after them in
+    its usual order (the sort is stable: the tests inside a file keep their order)."""
+    rank = {name: i for i, name in enumerate(HEAVY_FILES)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(HEAVY_FILES)))
