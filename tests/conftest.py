@@ -149,7 +149,7 @@ def run_cli(*args: str, cwd: "Path | None" = None) -> CliRun:
 
 
 #: the test files that take the most CPU (measured with two pytest-xdist workers,
-#: benchmarks/README.md#the-test-suite), heaviest first. With ``--dist loadfile`` a file runs
+#: benchmarks/README.md#the-test-suite-on-two-workers), heaviest first. With ``--dist loadfile`` a file runs
 #: on one worker, so a heavy file handed out last would keep one worker busy while the other
 #: idles; ``make test`` hands these out first (``--no-loadscope-reorder`` keeps this order
 #: instead of xdist's own, by number of tests) and the many light files fill in behind them.
