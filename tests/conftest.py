@@ -89,7 +89,7 @@ def _solved_once(folder: Path, key: tuple, solve):
         result = solve()
         try:
             data = pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL)
-        except (pickle.PicklingError, TypeError, AttributeError):
+        except (pickle.PicklingError, TypeError, AttributeError, RecursionError):
             return result
         part = path.with_suffix(".part")
         part.write_bytes(data)
