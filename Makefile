@@ -61,7 +61,7 @@ studies: $(STAMP)
 # type check first (docs/development.md: the settings are [tool.mypy] in pyproject.toml), then the suite
 test: $(TESTSTAMP)
 	$(BIN)/python -m mypy
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n 2 --dist loadfile --no-loadscope-reorder
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_solve.py

@@ -20,8 +20,10 @@ try:
     from hypothesis import HealthCheck, settings
     from hypothesis.configuration import set_hypothesis_home_dir
 
-    # hypothesis keeps its files (example database, constants cache) outside the repository
-    set_hypothesis_home_dir(os.path.join(tempfile.gettempdir(), "counterpoise-hypothesis"))
+    # hypothesis keeps its files (example database, constants cache) outside the repository,
+    # one home per pytest-xdist worker (PYTEST_XDIST_WORKER is set before this file is
+    # imported), so that parallel workers never write the same files
+    set_hypothesis_home_dir(os.path.join(tempfile.gettempdir(), "counterpoise-hypothesis", os.environ.get("PYTEST_XDIST_WORKER", "main")))
 
     # CI (the CI variable is set) replays the same examples on every run; locally the
     # property tests keep exploring new ones. HYPOTHESIS_PROFILE chooses explicitly.
@@ -32,23 +34,71 @@ except ImportError:  # pragma: no cover
     pass
 
 
+#: under pytest-xdist (``make test`` runs two workers): a folder all workers of this run
+#: share, where ``solved`` keeps its results (set by the session fixture below)
+_SHARED: "Path | None" = None
+
+
 @pytest.fixture(scope="session", autouse=True)
 def _work_outside_the_repository(tmp_path_factory):
     """Run every test from a scratch folder: nothing (MuJoCo's MUJOCO_LOG.TXT, stray outputs)
-    lands in the repository. Tests name their files through ROOT, never relative to the cwd."""
+    lands in the repository. Tests name their files through ROOT, never relative to the cwd.
+    Each pytest-xdist worker has its own base temporary folder (``.../popen-gw0``), so its
+    own scratch cwd; their parent, this run's base folder, is shared by the workers."""
+    global _SHARED
     here = os.getcwd()
     os.chdir(tmp_path_factory.mktemp("cwd"))
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        _SHARED = tmp_path_factory.getbasetemp().parent / "solved"
+        _SHARED.mkdir(exist_ok=True)
     yield
     os.chdir(here)
+    _SHARED = None
 
 
 @lru_cache(maxsize=None)
 def solved(name: str, overrides: tuple[tuple[str, str], ...] = ()):
-    """Design result of problems/<name>.toml (with overrides), solved through the general engine."""
+    """Design result of problems/<name>.toml (with overrides), solved through the general
+    engine once per test run: in this process (the cache), and under pytest-xdist once for
+    all workers (:func:`_solved_once`)."""
     from counterpoise.io.loader import load_problem
     from counterpoise.pipeline import design
 
-    return design(load_problem(PROBLEMS / f"{name}.toml", dict(overrides)))
+    def solve():
+        return design(load_problem(PROBLEMS / f"{name}.toml", dict(overrides)))
+
+    return solve() if _SHARED is None else _solved_once(_SHARED, (name, overrides), solve)
+
+
+def _solved_once(folder: Path, key: tuple, solve):
+    """The result for ``key`` pickled in ``folder``, shared by the pytest-xdist workers of
+    one run: the first worker to ask solves it under an exclusive file lock and writes it,
+    a worker asking meanwhile waits for it and reads it (the same object a single process
+    would have cached, without solving it twice). A result that cannot be pickled, or a
+    platform without ``fcntl``, is solved in each worker, as without xdist."""
+    import hashlib
+    import pickle
+
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not on Linux/macOS
+        return solve()
+    stem = hashlib.sha256(repr(key).encode()).hexdigest()[:24]
+    path = folder / f"{stem}.pickle"
+    with open(folder / f"{stem}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes
+        if path.exists():
+            with open(path, "rb") as f:
+                return pickle.load(f)
+        result = solve()
+        try:
+            data = pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL)
+        except (pickle.PicklingError, TypeError, AttributeError, RecursionError):
+            return result
+        part = path.with_suffix(".part")
+        part.write_bytes(data)
+        part.replace(path)  # whole or absent: never half a file
+        return result
 
 
 def value(result, name: str, unit: str | None = None) -> float:
@@ -100,3 +150,30 @@ def run_cli(*args: str, cwd: "Path | None" = None) -> CliRun:
     finally:
         os.chdir(here)
     return CliRun(code, out.getvalue(), err.getvalue())
+
+
+#: the test files that take the most CPU (measured with two pytest-xdist workers,
+#: benchmarks/README.md#the-test-suite-on-two-workers), heaviest first. With ``--dist loadfile`` a file runs
+#: on one worker, so a heavy file handed out last would keep one worker busy while the other
+#: idles; ``make test`` hands these out first (``--no-loadscope-reorder`` keeps this order
+#: instead of xdist's own, by number of tests) and the many light files fill in behind them.
+#: A file missing here only runs later; the order changes no test's outcome.
+HEAVY_FILES = (
+    "test_payload.py",
+    "test_build_sheet.py",
+    "test_methods.py",
+    "test_cli_options.py",
+    "test_loops_whole.py",
+    "test_direct_search.py",
+    "test_report_html.py",
+    "test_search_screening.py",
+    "test_speed.py",
+    "test_studies.py",
+)
+
+
+def pytest_collection_modifyitems(session, config, items):
+    """The files of :data:`HEAVY_FILES` first, in that order; every other file after them in
+    its usual order (the sort is stable: the tests inside a file keep their order)."""
+    rank = {name: i for i, name in enumerate(HEAVY_FILES)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(HEAVY_FILES)))

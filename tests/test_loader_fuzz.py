@@ -23,7 +23,7 @@ from pathlib import Path
 import pytest
 
 hypothesis = pytest.importorskip("hypothesis")
-from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import HealthCheck, Phase, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
 from counterpoise.errors import CounterpoiseError  # noqa: E402
@@ -106,5 +106,8 @@ def test_the_mutations_reach_every_stage():
             return "resolve"
         return "loads"
 
+    # each stage must be reached within the first 500 derandomized mutants; the mutant found
+    # is not used, so it is not shrunk (Phase.generate only): shrinking it cost ~97 % of this
+    # test's time (9.9 s against 0.3 s CPU) and checks nothing more
     for wanted in ("toml", "schema", "resolve", "loads"):
-        find(mutated(), lambda t: stage(t) == wanted, settings=settings(max_examples=500, database=None, derandomize=True))
+        find(mutated(), lambda t: stage(t) == wanted, settings=settings(max_examples=500, database=None, derandomize=True, phases=[Phase.generate]))
