@@ -60,6 +60,16 @@ def independent_limit_check(result, samples=20000, seed=424242):
     return worst
 
 
+def test_position_tolerance_corners_in_every_working_mode(position):
+    """Each spring cancels the gravity term of its own link, linearly in its rate, in every
+    working mode: a rate off by ±10 % leaves at most 10 % of the gravity torque, whatever
+    the signs. The corners are taken with each mode's own parameters (they once took the
+    last mode's for every mode and read 135-148 %)."""
+    corners = position.parts.corners
+    assert len(corners) == 4
+    assert all(0.099 < c.ratio <= 0.1 + 1e-9 for c in corners), [c.ratio for c in corners]
+
+
 def test_essomba_orientation_table4(orientation):
     """0.13 N/mm on A and B, 0.02 N/mm on C and D; p1 = m g |lever|/(k p2):
     a1 = 0.19748·9.81·99.21/(0.13·20) = 73.92, b1 = 73.90, c1 = 0.04874·9.81·66.44/(0.02·60)

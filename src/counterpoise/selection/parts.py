@@ -142,14 +142,14 @@ def report(
     search: SearchResult,
     rows: dict[str, int],
     checked: Solution | None = None,
-    parameters: Mapping[str, float] | None = None,
+    given: Mapping[str, float] | None = None,
 ) -> PartsReport:
     """Dense limit check, bill of materials and tolerance report of the chosen parts.
 
     ``checked``: the design on every scenario whose limits must hold (a payload range: one
     scenario per payload of its schedule); default ``solution``. The tolerance report and
     the corners are taken on ``solution`` (solved by ``designer`` with the call's
-    ``parameters``, which the corners keep: a study point's values, not the file's)."""
+    parameters ``given``, which the corners keep: a study point's values, not the file's)."""
     checked = checked or solution
     slots = {s.name: s for s in problem.slots}
     springs = [s for s in checked.problem.springs if s.slot is not None]
@@ -182,7 +182,7 @@ def report(
         rate_tol = {u.spring: slots[u.slot].rate_tolerance for u in uses}
         tension_tol = {u.spring: slots[u.slot].initial_tension_tolerance for u in uses}
         tolerance = tolerance_band(problem, per_design, tension, rate_tol, tension_tol, tq, offsets)
-        corners = adjust_corners(problem, designer, solution, rows, parameters)
+        corners = adjust_corners(problem, designer, solution, rows, given)
     return PartsReport(search, dict(rows), tuple(uses), tuple(bill.values()), tolerance, corners, tuple(by_scenario))
 
 
