@@ -21,7 +21,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from conftest import PROBLEMS
+from conftest import PROBLEMS, solved
 from counterpoise.cli.app import main
 from counterpoise.io.loader import load_problem, load_problem_text
 from counterpoise.pipeline import build_method, design, run
@@ -212,7 +212,7 @@ def test_solve_check_option(tmp_path, capsys):
 
 
 def test_design_default_is_the_dense_check():
-    result = design(load_problem(PROBLEMS / "yasir2019_counter_mass.toml"))
+    result = solved("yasir2019_counter_mass")
     assert certificate_of(result.verification) == SAMPLED
 
 

@@ -33,7 +33,7 @@ from counterpoise.formulation.constraints import spring_force_length
 from counterpoise.solvers.base import Status
 
 from builders import counter_mass_toml, one_link_toml
-from conftest import PROBLEMS
+from conftest import PROBLEMS, solved
 
 G = 9.81
 
@@ -274,7 +274,7 @@ def test_shipped_problem_with_an_active_constraint():
     """problems/ur5_counter_mass_inertia_cap.toml: minimising the added mass alone would run
     both extensions to their 500 mm bounds; the cap ΣM b² ≤ 3 kg m² binds instead, the
     design balances, and raising the cap can only lower the mass (sensitivity < 0)."""
-    result = design(load_problem(PROBLEMS / "ur5_counter_mass_inertia_cap.toml"))
+    result = solved("ur5_counter_mass_inertia_cap")
     assert result.status is Status.OPTIMAL
     cap = _value(result, "inertia_cap")
     assert cap.active == "upper" and cap.value <= 3.0 * (1 + 1e-9)

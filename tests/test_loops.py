@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import run_cli
+from conftest import run_cli, solved
 
 from counterpoise.errors import ProblemFileError
 from counterpoise.io.builder import ProblemBuilder, rotate, translate
@@ -35,7 +35,7 @@ def _text(name: str) -> str:
 
 @pytest.fixture(scope="module")
 def counter_mass():
-    return design(load_problem(PROBLEMS / "fourbar_counter_mass.toml"))
+    return solved("fourbar_counter_mass")
 
 
 def test_fourbar_counter_masses_are_the_hand_derived_ones(counter_mass):
@@ -53,7 +53,7 @@ def test_fourbar_counter_masses_are_the_hand_derived_ones(counter_mass):
 
 
 def test_fourbar_springs_are_the_hand_derived_ones():
-    r = design(load_problem(PROBLEMS / "fourbar_springs.toml"))
+    r = solved("fourbar_springs")
     assert r.optimal, r.message
     values = {slot.variable: v for slot, v in r.solution.values.items()}
     m2, p2, m3, a, p3, b, m4, p4, c, h, rr, s = 0.3, 0.06, 0.8, 0.12, 0.15, 0.3, 0.4, 0.125, 0.25, 0.1, 0.06, 0.1

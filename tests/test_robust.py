@@ -30,6 +30,8 @@ from counterpoise.cli import main
 from counterpoise.io.loader import load_problem
 from counterpoise.pipeline import design
 
+from conftest import solved
+
 PENDULUM = """
 [problem]
 name = "robust_pendulum"
@@ -195,7 +197,7 @@ def test_ellipsoid_equals_box_for_one_deviation(folder):
 def lamp():
     from conftest import PROBLEMS
 
-    return design(load_problem(PROBLEMS / "lamp_robust.toml"))
+    return solved("lamp_robust")
 
 
 def test_lamp_robust_design_halves_the_band(lamp):

@@ -19,6 +19,8 @@ from counterpoise.io.loader import load_problem, load_problem_text
 from counterpoise.pipeline import design
 from counterpoise.solvers.base import Status
 
+from conftest import solved
+
 PROBLEMS = Path(__file__).resolve().parents[1] / "problems"
 G = 9.81
 #: counter-masses: M2 = (m2 c2 + m3 l2)/e2, M1 = (m1 c1 + (m2 + m3 + M2) l1)/e1
@@ -35,7 +37,7 @@ def values(result) -> dict[str, float]:
 
 @pytest.fixture(scope="module")
 def counter_mass_arm():
-    return design(load_problem(PROBLEMS / "tilt_counter_mass_arm.toml"))
+    return solved("tilt_counter_mass_arm")
 
 
 def test_counter_mass_arm_is_tilt_proof(counter_mass_arm):
@@ -60,7 +62,7 @@ def test_tilt_grid_nodes_are_the_scenarios(counter_mass_arm):
 
 
 def test_spring_arm_is_infeasible_and_names_the_tilt():
-    r = design(load_problem(PROBLEMS / "tilt_spring_arm.toml"))
+    r = solved("tilt_spring_arm")
     assert r.status is Status.INFEASIBLE
     assert "base tilted" in r.message and "about [0, 0, 1]" in r.message
     # an in-plane pitch of up to 15 deg leaves about 2 sin(7.5 deg) = 26 % of the torque
@@ -94,7 +96,7 @@ def test_a_single_tilt_out_of_the_plane_scales_the_springs_by_its_cosine():
 
 
 def test_hybrid_arm_needs_the_full_counter_masses_on_a_tilting_base():
-    r = design(load_problem(PROBLEMS / "tilt_hybrid_arm.toml"))
+    r = solved("tilt_hybrid_arm")
     assert r.status is Status.OPTIMAL, r.message
     v = values(r)
     assert v["M1"] == pytest.approx(M1, rel=1e-7) and v["M2"] == pytest.approx(M2, rel=1e-7)
