@@ -456,3 +456,39 @@ def test_a_refused_resume_is_one_line_without_a_progress_bar(tmp_path, capsys):
     code, lines, out = _main([*args, "--vary", "m_c=300 g:500 g:3", "--resume"], capsys)
     assert code == 2 and len(lines) == 1 and "--resume" in lines[0] and "drop --resume to start again" in lines[0], lines
     assert out == ""
+
+
+def _fill_slowly(folder: str, started: str) -> None:
+    """A pool worker writing a report folder that takes long: one file, then it says where
+    it writes (renamed into place, so the parent never reads half a line), then it waits."""
+    from counterpoise.report.files import atomic_folder
+
+    def fill(temp: Path) -> None:
+        (temp / "design.csv").write_text("written before the end\n", encoding="utf-8")
+        Path(started + ".part").write_text(str(temp), encoding="utf-8")
+        os.replace(started + ".part", started)
+        time.sleep(120)
+
+    atomic_folder(Path(folder), fill)
+
+
+def test_an_ended_pool_worker_leaves_no_unfinished_report_folder(tmp_path):
+    """Ctrl-C on `solve --jobs N` (or a failure) ends the workers with SIGTERM
+    (`stop_pool`); a worker in the middle of writing a problem's reports removes its hidden
+    temporary folder before it goes: nothing half-written is left beside the reports."""
+    from counterpoise.studies.runners import process_pool, stop_pool
+
+    out, started = tmp_path / "out", tmp_path / "started"
+    pool = process_pool(1)
+    try:
+        pool.submit(_fill_slowly, str(out / "problem"), str(started))
+        deadline = time.monotonic() + 60
+        while not started.exists():
+            assert time.monotonic() < deadline, "the worker never started writing"
+            time.sleep(0.05)
+        temp = Path(started.read_text(encoding="utf-8"))
+        assert temp.parent == out and temp.name.startswith(".problem.") and (temp / "design.csv").exists()
+    finally:
+        stop_pool(pool, finished=False)
+    assert not temp.exists()
+    assert list(out.iterdir()) == []

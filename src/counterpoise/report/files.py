@@ -18,6 +18,7 @@ import tempfile
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 
+from .. import unfinished
 from ..pipeline import DesignResult
 from . import parts
 from .rows import (
@@ -93,6 +94,7 @@ def atomic_folder(folder: Path, fill: Callable[[Path], None]) -> Path:
     """
     folder.parent.mkdir(parents=True, exist_ok=True)
     temp = Path(tempfile.mkdtemp(prefix=f".{folder.name}.", suffix=".new", dir=folder.parent))
+    unfinished.begin(temp)  # an ended pool worker removes it (counterpoise.unfinished)
     try:
         fill(temp)
         respect_umask(temp, directory=True)
@@ -100,6 +102,7 @@ def atomic_folder(folder: Path, fill: Callable[[Path], None]) -> Path:
             old = None
             if folder.exists():
                 old = Path(tempfile.mkdtemp(prefix=f".{folder.name}.", suffix=".old", dir=folder.parent))
+                unfinished.begin(old)
                 try:
                     os.replace(folder, old / folder.name)
                 except FileNotFoundError:  # another run moved it first
@@ -113,11 +116,14 @@ def atomic_folder(folder: Path, fill: Callable[[Path], None]) -> Path:
             finally:
                 if old is not None:
                     shutil.rmtree(old, ignore_errors=True)
+                    unfinished.end(old)
             return folder
         raise OSError(errno.EBUSY, f"other runs keep replacing {folder}")
     except BaseException:
         shutil.rmtree(temp, ignore_errors=True)
         raise
+    finally:
+        unfinished.end(temp)
 
 
 def report_texts(result: DesignResult, warnings: Sequence[str] | None = None) -> dict[str, str]:

@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
+from .. import unfinished
 from ..model.problem import Problem
 
 if TYPE_CHECKING:
@@ -344,8 +345,16 @@ def _pool_worker() -> None:
     """
     _single_threaded()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the study's handler, inherited by fork
+    signal.signal(signal.SIGTERM, _ended)  # not the study's handler, inherited by fork
     _die_with_parent()
+
+
+def _ended(signum: int, frame: object) -> None:
+    """SIGTERM in a pool worker (its parent ends it, or died): the report folder it was
+    writing is removed (:mod:`counterpoise.unfinished`), then the worker ends at once, as
+    the default action would have ended it."""
+    unfinished.discard_all()
+    os._exit(128 + signum)
 
 
 def _die_with_parent() -> None:
