@@ -32,7 +32,7 @@ $(STAMP): pyproject.toml
 	@# the libraries of a solve (numpy, matplotlib, pint, pydantic, casadi...) compiled by one small
 	@# solve that keeps its .pyc: uv compiles nothing, and where PYTHONDONTWRITEBYTECODE is set every
 	@# later process would compile them again (a single solve 1.9x the CPU; docs/performance.md)
-	@tmp=$$(mktemp -d) && PYTHONDONTWRITEBYTECODE= $(BIN)/counterpoise solve problems/fourbar_springs.toml --out "$$tmp" --plot >/dev/null 2>&1; rm -rf "$$tmp"
+	@tmp=$$(mktemp -d) && PYTHONDONTWRITEBYTECODE= COUNTERPOISE_CACHE=off $(BIN)/counterpoise solve problems/fourbar_springs.toml --out "$$tmp" --plot >/dev/null 2>&1; rm -rf "$$tmp"
 	@touch $(STAMP)
 
 # make test: the [test] extra (pytest, hypothesis, mypy and its stubs) on top of the runtime

@@ -223,3 +223,25 @@ def test_no_circle_of_imports():
                 if target in component and taken:
                     private.append(f"{m} imports {', '.join(taken)} from {target} (a circle: {' '.join(component)})")
     assert private == []
+
+
+def test_kept_builds_once_per_key_and_drops_the_least_recently_used():
+    """What workers keep (design methods, part-search models, adjusters) is built once per
+    key; beyond its size the least recently used goes first, and is built again if asked."""
+    from counterpoise.kept import Kept
+
+    built: list[str] = []
+    kept: Kept[str, str] = Kept(2)
+
+    def get(key: str) -> str:
+        return kept.get(key, lambda: built.append(key) or key.upper())
+
+    assert [get("a"), get("b"), get("a")] == ["A", "B", "A"]
+    assert built == ["a", "b"]
+    get("c")  # drops b, the least recently used ("a" was used after it)
+    assert len(kept) == 2
+    get("a")
+    get("b")
+    assert built == ["a", "b", "c", "b"]
+    with pytest.raises(ValueError):
+        Kept(0)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-from collections import OrderedDict
 
 import pytest
 
@@ -77,7 +76,7 @@ def test_a_slot_or_payload_problem_builds_its_method_once_per_worker(tmp_path, m
 
     monkeypatch.setattr(pipeline, "build_method", counting)
     monkeypatch.setattr(Designer, "__init__", counting_designers)
-    monkeypatch.setattr(_WORKER, "methods", OrderedDict(), raising=False)  # a fresh worker
+    monkeypatch.delattr(_WORKER, "methods", raising=False)  # a fresh worker
     problem = load_problem(PROBLEMS / name)
     plan = plan_study(problem, [vary], "f")
     outcome = run_study(problem, plan, tmp_path, SerialRunner(), batch_size=2)
@@ -104,7 +103,7 @@ def _constructions(monkeypatch, problem, vary, folder):
             return _original(self, *args, **kwargs)
 
         monkeypatch.setattr(cls, "__init__", counting)
-    monkeypatch.setattr(_WORKER, "methods", OrderedDict(), raising=False)  # a fresh worker
+    monkeypatch.delattr(_WORKER, "methods", raising=False)  # a fresh worker
     plan = plan_study(problem, [vary], "f")
     outcome = run_study(problem, plan, folder, SerialRunner(), batch_size=8)
     monkeypatch.undo()

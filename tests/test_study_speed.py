@@ -19,11 +19,12 @@ def _cli(args, capsys):
     return exit_.value.code, capsys.readouterr()
 
 
-def test_plot_preload_imports_matplotlib_once_and_only_when_enabled():
+def test_plot_preload_imports_matplotlib_once_and_only_when_enabled(monkeypatch):
+    monkeypatch.delitem(sys.modules, "matplotlib.pyplot", raising=False)  # imported here, not by another test
     off = PlotPreload(False)
     off.start()
     off.join()
-    assert off._thread is None
+    assert off._thread is None and "matplotlib.pyplot" not in sys.modules
     on = PlotPreload(True)
     on.start()
     first = on._thread
@@ -56,8 +57,6 @@ def test_pool_workers_inherit_the_method_built_before_the_fork(tmp_path, capsys,
     import multiprocessing
     import os
 
-    from collections import OrderedDict
-
     from counterpoise.designer import designer as designer_module
     from counterpoise.studies import runners
 
@@ -72,7 +71,7 @@ def test_pool_workers_inherit_the_method_built_before_the_fork(tmp_path, capsys,
         original(self, *args, **kwargs)
 
     monkeypatch.setattr(designer_module.Designer, "__init__", counting)
-    monkeypatch.setattr(runners._WORKER, "methods", OrderedDict(), raising=False)  # none kept from another test
+    monkeypatch.delattr(runners._WORKER, "methods", raising=False)  # none kept from another test
     file = str(PROBLEMS / "yasir2019_counter_mass.toml")
     code, printed = _cli(["study", file, "--vary", "m_c=300 g:500 g:6", "--out", str(tmp_path / "mass"), "--jobs", "2", "--batch-size", "2", "--no-plot"], capsys)
     assert code == 0 and "6 points run (6 optimal)" in printed.out

@@ -17,7 +17,6 @@ from __future__ import annotations
 import functools
 import inspect
 import sys
-import warnings
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, Optional
@@ -26,9 +25,8 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from .. import progress
 from . import light
-from .light import INTERNAL_ERROR, UsageError, _short
+from .light import INTERNAL_ERROR, UsageError  # INTERNAL_ERROR: the app's exit status of an internal error, as the fast path's
 from .spec import BY_NAME, DESCRIPTION, Param, invalid
 from ..errors import CounterpoiseError, ProblemFileError, clip
 
@@ -344,16 +342,7 @@ def main(argv: list[str] | None = None) -> None:
     debug = "--debug" in args
     if debug:
         args.remove("--debug")
-    try:
-        with warnings.catch_warnings(), progress.sink(lambda line: err_console.print(line, markup=False), timed=progress.wants_timed_notes(sys.stderr)):
-            if not debug:  # a library's warning (with its source path) is no message for a user
-                warnings.simplefilter("ignore")
-            app(args=args, prog_name="counterpoise")  # exits by itself: 0/1/2 as documented, 2 for usage errors
-    except KeyboardInterrupt:
-        err_console.print("interrupted", markup=False)
-        sys.exit(130)
-    except Exception as exc:  # noqa: BLE001 - the last line of defence: one line, never a traceback
-        if debug:
-            raise
-        err_console.print(f"internal error: {type(exc).__name__}: {_short(exc)} (run with --debug for the traceback)", markup=False)
-        sys.exit(INTERNAL_ERROR)
+    # the app exits by itself (0/1/2 as documented, 2 for usage errors); a failure is one line
+    code = light.guarded(_err_line, debug, lambda: app(args=args, prog_name="counterpoise"))
+    if code is not None:
+        sys.exit(code)

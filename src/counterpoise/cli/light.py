@@ -37,7 +37,7 @@ if TYPE_CHECKING:
 #: Commands the fast path runs (every other one goes to the typer app).
 FAST = ("solve", "validate")
 
-#: Exit status of an internal error (as :data:`counterpoise.cli.app.INTERNAL_ERROR`).
+#: Exit status of an internal error, on both paths (:func:`guarded`).
 INTERNAL_ERROR = 3
 
 #: Width of the summary when stdout is not a terminal (as the app's console).
@@ -211,28 +211,40 @@ def run(args: list[str], pause_gc: bool = False) -> int | None:
             gc.freeze()
             gc.enable()
 
+    def body() -> int:
+        if command.name == "validate":
+            return run_validate(_err, _out, **values)
+        return run_solve(_err, print_summary, loaded=loaded, **values)
+
     try:
-        import warnings
-
-        from .. import progress
-
-        with warnings.catch_warnings(), progress.sink(_err, timed=progress.wants_timed_notes(sys.stderr)):  # as the app: progress lines on stderr,
-            if not debug:  # and no library warning (with its source path) unless --debug
-                warnings.simplefilter("ignore")
-            if command.name == "validate":
-                return run_validate(_err, _out, **values)
-            return run_solve(_err, print_summary, loaded=loaded, **values)
-    except KeyboardInterrupt:
-        _err("interrupted")
-        return 130
-    except Exception as exc:  # noqa: BLE001 - as the app: one line, never a traceback
-        if debug:
-            raise
-        _err(f"internal error: {type(exc).__name__}: {_short(exc)} (run with --debug for the traceback)")
-        return INTERNAL_ERROR
+        return guarded(_err, debug, body)
     finally:
         if paused:
             gc.enable()
+
+
+def guarded(err: Err, debug: bool, body: Callable[[], int | None]) -> int | None:
+    """``body()`` as every command runs (the fast path and the typer app): progress lines
+    on ``err``, no library warning (with its source path) unless ``debug``; Ctrl-C is one
+    line and status 130, any other failure one line and :data:`INTERNAL_ERROR` (the
+    traceback with ``debug``). What ``body`` returns, or raises as SystemExit, stands."""
+    import warnings
+
+    from .. import progress
+
+    try:
+        with warnings.catch_warnings(), progress.sink(err, timed=progress.wants_timed_notes(sys.stderr)):
+            if not debug:
+                warnings.simplefilter("ignore")
+            return body()
+    except KeyboardInterrupt:
+        err("interrupted")
+        return 130
+    except Exception as exc:  # noqa: BLE001 - the last line of defence: one line, never a traceback
+        if debug:
+            raise
+        err(f"internal error: {type(exc).__name__}: {_short(exc)} (run with --debug for the traceback)")
+        return INTERNAL_ERROR
 
 
 def run_solve(

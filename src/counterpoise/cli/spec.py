@@ -65,9 +65,6 @@ class Command(NamedTuple):
     help: str
     params: tuple[Param, ...]
 
-    def param(self, dest: str) -> Param:
-        return next(p for p in self.params if p.dest == dest)
-
 
 DESCRIPTION = "Design gravity balancers for mechanisms. Add --debug to see the traceback of an internal error."
 

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from ..kept import Kept
 from ..mechanics.closure import closure, geometry_parameters
 from ..model.problem import Problem
 from .compression import NOISE_TOLERANCE, adaptive_compression, coordinate_weights, largest_value, sample_residuals
@@ -99,25 +100,13 @@ def with_values(problem: Problem, values: Any) -> Problem:
     return replace(problem, parameters=tuple(replace(q, value=float(values[q.name])) if q.is_base and q.name in values else q for q in problem.parameters))
 
 
-class Geometries:
+class Geometries(Kept[tuple[tuple[str, float], ...], Any]):
     """The designers one designer rebuilt for other loop geometries (:func:`for_geometry`),
     by the changed (name, value) pairs: owned by that designer (a field it creates), at most
     :data:`GEOMETRIES_KEPT`, the least recently used dropped first."""
 
     def __init__(self) -> None:
-        self._kept: dict[tuple[tuple[str, float], ...], Any] = {}
-
-    def get(self, changed: tuple[tuple[str, float], ...], build: Callable[[], Any]) -> Any:
-        found = self._kept.pop(changed, None)
-        if found is None:
-            found = build()
-        self._kept[changed] = found
-        while len(self._kept) > GEOMETRIES_KEPT:
-            self._kept.pop(next(iter(self._kept)))
-        return found
-
-    def __len__(self) -> int:
-        return len(self._kept)
+        super().__init__(GEOMETRIES_KEPT)
 
 
 def for_geometry(owner: Any, parameters: Any, build: Callable[[Problem], Any], geometries: Geometries) -> Any:

@@ -15,7 +15,6 @@ its bound span) is reported as linear in the payload, with slope and intercept.
 from __future__ import annotations
 
 import math
-from collections import OrderedDict
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
@@ -23,6 +22,7 @@ import numpy as np
 
 from ..designer.methods import Minimax, MultiStart, Plain, core_method
 from ..formulation.layout import Slot
+from ..kept import Kept
 from ..model.digest import content_key
 from ..model.problem import Problem, bound_side
 from ..solvers.base import Status
@@ -93,18 +93,14 @@ class Adjusters:
     build values (:class:`AdjustmentSolver` builds one per design)."""
 
     def __init__(self) -> None:
-        self._built: OrderedDict[tuple[str, tuple[str, ...]], Plain | Minimax | MultiStart] = OrderedDict()
+        self._built: Kept[tuple[str, tuple[str, ...]], Plain | Minimax | MultiStart] = Kept(KEPT_ADJUSTERS)
 
     def method(self, problem: Problem, shared: Mapping[str, float]) -> Plain | Minimax | MultiStart:
         """The design method of the adjustment problem ``problem`` of a design whose shared
         variables have the values ``shared`` (SI): built on first use with these values."""
         template = replace(problem, parameters=tuple(replace(p, value=0.0) if p.name in shared else p for p in problem.parameters))
         key = (content_key(template), tuple(sorted(n for n, v in shared.items() if v == 0.0)))
-        method = self._built.pop(key, None) or core_method(problem)
-        self._built[key] = method
-        while len(self._built) > KEPT_ADJUSTERS:
-            self._built.popitem(last=False)
-        return method
+        return self._built.get(key, lambda: core_method(problem))
 
 
 class AdjustmentSolver:

@@ -101,8 +101,9 @@ def atomic_folder(folder: Path, fill: Callable[[Path], None]) -> Path:
         for _ in range(SWAP_ATTEMPTS):
             old = None
             if folder.exists():
+                # not registered with counterpoise.unfinished: between the two renames it holds
+                # the previous whole folder, which an ended worker must not delete
                 old = Path(tempfile.mkdtemp(prefix=f".{folder.name}.", suffix=".old", dir=folder.parent))
-                unfinished.begin(old)
                 try:
                     os.replace(folder, old / folder.name)
                 except FileNotFoundError:  # another run moved it first
@@ -116,7 +117,6 @@ def atomic_folder(folder: Path, fill: Callable[[Path], None]) -> Path:
             finally:
                 if old is not None:
                     shutil.rmtree(old, ignore_errors=True)
-                    unfinished.end(old)
             return folder
         raise OSError(errno.EBUSY, f"other runs keep replacing {folder}")
     except BaseException:

@@ -122,7 +122,7 @@ class PartsMethod:
                     start = search.choice.values  # the groups' designs, searched one by one, put together
             else:
                 # the search designer of ``searched`` is built once (per content) and solved with the call's options
-                search, rows, _rates = parts.choose(with_options(searched, given, bounds), self._searches.of(searched), given, bounds)  # rows carry the rates
+                search, rows, _rates = parts.choose(with_options(searched, given, bounds), self._searches.of(searched, given), given, bounds)  # rows carry the rates
             solution = self.inner.solve({**given, **part_parameters(self.problem, rows)}, bounds, start, certify=certify)
             outcome = solution.payload
             checked = outcome.schedule_solution() if outcome is not None and outcome.schedule is not None else None

@@ -37,7 +37,6 @@ from __future__ import annotations
 
 import math
 import time
-from collections import OrderedDict
 from collections.abc import Mapping
 from typing import Any
 
@@ -45,6 +44,8 @@ import numpy as np
 
 from ..designer.designer import Designer
 from ..formulation.layout import Slot
+from ..formulation.manifold import changed_geometry, with_values
+from ..kept import Kept
 from ..model.digest import content_key
 from ..model.parts import SpringSlot
 from ..model.problem import Problem
@@ -90,16 +91,15 @@ class SearchModels:
     so each problem's search designer is built once per problem content and worker."""
 
     def __init__(self) -> None:
-        self._built: OrderedDict[str, SearchModel] = OrderedDict()
+        self._built: Kept[tuple[str, tuple[tuple[str, float], ...]], SearchModel] = Kept(KEPT_MODELS)
 
-    def of(self, problem: Problem) -> SearchModel:
-        """The model of ``problem`` (a problem without the call's options), built on first use."""
-        key = content_key(problem)
-        model = self._built.pop(key, None) or SearchModel(problem)
-        self._built[key] = model
-        while len(self._built) > KEPT_MODELS:
-            self._built.popitem(last=False)
-        return model
+    def of(self, problem: Problem, parameters: Mapping[str, float] | None = None) -> SearchModel:
+        """The model of ``problem`` (a problem without the call's options), built on first use.
+        Call ``parameters`` that change a closed loop's geometry get a model built on that
+        geometry (the rate windows and slot groups read the built equalities directly, and
+        the manifold equalities hold at the build's geometry, docs/loops.md)."""
+        changed = changed_geometry(problem, parameters)
+        return self._built.get((content_key(problem), changed), lambda: SearchModel(with_values(problem, dict(changed)) if changed else problem))
 
 
 class PartSearch:

@@ -17,7 +17,6 @@ import os
 import signal
 import threading
 import time
-from collections import OrderedDict
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from contextlib import contextmanager
@@ -26,6 +25,7 @@ from functools import cached_property
 from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 from .. import unfinished
+from ..kept import Kept
 from ..model.problem import Problem
 
 if TYPE_CHECKING:
@@ -135,20 +135,18 @@ def method_for(task: StudyTask, weights: Mapping[str, float]) -> DesignMethod:
     kept per worker under the problem's content (:attr:`StudyTask.key`)."""
     problem = task.problem
     key = (task.key, (weights.get("mass_weight", problem.objective.mass_weight), weights.get("inertia_weight", problem.objective.inertia_weight)))
-    cache: OrderedDict[tuple[str, tuple[float, float]], DesignMethod] = _WORKER.__dict__.setdefault("methods", OrderedDict())
-    method = cache.pop(key, None)
-    if method is None:
-        if weights:
-            import dataclasses
+    kept: Kept[tuple[str, tuple[float, float]], DesignMethod] = _WORKER.__dict__.setdefault("methods", Kept(CACHED_METHODS))
 
-            from ..model.problem import Objective
+    def build() -> DesignMethod:
+        if not weights:
+            return task.method(problem)
+        import dataclasses
 
-            problem = dataclasses.replace(problem, objective=Objective(*key[1]))
-        method = task.method(problem)
-    cache[key] = method
-    while len(cache) > CACHED_METHODS:
-        cache.popitem(last=False)
-    return method
+        from ..model.problem import Objective
+
+        return task.method(dataclasses.replace(problem, objective=Objective(*key[1])))
+
+    return kept.get(key, build)
 
 
 def split_point(point: Point) -> tuple[dict[str, float], dict[str, list[tuple[str, float]]], dict[str, float]]:
