@@ -36,17 +36,17 @@ def load_all(files: list[Path], overrides: Mapping[str, object], err: Err, warni
     """Every file loaded and checked (closed loops assemble), or None after printing every
     error (the caller exits 2); a problem with nothing to balance gets a warning line.
     ``warnings``: filled with each problem's warnings (:func:`~counterpoise.formulation.assumptions.degeneracies`)
-    by problem name (unique here), for :func:`solve_all` to pass on to the reports."""
+    by problem name (unique here), for :func:`solve_all` to pass on to the reports. The
+    console script keeps each problem with what its checks found (:mod:`counterpoise.io.cache`)."""
     from ..errors import ProblemFileError
-    from ..io.cache import load as load_problem  # the loader, or the console script's cache of loaded problems
-    from ..mechanics.closure import check_assembly
+    from ..io.cache import load_checked  # the loader, or the console script's cache of loaded problems
 
     problems, errors = [], []
+    found: dict[str, tuple[str, ...]] = {}
     seen: dict[str, Path] = {}
     for path in files:
         try:
-            problem = load_problem(path, overrides)
-            check_assembly(problem)  # closed loops: closes at home, assembles over the ranges (docs/loops.md)
+            problem, problem_warnings = load_checked(path, overrides, checked)
         except ProblemFileError as exc:
             errors.append(str(exc))
             continue
@@ -54,20 +54,31 @@ def load_all(files: list[Path], overrides: Mapping[str, object], err: Err, warni
             errors.append(f"{path}: problem.name: '{problem.name}' is also the name of {seen[problem.name]} (both would write the report folder {problem.name})")
             continue
         seen[problem.name] = path
+        found[problem.name] = problem_warnings
         problems.append(problem)
     if errors:
         for line in errors:
             err(line)
         return None
-    from ..formulation.assumptions import degeneracies
-
     for problem in problems:  # nothing to balance: say so, the design would be "optimal" anyway
-        found = tuple(degeneracies(problem))
         if warnings is not None:
-            warnings[problem.name] = found
-        for warning in found:
+            warnings[problem.name] = found[problem.name]
+        for warning in found[problem.name]:
             err(f"{problem.path}: warning: {warning}")
     return problems
+
+
+def checked(problem: Problem) -> tuple[str, ...]:
+    """The checks of a loaded problem: closed loops close at home and assemble over the
+    ranges (docs/loops.md; a :class:`~counterpoise.errors.ProblemFileError` otherwise),
+    then its degeneracy warnings (:func:`~counterpoise.formulation.assumptions.degeneracies`).
+    Both depend on the problem's content only, so the console script keeps the warnings
+    with the loaded problem."""
+    from ..formulation.assumptions import degeneracies
+    from ..mechanics.closure import check_assembly
+
+    check_assembly(problem)
+    return tuple(degeneracies(problem))
 
 
 def solve_all(

@@ -91,6 +91,9 @@ class Designer:
         import casadi as ca
 
         limit_blas_threads()
+        kept = _kept_parts(problem, ipopt_options, backend, extra) if type(self) is Designer else None
+        if kept is not None and self._restore(kept, problem):
+            return
         self.problem = problem
         self._ipopt_options = dict(ipopt_options or {})
         self.formulation = f = Formulation(problem)
@@ -119,6 +122,33 @@ class Designer:
         self._minimax: MinimaxDesigner | None = None  # the epigraph NLP of the closest design (built on first use)
         #: designers of this problem rebuilt for other loop geometries (:func:`for_geometry`)
         self.geometries = Geometries()
+        if kept is not None:
+            self._keep(kept)
+
+    # -- kept on disk by counterpoise solve (counterpoise.io.cache) -----------------------
+    def _restore(self, parts: tuple[str, ...], problem: Problem) -> bool:
+        """Take the state of a designer built from the same content, kept on disk by an
+        earlier ``counterpoise solve`` (:func:`counterpoise.io.cache.fetch_built`); False when
+        there is none. Its CasADi expressions and functions are unpickled in one CasADi
+        context (shared symbols stay shared), so they are the ones built: the same
+        designs, bit for bit."""
+        import casadi as ca
+
+        from ..io.cache import fetch_built
+
+        state = fetch_built(KEPT_KIND, parts, {"problem": problem, "designer": self}, ca.global_unpickle_context)
+        if not isinstance(state, dict) or state.get("problem") is not problem:
+            return False
+        self.__dict__.update(state)
+        return True
+
+    def _keep(self, parts: tuple[str, ...]) -> None:
+        """Keep this designer's state, just built and not yet used, for a later ``counterpoise solve``."""
+        import casadi as ca
+
+        from ..io.cache import keep_built
+
+        keep_built(KEPT_KIND, parts, dict(self.__dict__), {"problem": self.problem, "designer": self}, _KEPT_REDUCERS, ca.global_pickle_context)
 
     def __reduce__(self) -> tuple[Any, ...]:
         """Pickle as a description; the worker rebuilds the CasADi objects."""
@@ -566,3 +596,32 @@ def _admissible(signs: np.ndarray) -> bool:
 
 def _with_time(out: SolverOutput, seconds: float) -> SolverOutput:
     return SolverOutput(out.z, out.status, out.solver_status, out.iterations, seconds, out.solver)
+
+
+# -- a designer kept on disk by counterpoise solve ---------------------------------------
+
+#: the kind of :mod:`counterpoise.io.cache`'s built entries that hold designers
+KEPT_KIND = "designer"
+
+
+def _kept_parts(problem: Problem, ipopt_options: Mapping[str, Any] | None, backend: str, extra: Extra | None) -> tuple[str, ...] | None:
+    """The key parts of a designer kept on disk (the problem's content, the options, the
+    CasADi version), or None when designers are not kept in this process (anything but the
+    console script's ``solve``) or this one is not (a verification round's, with ``extra``)."""
+    from ..io.cache import built_folder
+
+    if extra or built_folder() is None:
+        return None
+    import casadi as ca
+
+    from ..model.digest import content_key
+
+    return (content_key(problem), repr(sorted((str(k), repr(v)) for k, v in (ipopt_options or {}).items())), backend, str(ca.__version__))
+
+
+def _numeric_function(function: Any) -> NumericFunction:
+    return NumericFunction(function)
+
+
+#: how a kept designer's parts that hold per-thread buffers pickle: rebuilt from their function
+_KEPT_REDUCERS: dict[type, Any] = {NumericFunction: lambda f: (_numeric_function, (f.function,))}
