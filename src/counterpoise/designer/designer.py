@@ -6,6 +6,9 @@ built once and solved many times.
 so ``solve(parameters=...)`` re-solves a study point without rebuilding, and variable
 bounds may be changed per call. CasADi objects do not pickle: a designer pickles as its
 description (the problem and the solver options) and rebuilds itself in the worker.
+``counterpoise solve`` keeps the state of each designer it builds on disk (its CasADi
+objects written in one CasADi pickle context, :mod:`counterpoise.io.cache`), and a later
+solve of the same content takes it from there instead of building (``_restore``).
 When the problem is an LP (fixed geometry) it is solved by Clarabel, and an IPOPT design
 gets a certificate gap (:mod:`.convex`). Every polish of a solver's point (:meth:`Designer.finish`,
 ``_snap``, :meth:`Designer.refine`, :meth:`Designer.polish_settings`) is one call of
@@ -87,7 +90,9 @@ class Designer:
     def __init__(self, problem: Problem, ipopt_options: Mapping[str, Any] | None = None, backend: str = "auto", extra: Extra | None = None) -> None:
         """``backend``: ``auto`` (the convex path when the problem is an LP/QP, else IPOPT),
         ``ipopt`` or ``clarabel`` (an error when the problem is not convex). ``extra``:
-        configurations added to the sampled rows of workspace extremes (verification rounds)."""
+        configurations added to the sampled rows of workspace extremes (verification rounds).
+        Under ``counterpoise solve`` the state built from the same content by an earlier
+        solve is taken from the disk when it is kept there (:meth:`_restore`)."""
         import casadi as ca
 
         limit_blas_threads()
@@ -616,7 +621,8 @@ def _kept_parts(problem: Problem, ipopt_options: Mapping[str, Any] | None, backe
 
     from ..model.digest import content_key
 
-    return (content_key(problem), repr(sorted((str(k), repr(v)) for k, v in (ipopt_options or {}).items())), backend, str(ca.__version__))
+    version = str(getattr(ca, "__version__", ""))  # also in the entry's key by its installed version (io.cache.BUILT_LIBRARIES)
+    return (content_key(problem), repr(sorted((str(k), repr(v)) for k, v in (ipopt_options or {}).items())), backend, version)
 
 
 def _numeric_function(function: Any) -> NumericFunction:

@@ -47,7 +47,6 @@ import os
 import pickle
 import stat
 import sys
-import tempfile
 from collections.abc import Callable, Iterable, Mapping
 from contextlib import AbstractContextManager, nullcontext
 from functools import lru_cache
@@ -284,6 +283,8 @@ def _write(entry: Path, value: object, limit: int, dump: Callable[[object, Any],
     handle)``, default :func:`pickle.dump`); a cache that cannot be written, or a folder
     that is not :func:`private`, is left alone (the next run does the work again). The
     oldest entries beyond ``limit`` are removed."""
+    import tempfile  # only when writing (it imports shutil, random, bz2, lzma)
+
     try:
         entry.parent.mkdir(mode=0o700, parents=True, exist_ok=True)  # the user's own: problems may be private
         if not private(entry.parent):

@@ -1,0 +1,191 @@
+"""The console script's cache (``counterpoise.io.cache``): what it keeps besides loaded
+problems (the load checks' warnings, ``solve``'s built designers), and when it refuses a
+folder. A pickle runs code when it is read, so a folder or an entry that another user
+could have written is never read. What a kept designer gives must be what a built one
+gives, bit for bit (docs/performance.md)."""
+
+from __future__ import annotations
+
+import os
+import pickle
+
+import pytest
+
+from conftest import PROBLEMS
+
+#: set when a planted pickle is unpickled (it must never be)
+PLANTED: list[str] = []
+
+
+def _planted() -> None:
+    PLANTED.append("unpickled")
+
+
+class _Plant:
+    def __reduce__(self) -> tuple[object, tuple[()]]:
+        return (_planted, ())
+
+
+@pytest.fixture
+def cache_on(tmp_path, monkeypatch):
+    """The cache as ``counterpoise solve`` has it (problems and built designers), in a
+    temporary folder."""
+    from counterpoise.io import cache
+
+    folder = tmp_path / "cache"
+    monkeypatch.setenv(cache.ENVIRONMENT, str(folder))
+    monkeypatch.setattr(cache, "_enabled", True)
+    monkeypatch.setattr(cache, "_built", True)
+    PLANTED.clear()
+    return folder
+
+
+def _counting_check(calls: list[str], warnings: tuple[str, ...] = ("w",)):
+    def check(problem):
+        calls.append(problem.name)
+        return warnings
+
+    return check
+
+
+def test_the_load_checks_warnings_are_kept_with_the_problem(tmp_path, cache_on):
+    """The second load of a file takes the problem and its check's warnings from the entry
+    (the check is not run again); a check that refuses the problem keeps nothing, so its
+    error is raised every time."""
+    from counterpoise.errors import ProblemFileError
+    from counterpoise.io import cache
+
+    file = tmp_path / "hybrid.toml"
+    file.write_text((PROBLEMS / "yasir2019_hybrid.toml").read_text(encoding="utf-8"), encoding="utf-8")
+    calls: list[str] = []
+    check = _counting_check(calls, ("nothing to balance about 'x'",))
+    first, found = cache.load_checked(file, {}, check)
+    second, again = cache.load_checked(file, {}, check)
+    assert calls == ["yasir2019_hybrid"] and found == again == ("nothing to balance about 'x'",)
+    assert second == first and second is not first
+
+    def refuse(problem):
+        raise ProblemFileError(problem.path, "loops", "does not close")
+
+    other = tmp_path / "other.toml"
+    other.write_text(file.read_text(encoding="utf-8").replace('name = "yasir2019_hybrid"', 'name = "other"'), encoding="utf-8")
+    for _ in range(2):
+        with pytest.raises(ProblemFileError, match="does not close"):
+            cache.load_checked(other, {}, refuse)
+    assert len(list(cache_on.glob("*.pickle"))) == 1
+
+
+def test_a_folder_others_may_write_or_that_is_not_ours_is_never_used(tmp_path, cache_on, monkeypatch):
+    """An entry planted in a folder that its group or others may write, or that belongs to
+    another user, is never unpickled, and nothing is written there; an entry that is
+    itself writable by others is not read either."""
+    from counterpoise.io import cache
+
+    file = PROBLEMS / "yasir2019_counter_mass.toml"
+    checked = cache.check_name(cache._no_check)
+    entry = cache_on / f"{cache.key(str(file), file, file.read_bytes(), {}, checked)}.pickle"
+    cache_on.mkdir(mode=0o700)
+    entry.write_bytes(pickle.dumps(_Plant()))
+
+    os.chmod(cache_on, 0o777)
+    assert not cache.private(cache_on)
+    assert cache.load(file).name == "yasir2019_counter_mass"
+    assert PLANTED == [] and entry.read_bytes() == pickle.dumps(_Plant())  # neither read nor replaced
+
+    os.chmod(cache_on, 0o700)
+    real = os.geteuid()
+    monkeypatch.setattr(cache.os, "geteuid", lambda: real + 1)  # as if the folder were another user's
+    assert not cache.private(cache_on)
+    cache.load(file)
+    assert PLANTED == [] and entry.read_bytes() == pickle.dumps(_Plant())
+    monkeypatch.setattr(cache.os, "geteuid", lambda: real)
+
+    os.chmod(entry, 0o666)  # the folder is ours, the entry others may write: not read, replaced
+    cache.load(file)
+    assert PLANTED == [] and entry.read_bytes() != pickle.dumps(_Plant())
+    entry.write_bytes(pickle.dumps(_Plant()))
+    os.chmod(entry, 0o600)
+    cache.load(file)  # ours and private: read (this shows what the checks above prevented)
+    assert PLANTED == ["unpickled"]  # not a problem: dropped, the file loaded and kept in its place
+    assert cache.load(file).name == "yasir2019_counter_mass" and PLANTED == ["unpickled"]
+
+
+def test_libraries_are_fingerprinted_by_their_installed_version(tmp_path, monkeypatch):
+    """An upgrade that leaves a library's ``__init__`` file as it was (same size and
+    modification time) still changes the fingerprint: the version of its ``.dist-info``
+    folder is part of it (read without importing the library)."""
+    from counterpoise.io import cache
+
+    site = tmp_path / "site"
+    (site / "fakelib").mkdir(parents=True)
+    init = site / "fakelib" / "__init__.py"
+    init.write_text("VALUE = 1\n", encoding="utf-8")
+    os.utime(init, (1_000_000_000, 1_000_000_000))
+    (site / "fakelib-1.0.dist-info").mkdir()
+    monkeypatch.syspath_prepend(str(site))
+    cache.code_fingerprint.cache_clear()
+    before = cache.code_fingerprint(("fakelib",))
+    (site / "fakelib-1.0.dist-info").rename(site / "fakelib-1.1.dist-info")
+    os.utime(init, (1_000_000_000, 1_000_000_000))
+    cache.code_fingerprint.cache_clear()
+    assert cache.code_fingerprint(("fakelib",)) != before
+    assert cache._dist_versions(str(site)) == {"fakelib": "1.1"}
+    cache.code_fingerprint.cache_clear()
+
+
+def test_built_objects_round_trip_and_a_bad_entry_is_dropped(cache_on):
+    """:func:`keep_built` / :func:`fetch_built`: the shared objects are put back in their
+    places (not copies); another key misses; a truncated entry is removed; nothing is kept
+    when built objects are off (any process but ``counterpoise solve``'s)."""
+    from counterpoise.io import cache
+
+    shared = object()
+    cache.keep_built("thing", ("a",), {"x": [1.5], "shared": shared}, {"shared": shared})
+    back = cache.fetch_built("thing", ("a",), {"shared": shared})
+    assert back == {"x": [1.5], "shared": shared} and back["shared"] is shared
+    assert cache.fetch_built("thing", ("b",), {"shared": shared}) is None
+    [entry] = (cache_on / cache.BUILT).glob("thing.*.pickle")
+    entry.write_bytes(entry.read_bytes()[:20])
+    assert cache.fetch_built("thing", ("a",), {"shared": shared}) is None and not entry.exists()
+    cache._built = False
+    cache.keep_built("thing", ("c",), 1, {})
+    assert cache.fetch_built("thing", ("c",), {}) is None and not list((cache_on / cache.BUILT).glob("*.pickle"))
+
+
+@pytest.mark.parametrize("which", ["lp", "nlp"])
+def test_a_kept_designer_is_the_built_one(which, cache_on, monkeypatch):
+    """A designer built with the cache on is kept; the next one of the same problem is
+    unpickled (nothing is built: the formulation is not constructed) and solves to the same
+    design, bit for bit: the LP path (``yasir2019_hybrid``, Clarabel) and the NLP path (a
+    pendulum whose counter-mass and lever are both free, IPOPT)."""
+    from builders import pendulum
+    from counterpoise.designer import designer as module
+    from counterpoise.io.loader import load_problem
+
+    problem = load_problem(PROBLEMS / "yasir2019_hybrid.toml") if which == "lp" else pendulum(0.8, 0.3, (0.02, 1.0), 25.0).build()
+    built = module.Designer(problem)
+    assert len(list((cache_on / "built").glob("designer.*.pickle"))) == 1
+
+    def no_build(*args, **kwargs):
+        raise AssertionError("the designer was built again")
+
+    monkeypatch.setattr(module, "Formulation", no_build)
+    kept = module.Designer(problem)
+    assert kept.problem is problem and kept.formulation.problem is problem
+    a, b = built.solve(), kept.solve()
+    assert (a.status, a.values, a.objective, a.iterations) == (b.status, b.values, b.objective, b.iterations)
+    assert (which == "lp") == (a.solver == "clarabel")
+
+
+def test_designers_are_not_kept_outside_solve(tmp_path, monkeypatch):
+    """Only ``counterpoise solve`` keeps designers: with the cache on for problems alone
+    (``validate``, ``study``, the other commands) nothing is written under ``built``."""
+    from builders import pendulum
+    from counterpoise.designer.designer import Designer
+    from counterpoise.io import cache
+
+    monkeypatch.setenv(cache.ENVIRONMENT, str(tmp_path / "cache"))
+    monkeypatch.setattr(cache, "_enabled", True)
+    monkeypatch.setattr(cache, "_built", False)
+    Designer(pendulum(0.8, 0.3, (0.02, 1.0), 25.0).build())
+    assert cache.built_folder() is None and not (tmp_path / "cache").exists()
