@@ -189,3 +189,43 @@ def test_designers_are_not_kept_outside_solve(tmp_path, monkeypatch):
     monkeypatch.setattr(cache, "_built", False)
     Designer(pendulum(0.8, 0.3, (0.02, 1.0), 25.0).build())
     assert cache.built_folder() is None and not (tmp_path / "cache").exists()
+
+
+def test_the_dense_checks_evaluators_are_kept_after_their_first_check(cache_on, monkeypatch):
+    """With ``solve``'s cache on, the dense check keeps its evaluators after their first
+    check; a later process (here: the in-process evaluators forgotten, the problem loaded
+    again) takes them from the disk (no evaluator is constructed) and gives the same
+    verification, every figure equal."""
+    from counterpoise import pipeline
+    from counterpoise.io.loader import load_problem
+    from counterpoise.verify import check, residuals
+
+    file = PROBLEMS / "yasir2019_hybrid.toml"
+    first = pipeline.design(load_problem(file))
+    assert len(list((cache_on / "built").glob("evaluators.*.pickle"))) == 1
+    monkeypatch.setattr(check, "_cache", {})
+
+    def no_build(self, *args, **kwargs):
+        raise AssertionError("an evaluator was built again")
+
+    monkeypatch.setattr(residuals.SubsystemResiduals, "__init__", no_build)
+    again = pipeline.design(load_problem(file))
+    assert again.verification == first.verification and again.solution.values == first.solution.values
+
+
+def test_built_objects_beyond_the_byte_budget_are_removed(cache_on, monkeypatch):
+    """Writing a built object removes the least recently used beyond MAX_BUILT_BYTES (the
+    one just written stays, whatever its size); one read is used again, so it stays."""
+    from counterpoise.io import cache
+
+    monkeypatch.setattr(cache, "MAX_BUILT_BYTES", 2500)
+    for name in ("a", "b"):
+        cache.keep_built("thing", (name,), b"x" * 1000, {})
+    for entry in (cache_on / cache.BUILT).glob("*.pickle"):
+        os.utime(entry, (1000, 1000))  # both written long ago...
+    assert cache.fetch_built("thing", ("a",), {}) == b"x" * 1000  # ...but "a" is read now
+    cache.keep_built("thing", ("c",), b"x" * 1000, {})
+    assert cache.fetch_built("thing", ("a",), {}) is not None and cache.fetch_built("thing", ("c",), {}) is not None
+    assert cache.fetch_built("thing", ("b",), {}) is None
+    cache.keep_built("thing", ("d",), b"x" * 5000, {})
+    assert [cache.fetch_built("thing", (n,), {}) is not None for n in "abcd"] == [False, False, False, True]

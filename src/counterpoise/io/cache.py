@@ -5,10 +5,11 @@ the schema's validator, then the resolution (~0.3 s of a 0.5–0.9 s ``counterpo
 The console script keeps each problem it loaded as a pickle in a cache folder, with the
 warnings its checks found at load (:func:`load_checked`), and a later run on the same
 content unpickles both instead (~5 ms, importing neither pint nor pydantic).
-``counterpoise solve`` also keeps what the designer built from a problem (its CasADi
-functions and the sampled balance conditions, :func:`fetch_built` / :func:`keep_built`),
-which a later solve of the same content unpickles instead of building (~7 ms against
-~0.1 s for the hybrid).
+``counterpoise solve`` also keeps what it built from a problem (:func:`fetch_built` /
+:func:`keep_built`): the designer (its CasADi functions and the sampled balance
+conditions) and the dense check's evaluators after their first check (the configurations,
+their complex-step arrays, the refined box maxima), which a later solve of the same
+content unpickles instead of building (for the hybrid ~20 ms against ~0.15 s).
 
 - **Key** (BLAKE2b): this format's version; the code (every file of the counterpoise
   package by path, size and modification time; the installed version of each library in
@@ -30,9 +31,10 @@ which a later solve of the same content unpickles instead of building (~7 ms aga
   write into it (:func:`private`); otherwise it is left alone (read and written never),
   and each entry must be this user's file too. A folder the cache creates is ``0700``.
   Entries are written through a temporary file and a rename (a reader never sees half an
-  entry), the oldest beyond :data:`MAX_ENTRIES` (:data:`MAX_BUILT`) are removed, and an
-  entry that cannot be read is removed and the work done as usual (then kept again). The
-  cache is a copy: deleting the folder is always safe.
+  entry), the least recently used beyond :data:`MAX_ENTRIES` (built objects: beyond
+  :data:`MAX_BUILT` or :data:`MAX_BUILT_BYTES`) are removed, and an entry that cannot be
+  read is removed and the work done as usual (then kept again). The cache is a copy:
+  deleting the folder is always safe.
 - **Who uses it**: the console script only (:func:`enable`, from
   :func:`counterpoise.cli.main` when it runs as the process's command; built objects only
   for ``solve``). In-process calls (``main([...])``, :func:`counterpoise.io.loader.load_problem`,
@@ -62,10 +64,13 @@ FORMAT = 2
 ENVIRONMENT = "COUNTERPOISE_CACHE"
 #: top-level tables whose resolution reads other files: such problems are not kept
 FILE_TABLES = ("robot", "catalogues")
-#: entries kept; the oldest beyond this are removed when one is written
+#: entries kept; the least recently used beyond this are removed when one is written
 MAX_ENTRIES = 256
-#: built objects kept (a designer of a small problem is ~0.4 MB); the oldest beyond are removed
+#: built objects kept (for the hybrid: its designer 0.4 MB, its dense check's evaluators
+#: 6 MB); the least recently used beyond this many, or beyond :data:`MAX_BUILT_BYTES` in
+#: all, are removed
 MAX_BUILT = 64
+MAX_BUILT_BYTES = 256 * 2**20
 #: the subfolder of built objects
 BUILT = "built"
 #: a temporary file older than this (seconds) was left by a killed process: removed
@@ -135,14 +140,9 @@ def _dist_versions(site: str) -> dict[str, str]:
     return found
 
 
-@lru_cache(maxsize=4)
-def code_fingerprint(libraries: tuple[str, ...] = LIBRARIES) -> str:
-    """Digest of the code a load (or a build) runs: counterpoise's files (path, size,
-    modification time), each of ``libraries`` by its installed version (its ``.dist-info``
-    folder beside the package, read without importing it) and its ``__init__`` file, and
-    the Python version."""
-    import importlib.util
-
+@lru_cache(maxsize=1)
+def _package_fingerprint() -> str:
+    """counterpoise's own files (path, size, modification time) and the Python version."""
     h = hashlib.blake2b(digest_size=16)
     h.update(f"{FORMAT};{sys.version};{sys.implementation.cache_tag};".encode())
     package = Path(__file__).resolve().parent.parent
@@ -152,6 +152,19 @@ def code_fingerprint(libraries: tuple[str, ...] = LIBRARIES) -> str:
             if name.endswith((".py", ".csv", ".txt", ".toml", ".json")):
                 st = os.stat(os.path.join(root, name))
                 h.update(f"{os.path.relpath(os.path.join(root, name), package)}:{st.st_size}:{st.st_mtime_ns};".encode())
+    return h.hexdigest()
+
+
+@lru_cache(maxsize=4)
+def code_fingerprint(libraries: tuple[str, ...] = LIBRARIES) -> str:
+    """Digest of the code a load (or a build) runs: counterpoise's files (path, size,
+    modification time), each of ``libraries`` by its installed version (its ``.dist-info``
+    folder beside the package, read without importing it) and its ``__init__`` file, and
+    the Python version."""
+    import importlib.util
+
+    h = hashlib.blake2b(digest_size=16)
+    h.update(_package_fingerprint().encode())
     sites: dict[str, dict[str, str]] = {}
     for library in libraries:
         spec = importlib.util.find_spec(library)
@@ -218,6 +231,9 @@ def load_checked(path: str | Path, overrides: Mapping[str, object] | None, check
     problem = load_problem_text(text, label, overrides)
     warnings = check(problem)
     if _may_keep(text, overrides):
+        from ..model.digest import content_key
+
+        content_key(problem)  # kept on the problem (and so in the entry): the key of the designers built from it
         _write(entry, (problem, checked, warnings), MAX_ENTRIES)
     return problem, warnings
 
@@ -258,7 +274,12 @@ def _unpickle(entry: Path, loads: Callable[[io.BufferedReader], object]) -> obje
         with handle:
             if not private(handle.fileno()):  # not ours: never unpickled, left alone
                 return None
-            return loads(handle)
+            found = loads(handle)
+            try:
+                os.utime(handle.fileno())  # used now: the least recently used are removed first
+            except OSError:
+                pass
+            return found
     except Exception:  # noqa: BLE001 - any unreadable entry (truncated, another format): drop it, redo the work
         entry.unlink(missing_ok=True)
         return None
@@ -278,11 +299,11 @@ def _read(entry: Path, label: str, checked: str) -> tuple[Problem, Warnings] | N
     return None
 
 
-def _write(entry: Path, value: object, limit: int, dump: Callable[[object, Any], None] | None = None) -> None:
+def _write(entry: Path, value: object, limit: int, dump: Callable[[object, Any], None] | None = None, size: float = float("inf")) -> None:
     """Keep ``value`` under ``entry`` (a temporary file renamed into place; ``dump(value,
     handle)``, default :func:`pickle.dump`); a cache that cannot be written, or a folder
     that is not :func:`private`, is left alone (the next run does the work again). The
-    oldest entries beyond ``limit`` are removed."""
+    least recently used entries beyond ``limit`` (or ``size`` bytes) are removed."""
     import tempfile  # only when writing (it imports shutil, random, bz2, lzma)
 
     try:
@@ -300,14 +321,15 @@ def _write(entry: Path, value: object, limit: int, dump: Callable[[object, Any],
         except BaseException:
             Path(tmp).unlink(missing_ok=True)
             raise
-        _prune(entry.parent, limit)
+        _prune(entry.parent, limit, size)
     except (OSError, pickle.PicklingError, TypeError, AttributeError, RecursionError):
         return
 
 
-def _prune(where: Path, limit: int = MAX_ENTRIES) -> None:
-    """Remove the oldest entries beyond ``limit``, and temporary files older than
-    :data:`STALE_SECONDS` (left by a process killed while writing)."""
+def _prune(where: Path, limit: int = MAX_ENTRIES, size: float = float("inf")) -> None:
+    """Remove the least recently used entries (by modification time: an entry read is
+    touched) beyond ``limit`` or beyond ``size`` bytes in all, and temporary files older
+    than :data:`STALE_SECONDS` (left by a process killed while writing)."""
     import time
 
     entries, stale = [], []
@@ -315,13 +337,17 @@ def _prune(where: Path, limit: int = MAX_ENTRIES) -> None:
     for item in os.scandir(where):
         try:
             if item.name.endswith(".pickle") and item.is_file(follow_symlinks=False):
-                entries.append((item.stat().st_mtime_ns, item.path))
+                st = item.stat()
+                entries.append((st.st_mtime_ns, st.st_size, item.path))
             elif item.name.endswith(".tmp") and now - item.stat().st_mtime > STALE_SECONDS:
                 stale.append(item.path)
         except OSError:
             continue
-    for _, name in sorted(entries)[: max(0, len(entries) - limit)]:
-        stale.append(name)
+    total = 0
+    for rank, (_, bytes_, name) in enumerate(sorted(entries, reverse=True)):  # newest first
+        total += bytes_
+        if rank >= limit or (rank and total > size):  # the newest is kept whatever its size
+            stale.append(name)
     for name in stale:
         try:
             os.unlink(name)
@@ -408,6 +434,6 @@ def keep_built(
             Writer(handle, protocol=pickle.HIGHEST_PROTOCOL).dump(obj)
 
     try:
-        _write(entry, value, MAX_BUILT, dump)
+        _write(entry, value, MAX_BUILT, dump, MAX_BUILT_BYTES)
     except Exception:  # noqa: BLE001 - CasADi raises plain Exception for what it cannot serialize: keep nothing
         return

@@ -43,17 +43,87 @@ def evaluators(solution: "Solution", samples: int | None = None, seed: int | Non
         _cache[id(problem)] = entry
     found = entry[1].get((n, seed))
     if found is None:
-        rng = np.random.default_rng(seed)  # the draws follow (scenario, subsystem) order, as always
-        found = []
-        for scenario in _checked_scenarios(problem):
-            for sub in problem.subsystems:
-                if problem.subsystem_loops(sub.name):  # closed loops: on the configuration manifold
-                    found.append((scenario.name, sub.name, ManifoldResiduals(problem, sub.name, n, rng, scenario.name)))  # type: ignore[arg-type]  # ManifoldResiduals answers SubsystemResiduals' evaluate
-                    continue
-                q = configurations(problem, sub.name, n, rng)
-                found.append((scenario.name, sub.name, SubsystemResiduals(problem, sub.name, q)))
+        parts = _kept_parts(problem, n, seed)
+        found = _restore(problem, parts) if parts is not None else None
+        if found is None:
+            rng = np.random.default_rng(seed)  # the draws follow (scenario, subsystem) order, as always
+            found = []
+            for scenario in _checked_scenarios(problem):
+                for sub in problem.subsystems:
+                    if problem.subsystem_loops(sub.name):  # closed loops: on the configuration manifold
+                        found.append((scenario.name, sub.name, ManifoldResiduals(problem, sub.name, n, rng, scenario.name)))  # type: ignore[arg-type]  # ManifoldResiduals answers SubsystemResiduals' evaluate
+                        continue
+                    q = configurations(problem, sub.name, n, rng)
+                    found.append((scenario.name, sub.name, SubsystemResiduals(problem, sub.name, q)))
+            if parts is not None and all(type(e) is SubsystemResiduals for *_, e in found):
+                _to_keep[id(found)] = (problem, parts)
         entry[1][(n, seed)] = found
     return found
+
+
+# -- evaluators kept on disk by counterpoise solve (counterpoise.io.cache) --------------------
+
+#: the kind of :mod:`counterpoise.io.cache`'s built entries that hold a problem's evaluators
+KEPT_KIND = "evaluators"
+#: evaluators built in this process and not yet kept: kept after their first check, with
+#: the arrays and box maxima it computed (by id of the list :func:`evaluators` returns)
+_to_keep: dict[int, tuple[Problem, tuple[str, ...]]] = {}
+
+
+def _kept_parts(problem: Problem, samples: int, seed: int) -> tuple[str, ...] | None:
+    """The key parts of a problem's evaluators kept on disk, or None when they are not kept
+    in this process (anything but the console script's ``solve``)."""
+    from ..io.cache import built_folder
+
+    if built_folder() is None:
+        return None
+    from ..model.digest import content_key
+
+    return (content_key(problem), str(samples), str(seed))
+
+
+def _restore(problem: Problem, parts: tuple[str, ...]) -> list[tuple[str, str, SubsystemResiduals]] | None:
+    """The evaluators of ``problem`` as an earlier ``counterpoise solve`` kept them after its
+    check (their configurations, complex-step arrays and refined box maxima: what the same
+    code computes again from the same content), or None. CasADi functions are unpickled in
+    one CasADi context."""
+    import casadi as ca
+
+    from ..io.cache import fetch_built
+
+    found = fetch_built(KEPT_KIND, parts, {"problem": problem}, ca.global_unpickle_context)
+    if not isinstance(found, list) or not all(isinstance(e, tuple) and len(e) == 3 and type(e[2]) is SubsystemResiduals for e in found):
+        return None
+    return found
+
+
+def _keep(found: list[tuple[str, str, SubsystemResiduals]]) -> None:
+    """Keep ``found`` on disk once, after its first check (see :data:`_to_keep`)."""
+    pending = _to_keep.pop(id(found), None)
+    if pending is None:
+        return
+    import casadi as ca
+
+    from ..io.cache import keep_built
+
+    problem, parts = pending
+    keep_built(KEPT_KIND, parts, found, {"problem": problem}, {SubsystemResiduals: _reduce_residuals}, ca.global_pickle_context)
+
+
+def _reduce_residuals(evaluator: SubsystemResiduals) -> tuple[Any, ...]:
+    """An evaluator without what it rebuilds on use: the per-chunk coordinate inputs (with
+    their remembered sines and cosines) and the composed arrays (sums of the per-element
+    arrays, which are kept)."""
+    state = dict(evaluator.__dict__)
+    state["_chunk_inputs"] = {}
+    state["_arrays"] = None
+    return (_restore_residuals, (state,))
+
+
+def _restore_residuals(state: dict[str, Any]) -> SubsystemResiduals:
+    evaluator = SubsystemResiduals.__new__(SubsystemResiduals)
+    evaluator.__dict__.update(state)
+    return evaluator
 
 
 def _checked_scenarios(problem: Problem) -> tuple[Any, ...]:
@@ -145,6 +215,8 @@ def verify(solution: "Solution", samples: int | None = None, seed: int | None = 
                     worst_tilt=tuple(float(a) for a in tilts[(scenario, subsystem)][worst]) if (scenario, subsystem) in tilts else (),
                 )
             )
+    if _to_keep:
+        _keep(evaluators(solution, samples, seed))
     return Verification(tuple(checks), problem.settings.verify_tolerance)
 
 
