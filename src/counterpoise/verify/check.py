@@ -56,7 +56,7 @@ def evaluators(solution: "Solution", samples: int | None = None, seed: int | Non
                     q = configurations(problem, sub.name, n, rng)
                     found.append((scenario.name, sub.name, SubsystemResiduals(problem, sub.name, q)))
             if parts is not None and all(type(e) is SubsystemResiduals for *_, e in found):
-                _to_keep[id(found)] = (problem, parts)
+                _to_keep[id(found)] = (found, problem, parts)
         entry[1][(n, seed)] = found
     return found
 
@@ -66,8 +66,9 @@ def evaluators(solution: "Solution", samples: int | None = None, seed: int | Non
 #: the kind of :mod:`counterpoise.io.cache`'s built entries that hold a problem's evaluators
 KEPT_KIND = "evaluators"
 #: evaluators built in this process and not yet kept: kept after their first check, with
-#: the arrays and box maxima it computed (by id of the list :func:`evaluators` returns)
-_to_keep: dict[int, tuple[Problem, tuple[str, ...]]] = {}
+#: the arrays and box maxima it computed (by id of the list :func:`evaluators` returns,
+#: which is held here, so that its id is not another's)
+_to_keep: dict[int, tuple[list[tuple[str, str, SubsystemResiduals]], Problem, tuple[str, ...]]] = {}
 
 
 def _kept_parts(problem: Problem, samples: int, seed: int) -> tuple[str, ...] | None:
@@ -99,14 +100,15 @@ def _restore(problem: Problem, parts: tuple[str, ...]) -> list[tuple[str, str, S
 
 def _keep(found: list[tuple[str, str, SubsystemResiduals]]) -> None:
     """Keep ``found`` on disk once, after its first check (see :data:`_to_keep`)."""
-    pending = _to_keep.pop(id(found), None)
-    if pending is None:
+    pending = _to_keep.get(id(found))
+    if pending is None or pending[0] is not found:
         return
+    del _to_keep[id(found)]
     import casadi as ca
 
     from ..io.cache import keep_built
 
-    problem, parts = pending
+    _, problem, parts = pending
     keep_built(KEPT_KIND, parts, found, {"problem": problem}, {SubsystemResiduals: _reduce_residuals}, ca.global_pickle_context)
 
 
