@@ -43,6 +43,7 @@ content unpickles instead of building (for the hybrid ~20 ms against ~0.15 s).
 
 from __future__ import annotations
 
+import hashlib
 import io
 import os
 import pickle
@@ -53,11 +54,6 @@ from contextlib import AbstractContextManager, nullcontext
 from functools import lru_cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
-
-try:  # the BLAKE2 module alone: importing hashlib also loads OpenSSL (~3-7 ms of a single solve)
-    from _blake2 import blake2b
-except ImportError:  # pragma: no cover - a Python without it
-    from hashlib import blake2b
 
 if TYPE_CHECKING:
     from ..model.problem import Problem
@@ -147,7 +143,7 @@ def _dist_versions(site: str) -> dict[str, str]:
 @lru_cache(maxsize=1)
 def _package_fingerprint() -> str:
     """counterpoise's own files (path, size, modification time) and the Python version."""
-    h = blake2b(digest_size=16)
+    h = hashlib.blake2b(digest_size=16)
     h.update(f"{FORMAT};{sys.version};{sys.implementation.cache_tag};".encode())
     package = Path(__file__).resolve().parent.parent
     for root, dirs, files in os.walk(package):
@@ -167,7 +163,7 @@ def code_fingerprint(libraries: tuple[str, ...] = LIBRARIES) -> str:
     the Python version."""
     import importlib.util
 
-    h = blake2b(digest_size=16)
+    h = hashlib.blake2b(digest_size=16)
     h.update(_package_fingerprint().encode())
     sites: dict[str, dict[str, str]] = {}
     for library in libraries:
@@ -188,7 +184,7 @@ def code_fingerprint(libraries: tuple[str, ...] = LIBRARIES) -> str:
 def key(label: str, path: Path, data: bytes, overrides: Mapping[str, object], checked: str = "") -> str:
     """The entry's key (see the module docstring); ``checked``: the name of the check whose
     result the entry holds (:func:`check_name`)."""
-    h = blake2b(digest_size=20)
+    h = hashlib.blake2b(digest_size=20)
     for part in (code_fingerprint(), label, str(path.resolve()), repr(sorted((str(k), repr(v)) for k, v in overrides.items())), checked):
         h.update(part.encode("utf-8", "surrogatepass") + b"\0")
     h.update(data)
@@ -369,7 +365,7 @@ def built_folder() -> Path | None:
 
 
 def _built_entry(where: Path, kind: str, parts: Iterable[str]) -> Path:
-    h = blake2b(digest_size=20)
+    h = hashlib.blake2b(digest_size=20)
     for part in (code_fingerprint(BUILT_LIBRARIES), kind, *parts):
         h.update(part.encode("utf-8", "surrogatepass") + b"\0")
     return where / f"{kind}.{h.hexdigest()}.pickle"

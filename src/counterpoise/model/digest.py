@@ -14,13 +14,9 @@ and kept on the object (problems are frozen).
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 from collections.abc import Mapping
 from typing import Any
-
-try:  # the BLAKE2 module alone: importing hashlib also loads OpenSSL (~3-7 ms of a single solve)
-    from _blake2 import blake2b
-except ImportError:  # pragma: no cover - a Python without it
-    from hashlib import blake2b
 
 import numpy as np
 
@@ -68,7 +64,7 @@ def _feed(h: Any, obj: Any) -> None:
 
 def digest(obj: Any) -> str:
     """Hex digest (BLAKE2b, 16 bytes) of ``obj``'s content (see the module's rules)."""
-    h = blake2b(digest_size=16)
+    h = hashlib.blake2b(digest_size=16)
     _feed(h, obj)
     return h.hexdigest()
 
