@@ -147,9 +147,14 @@ def test_built_objects_round_trip_and_a_bad_entry_is_dropped(cache_on):
     [entry] = (cache_on / cache.BUILT).glob("thing.*.pickle")
     entry.write_bytes(entry.read_bytes()[:20])
     assert cache.fetch_built("thing", ("a",), {"shared": shared}) is None and not entry.exists()
+    cache.keep_built("thing", ("a",), {"x": [1.5], "shared": shared}, {"shared": shared})
+    os.chmod(cache_on, 0o777)  # the cache folder others may write: its built objects are not used
+    assert cache.fetch_built("thing", ("a",), {"shared": shared}) is None
+    os.chmod(cache_on, 0o700)
+    assert cache.fetch_built("thing", ("a",), {"shared": shared}) is not None
     cache._built = False
     cache.keep_built("thing", ("c",), 1, {})
-    assert cache.fetch_built("thing", ("c",), {}) is None and not list((cache_on / cache.BUILT).glob("*.pickle"))
+    assert cache.fetch_built("thing", ("c",), {}) is None and len(list((cache_on / cache.BUILT).glob("*.pickle"))) == 1
 
 
 @pytest.mark.parametrize("which", ["lp", "nlp"])

@@ -381,7 +381,7 @@ def fetch_built(
     in (CasADi's ``global_unpickle_context``, so symbols shared between expressions stay
     shared)."""
     where = built_folder()
-    if where is None or not private(where):
+    if where is None or not private(where.parent) or not private(where):
         return None
     entry = _built_entry(where, kind, parts)
 
@@ -416,6 +416,8 @@ def keep_built(
     leaves nothing behind."""
     where = built_folder()
     if where is None:
+        return
+    if where.parent.exists() and not private(where.parent):  # the cache folder itself is someone else's
         return
     entry = _built_entry(where, kind, parts)
     import copyreg
