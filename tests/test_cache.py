@@ -234,3 +234,29 @@ def test_built_objects_beyond_the_byte_budget_are_removed(cache_on, monkeypatch)
     assert cache.fetch_built("thing", ("b",), {}) is None
     cache.keep_built("thing", ("d",), b"x" * 5000, {})
     assert [cache.fetch_built("thing", (n,), {}) is not None for n in "abcd"] == [False, False, False, True]
+
+
+def test_solve_twice_through_the_kept_designer_and_evaluators_writes_the_same_files(tmp_path, cache_on, capsys, monkeypatch):
+    """``counterpoise solve`` as the console script runs it (problems and built objects
+    kept): the second run takes the problem, the designer and the evaluators from the disk
+    (nothing is built: building would fail) and writes the same report files, byte for
+    byte (the summary and status hold timings)."""
+    from counterpoise.cli import main
+    from counterpoise.designer import designer
+    from counterpoise.verify import residuals
+
+    def no_build(*args, **kwargs):
+        raise AssertionError("built again")
+
+    file = PROBLEMS / "yasir2019_hybrid.toml"
+    for run in ("first", "second"):
+        if run == "second":
+            monkeypatch.setattr(designer, "Formulation", no_build)
+            monkeypatch.setattr(residuals.SubsystemResiduals, "__init__", no_build)
+        with pytest.raises(SystemExit) as stop:
+            main(["solve", str(file), "--out", str(tmp_path / run)])
+        assert stop.value.code == 0, capsys.readouterr().err
+    assert sorted(p.name.split(".")[0] for p in (cache_on / "built").glob("*.pickle")) == ["designer", "evaluators"]
+    for name in ("design.csv", "springs.csv", "build.csv", "verification.csv"):
+        first = (tmp_path / "first" / "yasir2019_hybrid" / name).read_bytes()
+        assert (tmp_path / "second" / "yasir2019_hybrid" / name).read_bytes() == first, name
