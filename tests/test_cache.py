@@ -194,6 +194,10 @@ def test_designers_are_not_kept_outside_solve(tmp_path, monkeypatch):
     monkeypatch.setattr(cache, "_built", False)
     Designer(pendulum(0.8, 0.3, (0.02, 1.0), 25.0).build())
     assert cache.built_folder() is None and not (tmp_path / "cache").exists()
+    monkeypatch.setattr(cache, "_built", True)
+    monkeypatch.setenv(cache.ENVIRONMENT, "off")  # COUNTERPOISE_CACHE=off: nothing kept by solve either
+    Designer(pendulum(0.8, 0.3, (0.02, 1.0), 25.0).build())
+    assert cache.built_folder() is None and not (tmp_path / "cache").exists()
 
 
 def test_the_dense_checks_evaluators_are_kept_after_their_first_check(cache_on, monkeypatch):
