@@ -30,7 +30,10 @@ if TYPE_CHECKING:
 def evaluators(solution: "Solution", samples: int | None = None, seed: int | None = None) -> list[tuple[str, str, SubsystemResiduals]]:
     """(scenario, subsystem, evaluator) of every pair, built once per problem, sample count
     and seed, and reused by later checks of the same problem (the configurations do not
-    depend on parameter values; each evaluator rebuilds its arrays when the geometry does)."""
+    depend on parameter values; each evaluator rebuilds its arrays when the geometry does).
+    Under ``counterpoise solve`` they are kept on disk after their first check and a later
+    solve of the same content takes them from there (:func:`_restore`; not those of a
+    closed loop's manifold)."""
     problem = solution.problem
     settings = problem.settings
     seed = settings.seed + 1 if seed is None else seed
