@@ -14,8 +14,11 @@ def pyplot() -> Any:
     return plt
 
 
-def save(fig: Any, path: Any) -> None:
-    """Write ``fig`` as PNG through a temporary file and a rename, then close it."""
+def save(fig: Any, path: Any, *, tight: bool = True) -> None:
+    """Write ``fig`` as PNG through a temporary file and a rename, then close it.
+
+    ``tight``: crop the picture to what is drawn (``bbox_inches="tight"``, which draws the
+    figure once more to find it); False for a figure laid out by its maker."""
     import os
     import tempfile
     from pathlib import Path
@@ -27,7 +30,7 @@ def save(fig: Any, path: Any) -> None:
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".png", dir=path.parent)
     os.close(fd)
     try:
-        fig.savefig(tmp, dpi=110, bbox_inches="tight")
+        fig.savefig(tmp, dpi=110, bbox_inches="tight" if tight else None)
         respect_umask(tmp)
         os.replace(tmp, path)
     except BaseException:

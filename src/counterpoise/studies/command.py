@@ -80,8 +80,11 @@ def check_varied_values(problem: Problem, plan: StudyPlan, overrides: dict[str, 
     or a weight of the wrong sign is an input error naming the --vary key, before any
     work). Points lie between the ends, and what the checks reject (a negative mass, a
     bound outside another) is a bound on the value, so the ends stand for the range.
-    Problems not read from a file (the Python API) are not re-read."""
-    from ..io.loader import load_problem
+    Problems not read from a file (the Python API) are not re-read. The console script
+    reads each end from its cache of loaded problems (:mod:`counterpoise.io.cache`, keyed on
+    the file's content and the overrides) when the same study ran before, as it reads the
+    problem itself: a repeated study then imports neither pint nor pydantic for them."""
+    from ..io.cache import load as load_problem  # the loader itself when the cache is off
 
     label = problem.path or problem.name
     if not problem.path or not Path(problem.path).is_file():
