@@ -1,5 +1,5 @@
 """What makes studies faster keeps their results: the study file written once per row, and
-matplotlib imported while the workers run."""
+matplotlib imported and warmed up while the workers run."""
 
 from __future__ import annotations
 
@@ -19,19 +19,33 @@ def _cli(args, capsys):
     return exit_.value.code, capsys.readouterr()
 
 
-def test_plot_preload_imports_matplotlib_once_and_only_when_enabled(monkeypatch):
-    monkeypatch.delitem(sys.modules, "matplotlib.pyplot", raising=False)  # imported here, not by another test
+def test_plot_preload_warms_matplotlib_once_and_only_when_enabled(monkeypatch):
+    from counterpoise.plots import study as study_plot
+
+    calls = []
+    monkeypatch.setattr(study_plot, "prepare", lambda: calls.append(1))
     off = PlotPreload(False)
     off.start()
     off.join()
-    assert off._thread is None and "matplotlib.pyplot" not in sys.modules
+    assert off._thread is None and calls == []
     on = PlotPreload(True)
     on.start()
     first = on._thread
     on.start()  # a second batch: no second thread
     on.join()
     assert on._thread is first and not first.is_alive()
-    assert "matplotlib.pyplot" in sys.modules
+    assert calls == [1]
+
+
+def test_the_plot_warm_up_draws_without_pyplot_and_writes_nothing(tmp_path, monkeypatch):
+    """prepare() imports matplotlib and draws a figure in memory: no file, no pyplot figure."""
+    from counterpoise.plots.study import prepare
+
+    monkeypatch.chdir(tmp_path)
+    had_pyplot = "matplotlib.pyplot" in sys.modules  # another test may have imported it
+    prepare()
+    assert "matplotlib.figure" in sys.modules and list(tmp_path.iterdir()) == []
+    assert had_pyplot or "matplotlib.pyplot" not in sys.modules
 
 
 def test_pool_study_with_plot_matches_the_serial_study(tmp_path, capsys):

@@ -20,6 +20,7 @@ def save(fig: Any, path: Any, *, tight: bool = True) -> None:
     ``tight``: crop the picture to what is drawn (``bbox_inches="tight"``, which draws the
     figure once more to find it); False for a figure laid out by its maker."""
     import os
+    import sys
     import tempfile
     from pathlib import Path
 
@@ -37,4 +38,5 @@ def save(fig: Any, path: Any, *, tight: bool = True) -> None:
         Path(tmp).unlink(missing_ok=True)
         raise
     finally:
-        pyplot().close(fig)
+        if "matplotlib.pyplot" in sys.modules:  # a figure made by pyplot: forget it there; others have no pyplot state
+            pyplot().close(fig)

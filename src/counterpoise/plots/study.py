@@ -47,6 +47,24 @@ def _grid(nrows: int, ncols: int) -> tuple[Any, Any]:
     return fig, axes
 
 
+def prepare() -> None:
+    """Import what :func:`study_plots` draws with and draw a small figure of the same kind,
+    written nowhere: the font is loaded and matplotlib's caches are filled, so the plot
+    after a study costs its own drawing only. For a thread of the study's process while
+    pool workers solve the points (:class:`counterpoise.studies.command.PlotPreload`)."""
+    from PIL import PngImagePlugin  # noqa: F401 - imported for the PNG writer
+
+    fig, axes = _grid(1, 1)
+    ax = axes[0, 0]
+    ax.plot([0.0, 1.0], [0.0, 1.0], color="tab:blue", label="optimal")
+    ax.set_xlabel("x [1]")
+    ax.set_ylabel("y [1]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="best")
+    fig.suptitle("study\npoints", fontsize=11)
+    fig.canvas.draw()
+
+
 def _number(text: str) -> float:
     try:
         return float(text)

@@ -222,7 +222,8 @@ def _run(problem: Problem, plan: Any, options: StudyOptions, runner: Runner, tas
 
 
 class PlotPreload:
-    """Imports matplotlib (≈ 0.5 s of CPU) in a thread of this process while worker
+    """Imports matplotlib (≈ 0.5 s of CPU) and warms it up (:func:`counterpoise.plots.study.prepare`:
+    the font loaded, a small figure drawn) in a thread of this process while worker
     processes solve the points, instead of after them: the study's own process only waits
     for results meanwhile. Started after the first batch came back, when every pool worker
     has been forked (a fork during an import would leave the child a module lock held by a
@@ -244,9 +245,9 @@ class PlotPreload:
 
 
 def _import_matplotlib() -> None:
-    from ..plots import _mpl
-
     try:
-        _mpl.pyplot()
+        from ..plots.study import prepare
+
+        prepare()
     except ImportError:  # pragma: no cover - the plot itself reports it
         pass
