@@ -2,9 +2,9 @@
 
 :func:`main` is the console-script entry point. It imports nothing heavy: ``counterpoise``
 and ``counterpoise --help`` are answered from the table of commands in :mod:`.spec` (the
-standard library only), and ``counterpoise solve`` and ``validate`` are parsed by
-:mod:`.light` with a parser derived from that table (it imports the library, not typer or
-rich); every other command, and any call :mod:`.light` hands back (``--help``, a usage
+standard library only), and ``counterpoise solve``, ``validate`` and ``study`` are parsed
+by :mod:`.light` with a parser derived from that table (it imports the library, not typer;
+only a study's progress bar imports rich); every other command, and any call :mod:`.light` hands back (``--help``, a usage
 error), goes to the typer app in :mod:`.app`, whose commands are built from the same
 table, imported then.
 When the console script runs ``solve``, ``validate`` or ``study``, the process ends with ``os._exit``
