@@ -3,12 +3,14 @@ matplotlib imported and warmed up while the workers run."""
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 
 import pytest
 
 from conftest import PROBLEMS
 from counterpoise.cli.app import main
+from counterpoise.io.loader import load_problem
 from counterpoise.studies.command import PlotPreload
 from counterpoise.studies.study import read_rows
 
@@ -94,3 +96,44 @@ def test_pool_workers_inherit_the_method_built_before_the_fork(tmp_path, capsys,
     code, printed = _cli(["study", file, "--vary", "inertia_weight=0 1/m^2:10 1/m^2:2", "--out", str(tmp_path / "weight"), "--jobs", "2", "--batch-size", "1", "--no-plot"], capsys)
     assert code == 0
     assert str(os.getpid()) not in log.read_text(encoding="utf-8").split()  # built per weight in the workers
+
+
+def test_vary_in_the_files_unit_is_read_as_pint_reads_it_without_pint(monkeypatch):
+    """``m_c=300 g:500 g:3`` on a file that writes m_c in g takes the file's unit: the same
+    values and unit as pint gives (300 g and 500 g: 0.3 kg and 0.5 kg), with the unit
+    registry never asked. Another unit (kg here) still goes through pint."""
+    from counterpoise.model import units
+    from counterpoise.studies import spec
+
+    problem = load_problem(PROBLEMS / "yasir2019_counter_mass.toml")
+    start, stop = units.parse_quantity("300 g"), units.parse_quantity("500 g")  # pint's reading
+
+    def no_pint(*args: object) -> None:
+        raise AssertionError("pint asked for a unit the file already resolved")
+
+    monkeypatch.setattr(units, "ureg", no_pint)
+    monkeypatch.setattr(units, "display_unit", no_pint)
+    monkeypatch.setattr(spec, "parse_quantity", no_pint)
+    fast = spec.parse_vary(problem, "m_c=300 g:500 g:3", "f")
+    assert (fast.start, fast.stop, fast.unit) == (start.si, stop.si, start.unit) == (start.si, 0.5, stop.unit)
+    assert fast.header == "m_c [g]" and fast.count == 3
+    with pytest.raises(AssertionError, match="pint asked"):
+        spec.parse_vary(problem, "m_c=0.3 kg:0.5 kg:3", "f")
+
+
+def test_the_study_plot_draws_the_objective_and_each_design_variable_once_laid_out(tmp_path, capsys, monkeypatch):
+    """study.png of a one-key grid: one row for the objective and one per design variable of
+    yasir2019_counter_mass (M_a, M_b, M_c), none for the text column ``certificate``; the
+    figure is saved as laid out (no second drawing to crop it)."""
+    from counterpoise.plots import study as study_plot
+
+    file = str(PROBLEMS / "yasir2019_counter_mass.toml")
+    code, _ = _cli(["study", file, "--vary", "m_c=300 g:500 g:3", "--out", str(tmp_path), "--jobs", "1", "--no-plot"], capsys)
+    assert code == 0
+    saved = []
+    monkeypatch.setattr(study_plot, "save", lambda fig, path, tight=True: saved.append((fig, path, tight)))
+    study_plot.study_plots(tmp_path / "yasir2019_counter_mass-study")
+    [(fig, path, tight)] = saved
+    assert path.name == "study.png" and tight is False
+    assert [ax.get_ylabel() for ax in fig.axes] == ["objective [kg]", "M_a [g]", "M_b [g]", "M_c [g]"]
+    assert all(ax.get_xlabel() == "m_c [g]" for ax in fig.axes)
