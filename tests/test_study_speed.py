@@ -137,3 +137,28 @@ def test_the_study_plot_draws_the_objective_and_each_design_variable_once_laid_o
     assert path.name == "study.png" and tight is False
     assert [ax.get_ylabel() for ax in fig.axes] == ["objective [kg]", "M_a [g]", "M_b [g]", "M_c [g]"]
     assert all(ax.get_xlabel() == "m_c [g]" for ax in fig.axes)
+
+
+def test_a_study_is_served_by_the_fast_path_without_typer(tmp_path):
+    """``counterpoise study`` in a fresh process: parsed and run by the fast path
+    (``light.run_study``), so typer (and the pydantic adapters it builds per option) is
+    never imported; the study is written as by the app."""
+    import os
+    import subprocess
+    from pathlib import Path
+
+    src = str(Path(__file__).resolve().parent.parent / "src")
+    code = (
+        "import sys\n"
+        "from counterpoise.cli import main\n"
+        f"try:\n    main(['study', {str(PROBLEMS / 'yasir2019_counter_mass.toml')!r}, '--vary', 'm_c=300 g:500 g:2', '--jobs', '1', '--no-plot',"
+        f" '--out', {str(tmp_path)!r}])\n"
+        "except SystemExit as e:\n    code = e.code\n"
+        "print(code, sorted(m for m in ('typer', 'click', 'matplotlib') if m in sys.modules))\n"
+    )
+    environ = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [src, os.environ.get("PYTHONPATH")]))}
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=environ)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.strip().splitlines()[-1] == "0 []"
+    assert "2 points run (2 optimal)" in run.stdout
+    assert len(read_rows(tmp_path / "yasir2019_counter_mass-study" / "study.csv")) == 2
