@@ -119,7 +119,7 @@ def test_a_command_function_must_take_the_tables_parameters():
         cli_app.command(solve)
 
 
-@pytest.mark.parametrize("name, function", [("solve", light.run_solve), ("validate", light.run_validate)])
+@pytest.mark.parametrize("name, function", [("solve", light.run_solve), ("validate", light.run_validate), ("study", light.run_study)])
 def test_the_shared_function_takes_every_option_of_its_command(name, function):
     """The fast path and the app call the same function with the parsed values."""
     assert name in light.FAST
@@ -142,6 +142,7 @@ def recorded(monkeypatch):
 
     monkeypatch.setattr(light, "run_solve", record)
     monkeypatch.setattr(light, "run_validate", record)
+    monkeypatch.setattr(light, "run_study", record)
     return calls
 
 
@@ -158,6 +159,10 @@ SAME = [
     ["solve", "--set", "a=[1, 2]", "a.toml", "--set=b={ c = 1 }"],
     ["validate", "a.toml", "b.toml", "--set", "x=1"],
     ["validate", "--debug", "a.toml"],
+    ["study", "a.toml", "--vary", "m=1 g:2 g:3"],
+    ["study", "a.toml", "--vary=m=1 g:2 g", "--vary", "r=1 mm:2 mm", "--samples", "5", "--method", "lhs", "--seed", "7", "--jobs", "2",
+     "--out", "o", "--resume", "--time-limit", "1.5", "--batch-size", "4", "--no-plot", "--set", "x=1", "--check", "dense"],
+    ["study", "a.toml", "--vary", "m=1 g:2 g:3", "--scheduler", "local", "--scheduler-timeout", "2.5", "--plot"],
 ]
 
 
@@ -192,6 +197,8 @@ def test_the_fast_path_and_the_app_read_the_same_values(recorded, argv):
         ["solve", "a.toml", "--x y"],
         ["solve", "a.toml", "--debug"],  # --debug is taken out before parsing
         ["validate", "a.toml", "--plot"],
+        ["study", "a.toml", "--samples", "two", "--vary", "m=1 g:2 g"],
+        ["study", "a.toml", "--vary"],
         ["schedule", "a.toml", "--payload", "1 kg"],  # not served here
     ],
 )

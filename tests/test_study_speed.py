@@ -1,14 +1,16 @@
 """What makes studies faster keeps their results: the study file written once per row, and
-matplotlib imported while the workers run."""
+matplotlib imported and warmed up while the workers run."""
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 
 import pytest
 
 from conftest import PROBLEMS
 from counterpoise.cli.app import main
+from counterpoise.io.loader import load_problem
 from counterpoise.studies.command import PlotPreload
 from counterpoise.studies.study import read_rows
 
@@ -19,19 +21,33 @@ def _cli(args, capsys):
     return exit_.value.code, capsys.readouterr()
 
 
-def test_plot_preload_imports_matplotlib_once_and_only_when_enabled(monkeypatch):
-    monkeypatch.delitem(sys.modules, "matplotlib.pyplot", raising=False)  # imported here, not by another test
+def test_plot_preload_warms_matplotlib_once_and_only_when_enabled(monkeypatch):
+    from counterpoise.plots import study as study_plot
+
+    calls = []
+    monkeypatch.setattr(study_plot, "prepare", lambda: calls.append(1))
     off = PlotPreload(False)
     off.start()
     off.join()
-    assert off._thread is None and "matplotlib.pyplot" not in sys.modules
+    assert off._thread is None and calls == []
     on = PlotPreload(True)
     on.start()
     first = on._thread
     on.start()  # a second batch: no second thread
     on.join()
     assert on._thread is first and not first.is_alive()
-    assert "matplotlib.pyplot" in sys.modules
+    assert calls == [1]
+
+
+def test_the_plot_warm_up_draws_without_pyplot_and_writes_nothing(tmp_path, monkeypatch):
+    """prepare() imports matplotlib and draws a figure in memory: no file, no pyplot figure."""
+    from counterpoise.plots.study import prepare
+
+    monkeypatch.chdir(tmp_path)
+    had_pyplot = "matplotlib.pyplot" in sys.modules  # another test may have imported it
+    prepare()
+    assert "matplotlib.figure" in sys.modules and list(tmp_path.iterdir()) == []
+    assert had_pyplot or "matplotlib.pyplot" not in sys.modules
 
 
 def test_pool_study_with_plot_matches_the_serial_study(tmp_path, capsys):
@@ -80,3 +96,69 @@ def test_pool_workers_inherit_the_method_built_before_the_fork(tmp_path, capsys,
     code, printed = _cli(["study", file, "--vary", "inertia_weight=0 1/m^2:10 1/m^2:2", "--out", str(tmp_path / "weight"), "--jobs", "2", "--batch-size", "1", "--no-plot"], capsys)
     assert code == 0
     assert str(os.getpid()) not in log.read_text(encoding="utf-8").split()  # built per weight in the workers
+
+
+def test_vary_in_the_files_unit_is_read_as_pint_reads_it_without_pint(monkeypatch):
+    """``m_c=300 g:500 g:3`` on a file that writes m_c in g takes the file's unit: the same
+    values and unit as pint gives (300 g and 500 g: 0.3 kg and 0.5 kg), with the unit
+    registry never asked. Another unit (kg here) still goes through pint."""
+    from counterpoise.model import units
+    from counterpoise.studies import spec
+
+    problem = load_problem(PROBLEMS / "yasir2019_counter_mass.toml")
+    start, stop = units.parse_quantity("300 g"), units.parse_quantity("500 g")  # pint's reading
+
+    def no_pint(*args: object) -> None:
+        raise AssertionError("pint asked for a unit the file already resolved")
+
+    monkeypatch.setattr(units, "ureg", no_pint)
+    monkeypatch.setattr(units, "display_unit", no_pint)
+    monkeypatch.setattr(spec, "parse_quantity", no_pint)
+    fast = spec.parse_vary(problem, "m_c=300 g:500 g:3", "f")
+    assert (fast.start, fast.stop, fast.unit) == (start.si, stop.si, start.unit) == (start.si, 0.5, stop.unit)
+    assert fast.header == "m_c [g]" and fast.count == 3
+    with pytest.raises(AssertionError, match="pint asked"):
+        spec.parse_vary(problem, "m_c=0.3 kg:0.5 kg:3", "f")
+
+
+def test_the_study_plot_draws_the_objective_and_each_design_variable_once_laid_out(tmp_path, capsys, monkeypatch):
+    """study.png of a one-key grid: one row for the objective and one per design variable of
+    yasir2019_counter_mass (M_a, M_b, M_c), none for the text column ``certificate``; the
+    figure is saved as laid out (no second drawing to crop it)."""
+    from counterpoise.plots import study as study_plot
+
+    file = str(PROBLEMS / "yasir2019_counter_mass.toml")
+    code, _ = _cli(["study", file, "--vary", "m_c=300 g:500 g:3", "--out", str(tmp_path), "--jobs", "1", "--no-plot"], capsys)
+    assert code == 0
+    saved = []
+    monkeypatch.setattr(study_plot, "save", lambda fig, path, tight=True: saved.append((fig, path, tight)))
+    study_plot.study_plots(tmp_path / "yasir2019_counter_mass-study")
+    [(fig, path, tight)] = saved
+    assert path.name == "study.png" and tight is False
+    assert [ax.get_ylabel() for ax in fig.axes] == ["objective [kg]", "M_a [g]", "M_b [g]", "M_c [g]"]
+    assert all(ax.get_xlabel() == "m_c [g]" for ax in fig.axes)
+
+
+def test_a_study_is_served_by_the_fast_path_without_typer(tmp_path):
+    """``counterpoise study`` in a fresh process: parsed and run by the fast path
+    (``light.run_study``), so typer (and the pydantic adapters it builds per option) is
+    never imported; the study is written as by the app."""
+    import os
+    import subprocess
+    from pathlib import Path
+
+    src = str(Path(__file__).resolve().parent.parent / "src")
+    code = (
+        "import sys\n"
+        "from counterpoise.cli import main\n"
+        f"try:\n    main(['study', {str(PROBLEMS / 'yasir2019_counter_mass.toml')!r}, '--vary', 'm_c=300 g:500 g:2', '--jobs', '1', '--no-plot',"
+        f" '--out', {str(tmp_path)!r}])\n"
+        "except SystemExit as e:\n    code = e.code\n"
+        "print(code, sorted(m for m in ('typer', 'click', 'matplotlib') if m in sys.modules))\n"
+    )
+    environ = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [src, os.environ.get("PYTHONPATH")]))}
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=environ)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.strip().splitlines()[-1] == "0 []"
+    assert "2 points run (2 optimal)" in run.stdout
+    assert len(read_rows(tmp_path / "yasir2019_counter_mass-study" / "study.csv")) == 2

@@ -2,12 +2,12 @@
 
 :func:`main` is the console-script entry point. It imports nothing heavy: ``counterpoise``
 and ``counterpoise --help`` are answered from the table of commands in :mod:`.spec` (the
-standard library only), and ``counterpoise solve`` and ``validate`` are parsed by
-:mod:`.light` with a parser derived from that table (it imports the library, not typer or
-rich); every other command, and any call :mod:`.light` hands back (``--help``, a usage
+standard library only), and ``counterpoise solve``, ``validate`` and ``study`` are parsed
+by :mod:`.light` with a parser derived from that table (it imports the library, not typer;
+only a study's progress bar imports rich); every other command, and any call :mod:`.light` hands back (``--help``, a usage
 error), goes to the typer app in :mod:`.app`, whose commands are built from the same
 table, imported then.
-When the console script runs ``solve`` or ``validate``, the process ends with ``os._exit``
+When the console script runs ``solve``, ``validate`` or ``study``, the process ends with ``os._exit``
 once the command has returned and stdout and stderr are flushed: every report is already
 closed and renamed into place by then (:mod:`counterpoise.report.files`), and tearing down
 the imported modules (numpy, CasADi, pint, pydantic) would take longer than the work.
@@ -29,8 +29,9 @@ from .spec import COMMANDS, top_level_help, wants_top_level_help
 __all__ = ["COMMANDS", "main"]
 
 #: Commands after which the process may end without interpreter teardown (they write every
-#: file before returning, and ``solve --jobs`` has shut its worker pool down by then).
-FAST_EXIT = frozenset({"solve", "validate"})
+#: file before returning, and ``solve --jobs`` and ``study`` have shut their worker pool
+#: down and joined the plot preload thread by then).
+FAST_EXIT = frozenset({"solve", "validate", "study"})
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -217,63 +217,8 @@ def schedule(file: Path, payload: str, set_: list[str] | None) -> None:
 
 
 @command
-def study(
-    file: Path,
-    vary: list[str],
-    samples: int | None,
-    method: str | None,
-    seed: int | None,
-    out: Path,
-    jobs: int | None,
-    scheduler: str | None,
-    scheduler_timeout: float,
-    resume: bool,
-    time_limit: float | None,
-    batch_size: int,
-    plot: bool,
-    set_: list[str] | None,
-    check: str,
-) -> None:
-    from ..studies.command import StudyOptions, run_study_command
-
-    overrides = _overrides(set_)
-    problem = _load_all([file], overrides)[0]
-    _check_out(out)
-    options = StudyOptions(tuple(vary), samples, method, seed, out, jobs, scheduler, scheduler_timeout, resume, time_limit, batch_size, plot,
-                           overrides=tuple(overrides.items()), check=check)
-    try:
-        outcome = run_study_command(problem, options, err_console)
-    except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM: workers stopped, finished batches kept
-        _study_interrupted(problem, out, exc)
-    except ProblemFileError as exc:
-        err_console.print(str(exc), markup=False)
-        raise typer.Exit(2) from None
-    except OSError as exc:
-        err_console.print(f"{problem.path}: cannot write the study to {out}: {exc.strerror or exc}", markup=False)
-        raise typer.Exit(1) from None
-    counts = ", ".join(f"{n} {s}" for s, n in sorted(outcome.counts.items()))
-    skipped = f", {outcome.skipped} already done" if outcome.skipped else ""
-    out_console.print(f"{problem.name}: {outcome.run} points run ({counts or 'none'}){skipped} in {outcome.wall_time:.1f} s; study in {outcome.folder}/", markup=False)
-
-
-#: exit status of an interrupted study: 128 + the signal number, as shells report it
-EXIT_SIGINT, EXIT_SIGTERM = 130, 143
-
-
-def _study_interrupted(problem: Problem, out: Path, exc: KeyboardInterrupt) -> None:
-    from ..studies.command import StudyTerminated
-    from ..studies.study import study_folder, study_in_progress
-
-    folder = study_in_progress(problem, out)
-    kept = study_folder(problem, out)
-    earlier = f" (the earlier study in {kept} is kept until this one completes)" if folder != kept else ""
-    what = "terminated" if isinstance(exc, StudyTerminated) else "interrupted"
-    err_console.print(
-        f"{problem.path}: {what}; the finished points are in {folder / 'study.csv'}{earlier}; "
-        "run the same command with --resume to continue",
-        markup=False,
-    )
-    raise typer.Exit(EXIT_SIGTERM if isinstance(exc, StudyTerminated) else EXIT_SIGINT)
+def study(**values: Any) -> None:
+    raise typer.Exit(light.run_study(_err_line, _out_line, **values))  # the fast path's function
 
 
 @command

@@ -1,6 +1,6 @@
-"""The fast path of the command line: ``counterpoise solve`` and ``validate`` without typer
-and rich, and what both paths share (reading ``--set``, running ``solve`` and ``validate``,
-printing the summary).
+"""The fast path of the command line: ``counterpoise solve``, ``validate`` and ``study``
+without typer (and ``solve`` and ``validate`` without rich), and what both paths share
+(reading ``--set``, running ``solve``, ``validate`` and ``study``, printing the summary).
 
 - ``counterpoise solve ...`` and ``validate ...`` are parsed here by an :mod:`argparse`
   parser derived from the command's entry in :data:`counterpoise.cli.spec.COMMANDS`
@@ -34,8 +34,13 @@ if TYPE_CHECKING:
     import argparse
     from pathlib import Path
 
+    from ..model.problem import Problem
+
 #: Commands the fast path runs (every other one goes to the typer app).
-FAST = ("solve", "validate")
+FAST = ("solve", "validate", "study")
+
+#: exit status of an interrupted study: 128 + the signal number, as shells report it
+EXIT_SIGINT, EXIT_SIGTERM = 130, 143
 
 #: Exit status of an internal error, on both paths (:func:`guarded`).
 INTERNAL_ERROR = 3
@@ -214,6 +219,8 @@ def run(args: list[str], pause_gc: bool = False) -> int | None:
     def body() -> int:
         if command.name == "validate":
             return run_validate(_err, _out, **values)
+        if command.name == "study":
+            return run_study(_err, _out, loaded=loaded, **values)
         return run_solve(_err, print_summary, loaded=loaded, **values)
 
     try:
@@ -308,6 +315,83 @@ def run_validate(err: Err, out: Err, *, files: list[Path], set_: list[str] | Non
             f"{len(p.variables)} variable(s), {len(p.scenarios)} scenario(s))"
         )
     return 0
+
+
+def run_study(
+    err: Err,
+    said: Err,
+    *,
+    file: Path,
+    vary: list[str],
+    samples: int | None,
+    method: str | None,
+    seed: int | None,
+    out: Path,
+    jobs: int | None,
+    scheduler: str | None,
+    scheduler_timeout: float,
+    resume: bool,
+    time_limit: float | None,
+    batch_size: int,
+    plot: bool,
+    set_: list[str] | None,
+    check: str,
+    loaded: Callable[[], None] | None = None,
+) -> int:
+    """``counterpoise study`` once its values are parsed and checked (by either path): load
+    the file, run the study (its progress bar drawn by rich on stderr), say where it is on
+    ``said``; the exit status (2 bad input, 1 the study cannot be written, 130/143
+    interrupted by Ctrl-C/SIGTERM with the finished points kept, else 0 whatever the
+    points' statuses). ``loaded`` is called once the file has loaded."""
+    from rich.console import Console
+
+    from ..errors import ProblemFileError
+    from ..studies.command import StudyOptions, run_study_command
+    from .run import load_all, out_error
+
+    try:
+        sets = overrides(set_)
+    except UsageError as exc:
+        err(str(exc))
+        return 2
+    problems = load_all([file], sets, err)
+    if problems is None:
+        return 2
+    problem = problems[0]
+    wrong = out_error(out)
+    if wrong is not None:
+        err(wrong)
+        return 2
+    if loaded is not None:
+        loaded()
+    options = StudyOptions(tuple(vary), samples, method, seed, out, jobs, scheduler, scheduler_timeout, resume, time_limit, batch_size, plot,
+                           overrides=tuple(sets.items()), check=check)
+    try:
+        outcome = run_study_command(problem, options, Console(stderr=True, highlight=False, soft_wrap=True))
+    except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM: workers stopped, finished batches kept
+        return _study_interrupted(err, problem, out, exc)
+    except ProblemFileError as exc:
+        err(str(exc))
+        return 2
+    except OSError as exc:
+        err(f"{problem.path}: cannot write the study to {out}: {exc.strerror or exc}")
+        return 1
+    counts = ", ".join(f"{n} {s}" for s, n in sorted(outcome.counts.items()))
+    skipped = f", {outcome.skipped} already done" if outcome.skipped else ""
+    said(f"{problem.name}: {outcome.run} points run ({counts or 'none'}){skipped} in {outcome.wall_time:.1f} s; study in {outcome.folder}/")
+    return 0
+
+
+def _study_interrupted(err: Err, problem: Problem, out: Path, exc: KeyboardInterrupt) -> int:
+    from ..studies.command import StudyTerminated
+    from ..studies.study import study_folder, study_in_progress
+
+    folder = study_in_progress(problem, out)
+    kept = study_folder(problem, out)
+    earlier = f" (the earlier study in {kept} is kept until this one completes)" if folder != kept else ""
+    what = "terminated" if isinstance(exc, StudyTerminated) else "interrupted"
+    err(f"{problem.path}: {what}; the finished points are in {folder / 'study.csv'}{earlier}; run the same command with --resume to continue")
+    return EXIT_SIGTERM if isinstance(exc, StudyTerminated) else EXIT_SIGINT
 
 
 def overrides(items: list[str] | tuple[str, ...] | None) -> dict[str, object]:

@@ -14,9 +14,13 @@ def pyplot() -> Any:
     return plt
 
 
-def save(fig: Any, path: Any) -> None:
-    """Write ``fig`` as PNG through a temporary file and a rename, then close it."""
+def save(fig: Any, path: Any, *, tight: bool = True) -> None:
+    """Write ``fig`` as PNG through a temporary file and a rename, then close it.
+
+    ``tight``: crop the picture to what is drawn (``bbox_inches="tight"``, which draws the
+    figure once more to find it); False for a figure laid out by its maker."""
     import os
+    import sys
     import tempfile
     from pathlib import Path
 
@@ -27,11 +31,12 @@ def save(fig: Any, path: Any) -> None:
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".png", dir=path.parent)
     os.close(fd)
     try:
-        fig.savefig(tmp, dpi=110, bbox_inches="tight")
+        fig.savefig(tmp, dpi=110, bbox_inches="tight" if tight else None)
         respect_umask(tmp)
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
     finally:
-        pyplot().close(fig)
+        if "matplotlib.pyplot" in sys.modules:  # a figure made by pyplot: forget it there; others have no pyplot state
+            pyplot().close(fig)

@@ -80,8 +80,11 @@ def check_varied_values(problem: Problem, plan: StudyPlan, overrides: dict[str, 
     or a weight of the wrong sign is an input error naming the --vary key, before any
     work). Points lie between the ends, and what the checks reject (a negative mass, a
     bound outside another) is a bound on the value, so the ends stand for the range.
-    Problems not read from a file (the Python API) are not re-read."""
-    from ..io.loader import load_problem
+    Problems not read from a file (the Python API) are not re-read. The console script
+    reads each end from its cache of loaded problems (:mod:`counterpoise.io.cache`, keyed on
+    the file's content and the overrides) when the same study ran before, as it reads the
+    problem itself: a repeated study then imports neither pint nor pydantic for them."""
+    from ..io.cache import load as load_problem  # the loader itself when the cache is off
 
     label = problem.path or problem.name
     if not problem.path or not Path(problem.path).is_file():
@@ -219,7 +222,8 @@ def _run(problem: Problem, plan: Any, options: StudyOptions, runner: Runner, tas
 
 
 class PlotPreload:
-    """Imports matplotlib (≈ 0.5 s of CPU) in a thread of this process while worker
+    """Imports matplotlib (≈ 0.5 s of CPU) and warms it up (:func:`counterpoise.plots.study.prepare`:
+    the font loaded, a small figure drawn) in a thread of this process while worker
     processes solve the points, instead of after them: the study's own process only waits
     for results meanwhile. Started after the first batch came back, when every pool worker
     has been forked (a fork during an import would leave the child a module lock held by a
@@ -241,9 +245,9 @@ class PlotPreload:
 
 
 def _import_matplotlib() -> None:
-    from ..plots import _mpl
-
     try:
-        _mpl.pyplot()
+        from ..plots.study import prepare
+
+        prepare()
     except ImportError:  # pragma: no cover - the plot itself reports it
         pass

@@ -282,10 +282,10 @@ class ProcessRunner:
         self.jobs = jobs or os.cpu_count() or 1
 
     def map_batches(self, task: StudyTask, batches: Sequence[Sequence[Point]]) -> Iterator[list[PointResult]]:
-        pool = process_pool(self.jobs)
+        pool = process_pool(self.jobs, task)
         finished = False
         try:
-            futures = [pool.submit(solve_batch, task, batch) for batch in batches]
+            futures = [pool.submit(solve_pool_batch, batch) for batch in batches]
             for future in futures:
                 yield future.result()
             finished = True
@@ -293,10 +293,24 @@ class ProcessRunner:
             stop_pool(pool, finished)
 
 
-def process_pool(jobs: int) -> ProcessPoolExecutor:
+def process_pool(jobs: int, task: StudyTask | None = None) -> ProcessPoolExecutor:
     """A local pool of ``jobs`` worker processes set up by :func:`_pool_worker` (one BLAS
-    thread, Ctrl-C left to the parent, ended with the parent); end it with :func:`stop_pool`."""
-    return ProcessPoolExecutor(max_workers=jobs, initializer=_pool_worker)
+    thread, Ctrl-C left to the parent, ended with the parent); end it with :func:`stop_pool`.
+
+    ``task``: the study's task, given to each worker once, when it starts (a ``fork`` worker
+    inherits it, unpickled; another start method pickles it once per worker), for
+    :func:`solve_pool_batch`: a batch then carries only its points (the task holds the
+    problem, ~13 kB of pickle for ``yasir2019_hybrid``, once per batch before)."""
+    return ProcessPoolExecutor(max_workers=jobs, initializer=_pool_worker, initargs=(task,))
+
+
+#: the task this pool worker was started with (:func:`process_pool`)
+_POOL_TASK: list[StudyTask] = []
+
+
+def solve_pool_batch(points: Sequence[Point]) -> list[PointResult]:
+    """:func:`solve_batch` of the task this pool worker was started with."""
+    return solve_batch(_POOL_TASK[0], points)
 
 
 def stop_pool(pool: ProcessPoolExecutor, finished: bool) -> None:
@@ -334,14 +348,17 @@ def _single_threaded() -> None:
     tune_allocator()
 
 
-def _pool_worker() -> None:
-    """Set-up of a :class:`ProcessRunner` worker: :func:`_single_threaded`, and signals.
+def _pool_worker(task: StudyTask | None = None) -> None:
+    """Set-up of a :class:`ProcessRunner` worker: :func:`_single_threaded`, its study's
+    ``task`` kept for :func:`solve_pool_batch`, and signals.
 
     A pool worker leaves Ctrl-C to the study (which terminates it: a terminal sends SIGINT
     to the whole process group, and a worker's traceback would only add noise), and on
     Linux it ends when its parent does, even one killed by SIGKILL: no worker is orphaned.
     """
     _single_threaded()
+    if task is not None:
+        _POOL_TASK[:] = [task]
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, _ended)  # not the study's handler, inherited by fork
     _die_with_parent()

@@ -18,6 +18,8 @@ Every mistake raises a one-line :class:`~counterpoise.errors.ProblemFileError`
 from __future__ import annotations
 
 import itertools
+import math
+import re
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import NoReturn
@@ -31,8 +33,10 @@ from ..model.units import (
     DIMENSIONLESS,
     INVERSE_AREA,
     DisplayUnit,
+    Quantity,
     angle_hint,
     canonical_dimension,
+    check_length_range,
     dimension_name,
     is_angle_unit,
     parse_quantity,
@@ -100,6 +104,25 @@ def _resolve_key(problem: Problem, name: str, fail: Callable[[str], NoReturn]) -
     raise AssertionError  # pragma: no cover - fail raises
 
 
+#: a number (as :func:`~counterpoise.model.units.parse_quantity` reads one) and the unit after it
+_WRITTEN = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(\S.*?)\s*$")
+
+
+def _quantity(text: str, file_unit: DisplayUnit | None) -> Quantity:
+    """:func:`~counterpoise.model.units.parse_quantity` of ``text``; a quantity written in
+    the unit the file gives the key (``m_endo=400 g:...`` where the file says ``"692.3 g"``)
+    takes that unit as the file resolved it (the same symbol, size and dimension) instead
+    of asking pint again: a study of a problem read from the cache then needs no pint."""
+    written = _WRITTEN.match(text)
+    if file_unit is None or not file_unit.symbol or written is None or written.group(2) != file_unit.symbol:
+        return parse_quantity(text)
+    si = float(written.group(1)) * file_unit.to_si
+    if not math.isfinite(si):
+        return parse_quantity(text)  # its error message
+    check_length_range(si, file_unit.dimension, text)
+    return Quantity(si, file_unit)
+
+
 def parse_vary(problem: Problem, text: str, label: str) -> Vary:
     """One ``NAME=START:STOP[:N]``."""
     name, sep, rest = text.partition("=")
@@ -118,13 +141,13 @@ def parse_vary(problem: Problem, text: str, label: str) -> Vary:
     unit = None
     for part in parts[:2]:
         try:
-            q = parse_quantity(part)
+            q = _quantity(part, file_unit)
         except UnitError as exc:
             fail(str(exc))
         if q.dimension != dimension and not (q.si == 0 and not q.unit.symbol):  # a bare 0 is 0 in any unit
             hint = f" such as '{parts[0]} {file_unit.symbol}'" if file_unit is not None and file_unit.symbol and q.unit.symbol == "" else ""
             fail(f"'{part}' is {dimension_name(q.dimension)}, expected {dimension_name(dimension)}{hint}")
-        if file_unit is not None and is_angle_unit(file_unit.symbol) and not q.unit.symbol and q.si != 0:
+        if file_unit is not None and not q.unit.symbol and q.si != 0 and is_angle_unit(file_unit.symbol):
             fail(f"'{part}' is a bare number used as an angle ({name} is in {file_unit.symbol}): {angle_hint(q.si)}")
         values.append(q.si)
         unit = unit or (q.unit if q.unit.symbol else None)
