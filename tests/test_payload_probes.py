@@ -18,7 +18,10 @@ import pytest
 from conftest import solved
 
 from counterpoise.designer.unbalanceable import least_residual_bound, unbalanceable
-from counterpoise.payload.schedule import AdjustmentSolver
+from counterpoise.payload.schedule import Adjusters, AdjustmentSolver
+
+#: the adjustment method, built once for the module (as a payload method keeps it)
+ADJUSTERS = Adjusters()
 
 
 @pytest.fixture(scope="module")
@@ -27,8 +30,9 @@ def design():
 
 
 def _solver(design):
-    """A new adjustment solver of the counterweight design (the shared result's stays untouched)."""
-    return AdjustmentSolver(design.payload.adjuster.source, design.payload.shared())
+    """A new adjustment solver of the counterweight design, with nothing solved yet (the
+    shared result's own solver stays untouched)."""
+    return AdjustmentSolver(design.payload.adjuster.source, design.payload.shared(), adjusters=ADJUSTERS)
 
 
 def test_least_residual_bound_by_hand():
