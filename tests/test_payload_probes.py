@@ -17,7 +17,8 @@ import pytest
 
 from conftest import solved
 
-from counterpoise.designer.unbalanceable import least_residual_bound, unbalanceable
+from counterpoise.designer.unbalanceable import unbalanceable
+from counterpoise.solvers.least_residual import least_residual_bound
 from counterpoise.payload.schedule import Adjusters, AdjustmentSolver
 
 #: the adjustment method, built once for the module (as a payload method keeps it)

@@ -26,7 +26,6 @@ changes no result: it is asked only for the verdict, and a False answer means "s
 
 from __future__ import annotations
 
-import itertools
 from collections.abc import Mapping
 from typing import TYPE_CHECKING
 from weakref import WeakKeyDictionary
@@ -35,6 +34,7 @@ import numpy as np
 
 from ..formulation.manifold import changed_geometry
 from ..solvers.base import Status
+from ..solvers.least_residual import least_residual_bound
 
 if TYPE_CHECKING:
     from ..formulation.layout import Slot
@@ -61,29 +61,6 @@ def affine_equalities(designer: "Designer") -> bool:
         known = bool(eq.numel()) and not ca.depends_on(ca.jacobian(eq, z), z)
         _AFFINE[designer] = known
     return known
-
-
-def least_residual_bound(jacobian: np.ndarray, offset: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> float:
-    """A lower bound on min over the box [lower, upper] of max_j |(J z + c)_j| (see the module
-    docstring); 0.0 when none is found. Exact (to rounding) for the least-squares pattern."""
-    m, n = jacobian.shape
-    best = 0.0
-    for pattern in itertools.product((0, 1, 2), repeat=n):  # 0: at lower, 1: at upper, 2: free
-        z = np.where(np.array(pattern) == 1, upper, lower).astype(float)
-        free = [i for i, kind in enumerate(pattern) if kind == 2]
-        if free:
-            fixed = [i for i, kind in enumerate(pattern) if kind != 2]
-            rhs = -(offset + jacobian[:, fixed] @ z[fixed])
-            z[free] = np.linalg.lstsq(jacobian[:, free], rhs, rcond=None)[0]
-            z = np.clip(z, lower, upper)
-        y = jacobian @ z + offset
-        norm = float(np.abs(y).sum())
-        if norm == 0.0 or not np.isfinite(norm):
-            continue
-        w = jacobian.T @ y
-        bound = (float(y @ offset) + float(np.minimum(w * lower, w * upper).sum())) / norm
-        best = max(best, bound)
-    return best
 
 
 def unbalanceable(
