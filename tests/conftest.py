@@ -152,6 +152,20 @@ def run_cli(*args: str, cwd: "Path | None" = None) -> CliRun:
     return CliRun(code, out.getvalue(), err.getvalue())
 
 
+def fresh_python(code: str, cwd: "Path | None" = None, **env: str) -> str:
+    """Run ``code`` in a fresh interpreter with this checkout's ``src`` first on the path, for
+    a test about the process itself (what it imports, how it starts); its stdout. ``env``:
+    variables added to the environment; ``cwd``: where it runs (default: the test's scratch
+    folder, see :func:`_work_outside_the_repository`)."""
+    import subprocess
+    import sys
+
+    environ = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT / "src"), os.environ.get("PYTHONPATH")])), **env}
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=environ, cwd=cwd)
+    assert run.returncode == 0, run.stderr
+    return run.stdout
+
+
 #: the test files that take the most CPU (measured with two pytest-xdist workers,
 #: benchmarks/README.md#the-test-suite-on-two-workers), heaviest first. With ``--dist loadfile`` a file runs
 #: on one worker, so a heavy file handed out last would keep one worker busy while the other

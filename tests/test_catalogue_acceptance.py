@@ -6,19 +6,15 @@ problem files explain their models in their header comments.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
-from conftest import solved
+from conftest import PROBLEMS, solved
 from counterpoise import design, load_problem
 from counterpoise.catalogue.limits import margins
 from counterpoise.report.files import report_texts
 from counterpoise.selection.geometry import sample_configurations, spring_lengths
 from counterpoise.solvers.base import Status
-
-PROBLEMS = Path(__file__).resolve().parent.parent / "problems"
 
 
 # the designs are conftest.solved's: shared with the other tests of these files (drawing, page, build sheet)

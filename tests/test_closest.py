@@ -5,8 +5,6 @@ sampled configurations), not least squares on the compressed conditions.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
 
 from counterpoise.cli import main
@@ -14,8 +12,8 @@ from counterpoise.designer import designer as designer_module
 from counterpoise.io.loader import load_problem_text
 from counterpoise.pipeline import design
 from counterpoise.solvers import Status
+from conftest import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 
 #: A tip m at r = 0.3 m in two scenarios, m = 1 kg and m = 2 kg, balanced by one shared
 #: counter-mass M at b behind the pivot: the residual of scenario s is (m_s r − M b) g cos q.

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import run_cli
+from conftest import ROOT, run_cli
 
 from builders import OVERDETERMINED_TOML, counter_mass_toml, pendulum, pendulum_toml, toml_head
 from counterpoise.designer import Designer
@@ -26,7 +26,6 @@ from counterpoise.pipeline import design
 from counterpoise.report import write_reports
 from counterpoise.solvers import Status
 
-ROOT = Path(__file__).resolve().parents[1]
 GOOD = ROOT / "problems" / "yasir2019_counter_mass.toml"
 CLI = Path(sys.executable).with_name("counterpoise")
 BIG = "1" * 400

@@ -7,14 +7,12 @@ closed-form functions, so the helper is tested apart from any problem.
 from __future__ import annotations
 
 import ast
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from counterpoise.solvers.gauss_newton import CONVERGED, ITERATIONS, NO_FREE_VARIABLE, REJECTED, gauss_newton
-
-ROOT = Path(__file__).resolve().parent.parent
+from conftest import ROOT
 
 
 def linear(a, b, admissible=lambda z: True):

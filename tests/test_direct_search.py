@@ -17,8 +17,8 @@ from counterpoise.errors import ProblemFileError
 from counterpoise.selection import direct
 from counterpoise.selection.direct import _enumerate, part_parameters, search_direct
 from counterpoise.selection.groups import direct_groups
+from conftest import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 LAMP = ROOT / "problems" / "lamp_direct.toml"
 SHIPPED = ROOT / "src" / "counterpoise" / "data" / "extension_springs.csv"
 QUIET = lambda done, total: None  # noqa: E731 - no progress line

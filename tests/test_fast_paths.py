@@ -14,19 +14,9 @@ from pathlib import Path
 
 import pytest
 
-from conftest import PROBLEMS
+from conftest import PROBLEMS, ROOT, fresh_python
 
-ROOT = Path(__file__).resolve().parent.parent
 URDFS = sorted((PROBLEMS / "robots").glob("*.urdf")) + sorted((ROOT / "tests" / "bad_problems" / "robots").glob("*.urdf"))
-
-
-def _fresh(code: str, **env: str) -> str:
-    """Run ``code`` in a fresh interpreter with this checkout's sources; return its stdout
-    (a fresh process: whether a module gets imported is the point)."""
-    environ = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT / "src"), os.environ.get("PYTHONPATH")])), **env}
-    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=environ, cwd=ROOT)
-    assert run.returncode == 0, run.stderr
-    return run.stdout
 
 
 _READ_ALL = (
@@ -51,12 +41,13 @@ def test_urdf_is_read_without_trimesh_and_reads_the_same():
     files = [str(f) for f in URDFS]
     assert any("ur5" in f for f in files)
     read = _READ_ALL.format(files=files)
-    light = _fresh(
+    light = fresh_python(
         "import sys\n" + read + "print('heavy', sorted(m for m in ('trimesh', 'scipy', 'networkx', 'rtree', 'shapely') if m in sys.modules))\n"
         "import trimesh, yourdfpy\n"
-        "print('whole', hasattr(trimesh, 'Trimesh') and yourdfpy.urdf.trimesh.Scene is trimesh.Scene and yourdfpy.urdf.tra is trimesh.transformations)\n"
+        "print('whole', hasattr(trimesh, 'Trimesh') and yourdfpy.urdf.trimesh.Scene is trimesh.Scene and yourdfpy.urdf.tra is trimesh.transformations)\n",
+        cwd=ROOT,
     ).splitlines()
-    whole = _fresh("import trimesh\n" + read).splitlines()
+    whole = fresh_python("import trimesh\n" + read, cwd=ROOT).splitlines()
     assert light[: len(whole)] == whole
     assert light[len(whole) :] == ["heavy []", "whole True"]
 
@@ -210,7 +201,7 @@ def test_console_script_keeps_the_problem_and_then_imports_neither_pint_nor_pyda
     outs = []
     for run in ("first", "second"):
         out = tmp_path / run
-        lines = _fresh(code.format(file=file, out=str(out)), **environ).strip().splitlines()
+        lines = fresh_python(code.format(file=file, out=str(out)), cwd=ROOT, **environ).strip().splitlines()
         outs.append(lines[-1])
     assert outs == ["0 ['counterpoise.io.loader', 'pint', 'pydantic']", "0 []"]
     assert len(list((tmp_path / "cache").glob("*.pickle"))) == 1

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import os
 import re
-from pathlib import Path
 
 import pytest
 
@@ -28,8 +27,8 @@ from hypothesis import strategies as st  # noqa: E402
 
 from counterpoise.errors import CounterpoiseError  # noqa: E402
 from counterpoise.io.loader import load_problem_text  # noqa: E402
+from conftest import PROBLEMS
 
-PROBLEMS = Path(__file__).resolve().parents[1] / "problems"
 TEXTS = [p.read_text(encoding="utf-8") for p in sorted(PROBLEMS.glob("*.toml"))]
 LINES = [line for text in TEXTS for line in text.splitlines()]
 EXAMPLES = int(os.environ.get("FUZZ_EXAMPLES", "150"))

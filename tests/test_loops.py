@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import run_cli, solved
+from conftest import PROBLEMS, ROOT, run_cli, solved
 
 from counterpoise.errors import ProblemFileError
 from counterpoise.io.builder import ProblemBuilder, rotate, translate
@@ -19,8 +19,6 @@ from counterpoise.mechanics.closure import check_assembly, closure, scenario_bas
 from counterpoise.pipeline import design
 from counterpoise.verify.manifold import ManifoldResiduals
 
-ROOT = Path(__file__).resolve().parents[1]
-PROBLEMS = ROOT / "problems"
 BAD = Path(__file__).resolve().parent / "bad_problems" / "loops"
 CLI = Path(sys.executable).with_name("counterpoise")
 G = 9.81

@@ -11,8 +11,8 @@ import pytest
 
 from counterpoise.io.loader import load_problem_text
 from counterpoise.pipeline import design
+from conftest import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 FOURBAR = (ROOT / "problems" / "fourbar_counter_mass.toml").read_text(encoding="utf-8")
 
 #: the acceptance's bound on the manifold residual (docs/loops.md)

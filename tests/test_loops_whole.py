@@ -5,7 +5,6 @@ whole holder (problems/yasir2019_holder*.toml, docs/seeds.md#yasir-holder)."""
 from __future__ import annotations
 
 import re
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,10 +14,8 @@ from counterpoise.mechanics.closure import closure, scenario_base
 from counterpoise.mechanics.poses import place
 from counterpoise.pipeline import design
 
-from conftest import solved
+from conftest import PROBLEMS, ROOT, solved
 
-ROOT = Path(__file__).resolve().parents[1]
-PROBLEMS = ROOT / "problems"
 G = 9.81
 MANIFOLD_RATIO = 1e-9
 

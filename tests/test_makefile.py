@@ -6,9 +6,8 @@ install a whole venv."""
 from __future__ import annotations
 
 import re
-from pathlib import Path
+from conftest import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 MAKEFILE = (ROOT / "Makefile").read_text(encoding="utf-8")
 
 

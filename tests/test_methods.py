@@ -2,12 +2,10 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
 
 from builders import counter_mass_toml, one_link_toml, payload_pendulum_toml
-from conftest import solved
+from conftest import ROOT, solved
 from counterpoise.designer.methods import DesignMethod, Minimax, MultiStart, Plain
 from counterpoise.errors import ProblemFileError
 from counterpoise.formulation.layout import Slot
@@ -15,7 +13,6 @@ from counterpoise.io.loader import load_problem, load_problem_text
 from counterpoise.pipeline import build_method, design, run
 from counterpoise.solvers.base import Status
 
-ROOT = Path(__file__).resolve().parent.parent
 
 PAYLOAD_PENDULUM = payload_pendulum_toml(
     "pendulum_payload_lever", "b", "0.05 m", "0.3 m", '["-b", 0, 0]', description="the counter-mass lever, set per payload: b(p) = (m + p) r / M"

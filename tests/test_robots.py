@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import run_cli
+from conftest import PROBLEMS, ROOT, run_cli
 
 from counterpoise.errors import ProblemFileError
 from counterpoise.io.builder import ProblemBuilder, rotate, translate
@@ -23,8 +23,6 @@ from counterpoise.io.loader import load_problem, load_problem_text
 from counterpoise.io.robot import rpy_from_matrix
 from counterpoise.mechanics.poses import mechanics, place
 
-ROOT = Path(__file__).resolve().parent.parent
-PROBLEMS = ROOT / "problems"
 BAD = Path(__file__).resolve().parent / "bad_problems" / "robots"
 SEED = 7
 TOL = 1e-12

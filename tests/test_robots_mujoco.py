@@ -22,15 +22,13 @@ import pytest
 
 mujoco = pytest.importorskip("mujoco")
 
-from conftest import run_cli  # noqa: E402
+from conftest import PROBLEMS, ROOT, run_cli  # noqa: E402
 from counterpoise.model import expr as ex  # noqa: E402
 from counterpoise.model.functions import NUMPY_FUNCTIONS  # noqa: E402
 from counterpoise.io.loader import load_problem, load_problem_text  # noqa: E402
 from counterpoise.mechanics.poses import place  # noqa: E402
 from counterpoise.pipeline import design  # noqa: E402
 
-ROOT = Path(__file__).resolve().parent.parent
-PROBLEMS = ROOT / "problems"
 GRID = 30
 TORQUE_RATIO = 1e-8
 POSITION_TOL = 1e-9

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from builders import Chain, Link
-from conftest import PROBLEMS
+from conftest import PROBLEMS, fresh_python
 from counterpoise.designer.designer import Designer
 from counterpoise.io.loader import load_problem
 from counterpoise.pipeline import design
@@ -112,22 +112,8 @@ def test_blas_is_single_threaded_after_a_designer_is_built():
     assert all(pool["num_threads"] == 1 for pool in threadpool_info())
 
 
-def _fresh(code: str, **env: str) -> str:
-    """Run ``code`` in a fresh interpreter with this checkout's sources; return its stdout."""
-    import os
-    import subprocess
-    import sys
-    from pathlib import Path
-
-    src = str(Path(__file__).resolve().parent.parent / "src")
-    environ = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [src, os.environ.get("PYTHONPATH")])), **env}
-    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=environ)
-    assert run.returncode == 0, run.stderr
-    return run.stdout
-
-
 def test_top_level_help_imports_no_heavy_module():
-    out = _fresh(
+    out = fresh_python(
         "import sys\n"
         "from counterpoise.cli import main\n"
         "try:\n    main(['--help'])\nexcept SystemExit as e:\n    code = e.code\n"
@@ -140,7 +126,7 @@ def test_top_level_help_imports_no_heavy_module():
 def test_units_without_dask_and_without_a_usable_cache():
     """pint is imported without probing dask (which stays importable), and a cache folder
     that cannot be created falls back to building the registry from pint's definitions."""
-    out = _fresh(
+    out = fresh_python(
         "import sys, importlib.util\n"
         "from counterpoise.model import units\n"
         "q = units.ureg().Quantity(1, 'N/mm').to_base_units()\n"
@@ -230,7 +216,7 @@ def test_solve_imports_neither_typer_nor_rich_nor_cvxpy(tmp_path):
     """The fast path in a fresh process: an LP design through Clarabel's own API, and no
     typer, rich, cvxpy, scipy, pandas, matplotlib or dask on the way; without a [robot]
     table, not the robot reader either (nor yourdfpy, trimesh, MuJoCo)."""
-    out = _fresh(
+    out = fresh_python(
         "import sys\n"
         "from counterpoise.cli import main\n"
         f"try:\n    main(['solve', {str(PROBLEMS / 'yasir2019_hybrid.toml')!r}, '--out', {str(tmp_path)!r}])\n"
@@ -244,7 +230,7 @@ def test_solve_imports_neither_typer_nor_rich_nor_cvxpy(tmp_path):
 def test_validate_imports_neither_typer_nor_rich(tmp_path):
     """``validate`` is served by the fast path too (a robot file's check pays no 0.2 s of
     typer and rich)."""
-    out = _fresh(
+    out = fresh_python(
         "import sys\n"
         "from counterpoise.cli import main\n"
         f"try:\n    main(['validate', {str(PROBLEMS / 'yasir2019_hybrid.toml')!r}])\n"

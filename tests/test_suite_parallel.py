@@ -36,10 +36,17 @@ def test_a_shared_result_is_solved_once_and_read_by_the_others(tmp_path):
     assert len(calls) == 2 and other == first
 
 
-def test_workers_asking_at_once_wait_for_the_one_solving(tmp_path):
+def test_workers_asking_at_once_wait_for_the_one_solving(tmp_path, monkeypatch):
     """Two threads stand for two workers: the lock (flock on separate open files, as two
-    processes hold it) lets one solve while the other waits, then reads its result."""
-    started, release, calls, results = threading.Event(), threading.Event(), [], []
+    processes hold it) lets one solve while the other waits, then reads its result. The
+    second asks for the lock while the first holds it inside its solve (the solve waits
+    for ``release``), so it must wait, and it has read nothing before the solve ends."""
+    import fcntl
+
+    started, asked, release = threading.Event(), threading.Event(), threading.Event()
+    calls: list[int] = []
+    results: list[object] = []
+    real_flock = fcntl.flock
 
     def slow():
         calls.append(1)
@@ -51,9 +58,18 @@ def test_workers_asking_at_once_wait_for_the_one_solving(tmp_path):
         results.append(_solved_once(tmp_path, ("slow", ()), slow))
 
     threads = [threading.Thread(target=worker) for _ in range(2)]
+
+    def flock(fd, operation):
+        if threading.current_thread() is threads[1]:
+            asked.set()  # the second worker asks while the first holds the lock
+        return real_flock(fd, operation)
+
+    monkeypatch.setattr(fcntl, "flock", flock)
     threads[0].start()
     assert started.wait(10)
     threads[1].start()
+    assert asked.wait(10)
+    assert results == [] and len(calls) == 1  # the second waits: nothing read, nothing solved again
     release.set()
     for t in threads:
         t.join(10)

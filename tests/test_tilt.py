@@ -10,7 +10,6 @@ the elbow (on the parallelogram's elbow link) to r2 = 0.1 m on the forearm. g = 
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import pytest
 
@@ -19,9 +18,8 @@ from counterpoise.io.loader import load_problem, load_problem_text
 from counterpoise.pipeline import design
 from counterpoise.solvers.base import Status
 
-from conftest import solved
+from conftest import PROBLEMS, solved
 
-PROBLEMS = Path(__file__).resolve().parents[1] / "problems"
 G = 9.81
 #: counter-masses: M2 = (m2 c2 + m3 l2)/e2, M1 = (m1 c1 + (m2 + m3 + M2) l1)/e1
 M2 = (0.8 * 0.125 + 0.5 * 0.25) / 0.08

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import run_cli
+from conftest import PROBLEMS, ROOT, run_cli
 
 from counterpoise.catalogue import mapping_from, read_catalogue
 from counterpoise.catalogue.reader import CatalogueUnitsError
@@ -25,8 +25,6 @@ from counterpoise.io.loader import load_problem, load_problem_text
 from counterpoise.model import expr as ex
 from counterpoise.studies.spec import plan_study
 
-ROOT = Path(__file__).resolve().parents[1]
-PROBLEMS = ROOT / "problems"
 YASIR = (PROBLEMS / "yasir2019_counter_mass.toml").read_text(encoding="utf-8")
 CLI = Path(sys.executable).with_name("counterpoise")
 

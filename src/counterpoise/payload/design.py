@@ -162,16 +162,23 @@ def design_payloads(
     check_options(problem, parameters, bounds)
     core = core or (lambda p: Plain(Designer(p)))
     masses = {payload.lower, payload.nominal, payload.upper}
+    plan: Schedule | None = None
+    failure: Setting | None = None
     for _ in range(REFINEMENTS + 1):
         sampled, solution, verification, status, message = _solve_samples(problem, core, masses, parameters, bounds, initial, certify)
         solver = AdjustmentSolver(problem, _shared(solution), parameters, adjustment_bounds(problem, bounds), adjusters)
+        if status is not Status.OPTIMAL:
+            # the schedule of a design that is not optimal is reported only when no narrowed
+            # design replaces it (below): solved then, by this solver, as it would be here
+            break
         plan = schedule(solver, payload.lower, payload.upper)
         failure = plan.first_failure
-        if status is not Status.OPTIMAL or failure is None or failure.payload in masses:
+        if failure is None or failure.payload in masses:
             break
         masses.add(failure.payload)
     range_text = f"{payload.label(payload.lower)} to {payload.label(payload.upper)}"
     widest = None
+    narrowed = None
     if status is Status.INFEASIBLE:
         message = _infeasible_message(sampled, solution, range_text, message)
         narrowed = _narrowed(problem, core, parameters, bounds, initial)
@@ -186,7 +193,7 @@ def design_payloads(
             f"the schedule fails inside the declared range {range_text}: first failing payload "
             f"{payload.label(failure.payload)} ({failure.message})"
         )
-    elif status is Status.OPTIMAL:
+    elif status is Status.OPTIMAL and plan is not None:  # an optimal design has its schedule
         message = f"{message}; schedule feasible over {range_text} ({len(plan.rows)} grid payloads, {len(plan.between)} between them)"
         if problem.objective.goal == MAX_PAYLOAD_RANGE:
             widest, plan = widest_range(solver, plan)
@@ -199,6 +206,8 @@ def design_payloads(
             )
             solved = replace(sampled.problem, report=sampled.problem.report + (quantity,))
             solution = replace(solution, problem=solved)
+    if plan is None:  # a design that is not optimal, not replaced by a narrowed one
+        plan = schedule(solver, payload.lower, payload.upper)
     checked = (plan.rows[0].payload, plan.rows[-1].payload)
     return PayloadDesign(solution.problem, payload, status, message, solution, verification, sampled.masses, plan, checked, widest, solver)
 

@@ -20,7 +20,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ..designer.designer import Designer
 from ..designer.methods import Minimax, MultiStart, Plain, core_method
+from ..designer.unbalanceable import unbalanceable
 from ..formulation.layout import Slot
 from ..kept import Kept
 from ..model.digest import content_key
@@ -37,6 +39,8 @@ BETWEEN = 3
 LINEAR_TOLERANCE = 1e-7
 #: a schedule point is verified on this share of settings.verify_samples (at least 200)
 VERIFY_SHARE = 20
+#: payload solves an :class:`AdjustmentSolver` remembers (see :meth:`AdjustmentSolver.at`)
+KEPT_SETTINGS = 4096
 
 
 @dataclass(frozen=True)
@@ -136,9 +140,25 @@ class AdjustmentSolver:
         given: dict[Slot | str, tuple[float, float]] = {k: v for k, v in (bounds or {}).items()}
         self.bounds = given or None
         self._last: dict[Slot, float] = {}
+        #: the payloads solved, by (mass, start): see :meth:`at` (None: not kept)
+        self._solved: dict[tuple[float, tuple[tuple[Slot, float], ...]], tuple[Setting, dict[Slot, float]]] | None = (
+            {} if type(self.method) is Plain and not self.problem.constraints else None
+        )
 
     def at(self, mass: float) -> Setting:
-        """Solve and verify the adjustments for payload ``mass`` (kg)."""
+        """Solve and verify the adjustments for payload ``mass`` (kg).
+
+        Each solve starts from the adjustments of the last feasible one, so a solve is fixed
+        by the mass and that start; the same pair again (a widest-range search re-solves the
+        schedule it started from, :mod:`.widest`) returns the setting already found, the very
+        numbers a new solve would give: the plain designer solves the same NLP from the same
+        point, and without design constraints it keeps no state between solves (constraint
+        rows may add verification rounds, so such a problem, and the minimax designer of
+        directly attached springs, is always solved again)."""
+        key = (mass, tuple(self._last.items()))
+        if self._solved is not None and key in self._solved:
+            setting, self._last = self._solved[key]
+            return setting
         parameters = {**self.parameters, self.payload.name: mass}
         solution = self.method.solve(parameters, self.bounds, self._last or None, certify=False)
         verification = verify(solution, samples=self.samples)
@@ -147,7 +167,25 @@ class AdjustmentSolver:
         feasible = status is Status.OPTIMAL
         if feasible:
             self._last = dict(solution.values)
-        return Setting(mass, values, verification.residual_ratio, feasible, message)
+        setting = Setting(mass, values, verification.residual_ratio, feasible, message)
+        if self._solved is not None and len(self._solved) < KEPT_SETTINGS:
+            self._solved[key] = (setting, self._last)
+        return setting
+
+    def probe(self, mass: float) -> Setting | None:
+        """:meth:`at`, or None when payload ``mass`` certainly cannot be balanced: for a search
+        that needs only whether a payload balances (a bisection). An infeasible solve is
+        mostly the closest-design restarts that settle IPOPT's local verdict; when the
+        adjustments enter the balance conditions affinely, a certificate settles it instead
+        (:func:`~counterpoise.designer.unbalanceable.unbalanceable`: True only when the
+        solve would end infeasible). Everything else is solved by :meth:`at`."""
+        if self._solved is not None and (mass, tuple(self._last.items())) in self._solved:
+            return self.at(mass)
+        if self._solved is not None and isinstance(self.designer, Designer):  # the plain designer, no state
+            parameters = {**self.parameters, self.payload.name: mass}
+            if unbalanceable(self.designer, self._last or None, parameters, self.bounds):
+                return None
+        return self.at(mass)
 
     def limit(self, setting: Setting, tolerance: float = 1e-4) -> tuple[str, str, float] | None:
         """(variable, 'lower'|'upper', bound) of the adjustment at a limit of its travel or

@@ -113,8 +113,8 @@ def _lowest(solver: AdjustmentSolver, first: Setting) -> tuple[float, Setting | 
     good, good_setting = first.payload, first
     for i in range(1, SCAN + 1):
         t = first.payload * (1 - i / SCAN)
-        s = solver.at(t)
-        if not s.feasible:
+        s = solver.probe(t)
+        if s is None or not s.feasible:
             return _bisect(solver, good, good_setting, t)
         good, good_setting = t, s
     return 0.0, None
@@ -124,15 +124,15 @@ def _bisect(solver: AdjustmentSolver, good: float, good_setting: Setting, bad: f
     """Largest feasible payload between ``good`` and ``bad``: scan for holes, then bisect."""
     for i in range(1, SCAN):
         t = good + (bad - good) * i / SCAN
-        s = solver.at(t)
-        if not s.feasible:
+        s = solver.probe(t)  # only whether it balances counts here (None: it cannot)
+        if s is None or not s.feasible:
             bad = t
             break
         good, good_setting = t, s
     while abs(bad - good) > PAYLOAD_RESOLUTION * max(abs(bad), solver.payload.unit.to_si):
         mid = 0.5 * (good + bad)
-        s = solver.at(mid)
-        if s.feasible:
+        s = solver.probe(mid)
+        if s is not None and s.feasible:
             good, good_setting = mid, s
         else:
             bad = mid
