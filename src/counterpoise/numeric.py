@@ -11,6 +11,8 @@ arrays here), with no conversion: the same arithmetic, so the same numbers, bit 
 
 A buffer holds the function's work memory, so each thread gets its own (a CasADi function
 is not safe to call from two threads at once; a Dask worker may run several task threads).
+A solver (IPOPT's ``nlpsol``) is evaluated the same way; its statistics (return status,
+iterations) are then those of the buffer's memory: :meth:`NumericFunction.stats`.
 """
 
 from __future__ import annotations
@@ -65,7 +67,9 @@ class NumericFunction:
     def __call__(self, *args: Any) -> tuple[np.ndarray, ...]:
         values = [np.asarray(a, dtype=float).reshape(-1, order="F") for a in args] if self._fast else []
         if not self._fast or len(values) != len(self._in_sizes) or any(v.size != n for v, n in zip(values, self._in_sizes)):
+            self._local.buffered = False
             return tuple(np.array(v, dtype=float) for v in self.function.call(list(args)))  # the ordinary call (and its errors)
+        self._local.buffered = True
         evaluate, inputs, outputs = self._buffers()
         for target, value in zip(inputs, values):
             target[:] = value
@@ -79,3 +83,10 @@ class NumericFunction:
                 dense[index] = r
                 out.append(np.ascontiguousarray(dense.reshape(shape, order="F")))  # row-major, as DM.full()
         return tuple(out)
+
+    def stats(self) -> dict[str, Any]:
+        """The CasADi statistics of this thread's last call (a solver's return status and
+        iteration count): its buffer's, or the function's after an ordinary call."""
+        if getattr(self._local, "buffered", False):
+            return dict(self._local.buffers[3].stats())
+        return dict(self.function.stats())
