@@ -98,3 +98,26 @@ def test_ipopt_through_its_buffers_is_the_ordinary_solve():
     assert out.solver_status == "Infeasible_Problem_Detected"
     with pytest.raises(RuntimeError):
         backend.solve(np.zeros(2), np.array([0.5]), Bounds(np.array([1.0, -1.0]), np.array([0.0, 1.0]), np.zeros(1), np.zeros(1)))
+
+
+def test_remembered_outputs_are_the_evaluations_and_copies(function):
+    """``remember``: the same inputs give the outputs of their evaluation again (as copies a
+    caller may change), only the latest distinct inputs are kept, and -0.0 is not 0.0."""
+    fast = NumericFunction(function, remember=2)
+    calls = []
+    evaluate = fast._evaluate
+    fast._evaluate = lambda values: calls.append(1) or evaluate(values)
+    x, p = np.array([0.3, -1.2, 0.7]), np.array([2.0, 0.5])
+    first = fast(x, p)
+    first[0][:] = 99.0  # the caller's copy
+    again = fast(x.copy(), p.copy())
+    assert len(calls) == 1
+    for a, b in zip(again, _ordinary(function, x, p)):
+        assert np.array_equal(a, b)
+    fast(x + 1, p)
+    fast(x + 2, p)  # x is now the third latest: evaluated again
+    fast(x, p)
+    assert len(calls) == 4
+    fast(np.array([-0.0, -1.2, 0.7]), p)
+    fast(np.array([0.0, -1.2, 0.7]), p)
+    assert len(calls) == 6
