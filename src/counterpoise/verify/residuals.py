@@ -20,6 +20,7 @@ B are kept only while they fit in :data:`CACHE_BYTES`.
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -80,8 +81,10 @@ def _complex_step(name: str, z: np.ndarray) -> np.ndarray:
     return np.cos(a) - 1j * (b * np.sin(a))
 
 
-#: the poses kept per chunk of configurations, in bytes of their arrays (a long chain's
-#: poses at thousands of configurations are not kept beyond it)
+#: the poses kept per chunk of configurations: at most this many, the least recently used
+#: dropped first (a study of a length adds new poses at every point), and at most this
+#: many bytes of their arrays (a long chain's poses at thousands of configurations)
+POSE_ENTRIES = 64
 POSE_BYTES = 16 * 2**20
 
 
@@ -94,31 +97,38 @@ class _ChunkInputs:
     the frame, which coordinate carries the step, the values of the parameters and
     variables): a pose found here is the very array the same arithmetic would give again,
     so a design whose parameters leave a frame alone (a study of the last link's length, a
-    counter-mass) reuses it. At most :data:`POSE_BYTES` of poses are kept (all are dropped
-    when more would be)."""
+    counter-mass) reuses it. At most :data:`POSE_ENTRIES` poses and :data:`POSE_BYTES`
+    bytes are kept, the least recently used dropped first."""
 
     def __init__(self, q: np.ndarray, real: dict[str, np.ndarray], perturbed: dict[str, np.ndarray]) -> None:
         self.q, self.real, self.perturbed = q, real, perturbed
         self.functions = _Functions()
         self.rotations: dict[Any, Any] = {}
         self.kept = {id(a) for a in (*real.values(), *perturbed.values())}
-        self._poses: dict[tuple[Any, ...], tuple[Any, Any]] = {}
+        self._poses: OrderedDict[tuple[Any, ...], tuple[tuple[Any, Any], int]] = OrderedDict()
         self._bytes = 0
 
     def pose(self, key: tuple[Any, ...] | None) -> tuple[Any, Any] | None:
-        return None if key is None else self._poses.get(key)
+        found = None if key is None else self._poses.get(key)
+        if found is None:
+            return None
+        self._poses.move_to_end(key)  # type: ignore[arg-type]  # found: not None
+        return found[0]
 
     def keep_pose(self, key: tuple[Any, ...] | None, pose: tuple[Any, Any]) -> None:
         if key is None:
             return
         size = sum(getattr(v, "nbytes", 8) for row in pose[0] for v in row) + sum(getattr(v, "nbytes", 8) for v in pose[1])
-        if self._bytes + size > POSE_BYTES:
-            self._poses.clear()
-            self._bytes = 0
-            if size > POSE_BYTES:
-                return
-        self._poses[key] = pose
+        if size > POSE_BYTES:
+            return
+        old = self._poses.pop(key, None)
+        if old is not None:
+            self._bytes -= old[1]
+        self._poses[key] = (pose, size)
         self._bytes += size
+        while len(self._poses) > POSE_ENTRIES or self._bytes > POSE_BYTES:
+            _, (_, dropped) = self._poses.popitem(last=False)
+            self._bytes -= dropped
 
 
 class _Element:
