@@ -69,3 +69,55 @@ def test_each_thread_its_own_buffers(function):
     for t in threads:
         t.join()
     assert not wrong
+
+
+def _small_nlp():
+    """min (x0 - p)² + x1² s.t. x0 + x1 = 0, x in [-1, 1]²: x = (p/2, -p/2) for |p| ≤ 2."""
+    x, p = ca.SX.sym("x", 2), ca.SX.sym("p", 1)
+    return {"x": x, "p": p, "f": (x[0] - p) ** 2 + x[1] ** 2, "g": x[0] + x[1]}
+
+
+def test_ipopt_through_its_buffers_is_the_ordinary_solve():
+    """IpoptBackend evaluates nlpsol through its buffers: the same iterate, multipliers,
+    status and iteration count as the ordinary keyword call, bit for bit; an infeasible
+    problem and an ill-posed one (lower bound above upper) behave as before."""
+    from counterpoise.solvers.base import Bounds
+    from counterpoise.solvers.ipopt import IPOPT_DEFAULTS, IpoptBackend
+
+    backend = IpoptBackend(_small_nlp(), IPOPT_DEFAULTS)
+    solver = backend.solver
+    box = (np.array([-1.0, -1.0]), np.array([1.0, 1.0]))
+    for p, (lbg, ubg) in [(0.5, (0.0, 0.0)), (-1.3, (0.0, 0.0)), (0.5, (5.0, 5.0))]:  # the last: x0 + x1 = 5 in the box is infeasible
+        bounds = Bounds(*box, np.array([lbg]), np.array([ubg]))
+        out = backend.solve(np.zeros(2), np.array([p]), bounds)
+        want = solver(x0=np.zeros(2), p=p, lbx=box[0], ubx=box[1], lbg=lbg, ubg=ubg)
+        stats = solver.stats()
+        assert np.array_equal(out.z, np.array(want["x"]).reshape(-1))
+        assert np.array_equal(out.multipliers, np.array(want["lam_g"]).reshape(-1))
+        assert (out.solver_status, out.iterations) == (stats["return_status"], stats["iter_count"])
+    assert out.solver_status == "Infeasible_Problem_Detected"
+    with pytest.raises(RuntimeError):
+        backend.solve(np.zeros(2), np.array([0.5]), Bounds(np.array([1.0, -1.0]), np.array([0.0, 1.0]), np.zeros(1), np.zeros(1)))
+
+
+def test_remembered_outputs_are_the_evaluations_and_copies(function):
+    """``remember``: the same inputs give the outputs of their evaluation again (as copies a
+    caller may change), only the latest distinct inputs are kept, and -0.0 is not 0.0."""
+    fast = NumericFunction(function, remember=2)
+    calls = []
+    evaluate = fast._evaluate
+    fast._evaluate = lambda values: calls.append(1) or evaluate(values)
+    x, p = np.array([0.3, -1.2, 0.7]), np.array([2.0, 0.5])
+    first = fast(x, p)
+    first[0][:] = 99.0  # the caller's copy
+    again = fast(x.copy(), p.copy())
+    assert len(calls) == 1
+    for a, b in zip(again, _ordinary(function, x, p)):
+        assert np.array_equal(a, b)
+    fast(x + 1, p)
+    fast(x + 2, p)  # x is now the third latest: evaluated again
+    fast(x, p)
+    assert len(calls) == 4
+    fast(np.array([-0.0, -1.2, 0.7]), p)
+    fast(np.array([0.0, -1.2, 0.7]), p)
+    assert len(calls) == 6

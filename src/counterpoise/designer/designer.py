@@ -55,6 +55,9 @@ RANK_TOLERANCE = 1e-8
 CLOSEST_TOL = 1e-14
 CLOSEST_ACCEPTABLE_TOL = 1e-12
 
+#: evaluations of the balance equalities kept for the same point asked again (:meth:`Designer.residual_jacobian`)
+REMEMBERED_EVALUATIONS = 4
+
 #: configurations per coordinate on which a setting's adjustments are polished (infeasible problems)
 POLISH_CONFIGURATIONS = 8
 
@@ -316,14 +319,16 @@ class Designer:
     # -- helpers -------------------------------------------------------------------
     def residual_jacobian(self) -> NumericFunction:
         """(z, p) -> (balance equalities, their Jacobian, sign constraints) as arrays: a CasADi
-        function evaluated through its buffers (:class:`~counterpoise.numeric.NumericFunction`), built once."""
+        function evaluated through its buffers (:class:`~counterpoise.numeric.NumericFunction`), built once.
+        The latest few evaluations are kept: a polish asks again for the point its
+        Gauss-Newton steps ended at (:meth:`_snap`, then :meth:`finish`)."""
         import casadi as ca
 
         if self._residual_jacobian is None:
             f = self.formulation
             eq = self.conditions.equalities
             signs = ca.vertcat(f.nonnegative, self.rows.margins()) if self.rows is not None else f.nonnegative
-            self._residual_jacobian = NumericFunction(ca.Function("gJ", [f.z, f.p], [eq, ca.jacobian(eq, f.z), signs]))
+            self._residual_jacobian = NumericFunction(ca.Function("gJ", [f.z, f.p], [eq, ca.jacobian(eq, f.z), signs]), remember=REMEMBERED_EVALUATIONS)
         return self._residual_jacobian
 
     def _balance_evaluation(self, p: np.ndarray) -> Evaluate:

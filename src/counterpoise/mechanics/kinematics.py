@@ -18,24 +18,39 @@ Vec = list  # three Scalars
 Mat = list  # 3x3 nested list of Scalars
 
 
+#: the Python numbers a literal 0 or 1 may be (numpy's float64 is a float)
+_NUMBER = (int, float)
+
+
 def _is_const(a: Any, c: float) -> bool:
-    return isinstance(a, (int, float)) and a == c
+    return isinstance(a, _NUMBER) and a == c
 
 
+# mul, add, add_all and dot are called hundreds of times per evaluation of a mechanism on a
+# few configurations (a study point's certificate): the tests of _is_const are written out
+# in them, with the same outcome in every case.
 def mul(a: Scalar, b: Scalar) -> Scalar:
-    if _is_const(a, 0.0) or _is_const(b, 0.0):
-        return 0.0
-    if _is_const(a, 1.0):
-        return b
-    if _is_const(b, 1.0):
+    if isinstance(a, _NUMBER):
+        if a == 0.0:
+            return 0.0
+        if isinstance(b, _NUMBER) and b == 0.0:
+            return 0.0
+        if a == 1.0:
+            return b
+    elif isinstance(b, _NUMBER):
+        if b == 0.0:
+            return 0.0
+    else:
+        return a * b
+    if isinstance(b, _NUMBER) and b == 1.0:
         return a
     return a * b
 
 
 def add(a: Scalar, b: Scalar) -> Scalar:
-    if _is_const(a, 0.0):
+    if isinstance(a, _NUMBER) and a == 0.0:
         return b
-    if _is_const(b, 0.0):
+    if isinstance(b, _NUMBER) and b == 0.0:
         return a
     return a + b
 
@@ -43,7 +58,10 @@ def add(a: Scalar, b: Scalar) -> Scalar:
 def add_all(items: Sequence[Scalar]) -> Scalar:
     out: Scalar = 0.0
     for item in items:
-        out = add(out, item)
+        if isinstance(out, _NUMBER) and out == 0.0:
+            out = item
+        elif not (isinstance(item, _NUMBER) and item == 0.0):
+            out = out + item
     return out
 
 

@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from ..numeric import NumericFunction
 from .base import Bounds, SolverOutput, Status
 
 #: Options the designs rely on: tight tolerances, no bound relaxation (a variable on its
@@ -74,6 +75,7 @@ class IpoptBackend:
         self.label = label
         self._nlp = dict(nlp)
         self._solver: Any = None
+        self._evaluate: NumericFunction | None = None
 
     @property
     def solver(self) -> Any:
@@ -85,19 +87,25 @@ class IpoptBackend:
         return self._solver
 
     def solve(self, z0: np.ndarray, p: np.ndarray, bounds: Bounds) -> SolverOutput:
-        solver = self.solver
+        """IPOPT from ``z0`` with parameters ``p`` within ``bounds``, through the solver's
+        buffers (:class:`~counterpoise.numeric.NumericFunction`: no ``DM`` conversions, the
+        same solve bit for bit); the initial multipliers are 0, as the ordinary call's."""
+        if self._evaluate is None:
+            self._evaluate = NumericFunction(self.solver)
+        evaluate = self._evaluate
+        n, m = int(np.size(bounds.lbz)), int(np.size(bounds.lbg))
         t0 = time.perf_counter()
         with _quiet_warnings():
-            out = solver(x0=z0, p=p, lbx=bounds.lbz, ubx=bounds.ubz, lbg=bounds.lbg, ubg=bounds.ubg)
+            x, _, _, _, lam_g, _ = evaluate(z0, p, bounds.lbz, bounds.ubz, bounds.lbg, bounds.ubg, np.zeros(n), np.zeros(m))
         elapsed = time.perf_counter() - t0
-        stats = solver.stats()
+        stats = evaluate.stats()
         code = str(stats.get("return_status", "unknown"))
         return SolverOutput(
-            z=np.array(out["x"], dtype=float).reshape(-1),
+            z=x.reshape(-1),
             status=map_status(code),
             solver_status=code,
             iterations=int(stats.get("iter_count", 0)),
             solve_time=elapsed,
             solver=self.name,
-            multipliers=np.array(out["lam_g"], dtype=float).reshape(-1),
+            multipliers=lam_g.reshape(-1),
         )

@@ -31,6 +31,7 @@ Definitions (the reports and messages use these and nothing else):
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -98,9 +99,10 @@ class Verification:
     def max_gravity_torque(self, kind: str = REVOLUTE) -> float | None:
         return self._kind_max(kind, "max_gravity_torque")
 
-    @property
+    @cached_property
     def residual_ratio(self) -> float:
-        """The largest coordinate ratio (NaN if any residual cannot be evaluated)."""
+        """The largest coordinate ratio (NaN if any residual cannot be evaluated); computed
+        once (the checks are a tuple of frozen records: a study point asks for it several times)."""
         ratios = [self.ratio(c) for c in self.checks]
         return float(np.max(ratios)) if ratios else 0.0
 

@@ -19,6 +19,8 @@ B are kept only while they fit in :data:`CACHE_BYTES`.
 
 from __future__ import annotations
 
+import math
+from collections import OrderedDict
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -79,6 +81,56 @@ def _complex_step(name: str, z: np.ndarray) -> np.ndarray:
     return np.cos(a) - 1j * (b * np.sin(a))
 
 
+#: the poses kept per chunk of configurations: at most this many, the least recently used
+#: dropped first (a study of a length adds new poses at every point), and at most this
+#: many bytes of their arrays (a long chain's poses at thousands of configurations)
+POSE_ENTRIES = 64
+POSE_BYTES = 16 * 2**20
+
+
+class _ChunkInputs:
+    """What the designs evaluated on one chunk of configurations share: the coordinate arrays
+    (``real``, and each with its complex step in ``perturbed``), the functions remembering
+    sin and cos of them, the rotation matrices of their angles and the frames' poses.
+
+    A pose is kept under what it is computed from (:meth:`SubsystemResiduals._pose_key`:
+    the frame, which coordinate carries the step, the values of the parameters and
+    variables): a pose found here is the very array the same arithmetic would give again,
+    so a design whose parameters leave a frame alone (a study of the last link's length, a
+    counter-mass) reuses it. At most :data:`POSE_ENTRIES` poses and :data:`POSE_BYTES`
+    bytes are kept, the least recently used dropped first."""
+
+    def __init__(self, q: np.ndarray, real: dict[str, np.ndarray], perturbed: dict[str, np.ndarray]) -> None:
+        self.q, self.real, self.perturbed = q, real, perturbed
+        self.functions = _Functions()
+        self.rotations: dict[Any, Any] = {}
+        self.kept = {id(a) for a in (*real.values(), *perturbed.values())}
+        self._poses: OrderedDict[tuple[Any, ...], tuple[tuple[Any, Any], int]] = OrderedDict()
+        self._bytes = 0
+
+    def pose(self, key: tuple[Any, ...] | None) -> tuple[Any, Any] | None:
+        found = None if key is None else self._poses.get(key)
+        if found is None:
+            return None
+        self._poses.move_to_end(key)  # type: ignore[arg-type]  # found: not None
+        return found[0]
+
+    def keep_pose(self, key: tuple[Any, ...] | None, pose: tuple[Any, Any]) -> None:
+        if key is None:
+            return
+        size = sum(getattr(v, "nbytes", 8) for row in pose[0] for v in row) + sum(getattr(v, "nbytes", 8) for v in pose[1])
+        if size > POSE_BYTES:
+            return
+        old = self._poses.pop(key, None)
+        if old is not None:
+            self._bytes -= old[1]
+        self._poses[key] = (pose, size)
+        self._bytes += size
+        while len(self._poses) > POSE_ENTRIES or self._bytes > POSE_BYTES:
+            _, (_, dropped) = self._poses.popitem(last=False)
+            self._bytes -= dropped
+
+
 class _Element:
     """One energy term: a body, a counter-mass or a spring, and how its residual is evaluated."""
 
@@ -93,6 +145,8 @@ class _Element:
         #: every name its frames and points depend on
         self.geometry: set[str] = set().union(*(ex.names(t) for p in self.points for t in p.position), *(frames[p.frame] for p in self.points))
         factor = ex.names(self.factor)
+        #: the frames its points are in, and their ancestors
+        self.chain: frozenset[str] = frozenset().union(*(_chain(problem, p.frame) for p in self.points))
         #: the coordinates its energy depends on (its residual is 0 for the others)
         self.moves_with = (self.geometry | factor) & coordinates
         #: residual = factor(design, parameters) × an array fixed by the configurations and the geometry
@@ -107,6 +161,15 @@ class _Element:
         if self.spring:
             return mech.spring_energy(self.element, factor)
         return mech.gravity_energy(factor, self.points[0])
+
+
+def _chain(problem: Problem, frame: str | None) -> frozenset[str]:
+    """``frame`` and its ancestors (not the ground)."""
+    out: set[str] = set()
+    while frame is not None and frame != GROUND and frame not in out:
+        out.add(frame)
+        frame = problem.frame[frame].parent
+    return frozenset(out)
 
 
 def frame_names(problem: Problem) -> dict[str, frozenset[str]]:
@@ -172,30 +235,33 @@ class SubsystemResiduals:
         self._element_parameters: list[tuple[str, ...]] | None = None
         self._element_arrays: list[Any] = []
         self.cache = cache and size <= CACHE_BYTES
-        self._chunk_inputs: dict[tuple[int, int], tuple[np.ndarray, dict[str, np.ndarray], dict[str, np.ndarray], _Functions]] = {}
+        self._chunk_inputs: dict[tuple[int, int], _ChunkInputs] = {}
+        coordinates = {c.name for c in problem.coordinates}
+        #: the parameters and variables each frame's pose depends on (:meth:`_pose_key`)
+        self._pose_names = {f: tuple(sorted(self.frames[f] - coordinates)) for f in self.used_frames}
         #: the reference's box maxima on these configurations, kept by the dense check
         #: (:func:`counterpoise.verify.check._box_loads`) for as long as this evaluator lives
         self.box_state: dict[str, Any] = {}
 
     # -- complex step --------------------------------------------------------------
-    def _inputs(self, rows: slice) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], _Functions]:
+    def _inputs(self, rows: slice) -> _ChunkInputs:
         """The coordinate arrays of the configurations ``rows`` (real, and each with its complex
-        step) and the functions remembering sin and cos of them: the same objects for every
-        design, so a design whose geometry changed (a study of a length) reuses the sines and
-        cosines of the joint angles. Other remembered values (of this design's own arrays)
-        are dropped, so the memory stays that of the coordinates."""
+        step), the functions remembering sin and cos of them and the poses and rotations
+        computed from them (:class:`_ChunkInputs`): the same objects for every design, so a
+        design whose geometry changed (a study of a length) reuses the sines and cosines of
+        the joint angles and the poses of the frames the change leaves alone. Other
+        remembered values (of this design's own arrays) are dropped, so the memory stays
+        that of the coordinates and the bounded poses."""
         key = (rows.start, rows.stop)
         found = self._chunk_inputs.get(key)
-        if found is None or found[0] is not self.q:  # a manifold's configurations are solved again when its geometry changes
+        if found is None or found.q is not self.q:  # a manifold's configurations are solved again when its geometry changes
             q = self.q[rows]
             real = {name: np.ascontiguousarray(q[:, i]) for i, name in enumerate(self.names)}
             perturbed = {name: real[name] + 1j * STEP for name in self.names}
-            found = (self.q, real, perturbed, _Functions())
+            found = _ChunkInputs(self.q, real, perturbed)
             self._chunk_inputs[key] = found
-        _, real, perturbed, functions = found
-        kept = {id(a) for a in (*real.values(), *perturbed.values())}
-        functions.forget_except(kept)
-        return real, perturbed, functions
+        found.functions.forget_except(found.kept)
+        return found
 
     def _columns(
         self,
@@ -215,22 +281,45 @@ class SubsystemResiduals:
         out = np.zeros((n_slots, n, n_q))
         if not elements:
             return out
-        real, perturbed, functions = self._inputs(rows)
-        rotations: dict[Any, Any] = {}  # shared by the perturbations of this chunk
+        chunk = self._inputs(rows)
+        real, perturbed, functions, rotations = chunk.real, chunk.perturbed, chunk.functions, chunk.rotations
         still = Mechanics(self.problem, base, variables, real, gravity, functions, rotations=rotations)
+        env = still.env
         for j, name in enumerate(self.names):
             moving = [(k, e) for k, e in enumerate(elements) if name in e.moves_with]
             if not moving:
                 continue
             coords = dict(real)
             coords[name] = perturbed[name]
-            known = {f: still.pose(f) for f in self.used_frames if name not in self.frames[f]}
+            # the poses of these frames at these values, computed before (a frame that does
+            # not move with this coordinate has its pose in the unperturbed configurations)
+            needed = [f for f in self.used_frames if any(f in e.chain for _, e in moving)]
+            keys = {f: self._pose_key(f, name, env) for f in needed}
+            known = {f: pose for f in needed if (pose := chunk.pose(keys[f])) is not None}
             mech = Mechanics(self.problem, base, variables, coords, gravity, functions, poses=known, rotations=rotations)
+            for f in needed:  # parents first: each computed from its parent's pose, as Mechanics does
+                if f not in known:
+                    chunk.keep_pose(keys[f], mech.pose(f))
             for k, e in moving:
                 energy = e.energy(mech, unit_factor[k])
                 if np.iscomplexobj(energy):
                     out[slots[k]][:, j] += np.imag(energy) / STEP
         return out
+
+    def _pose_key(self, frame: str, perturbed: str, env: Mapping[str, Any]) -> tuple[Any, ...] | None:
+        """What the pose of ``frame`` is computed from when coordinate ``perturbed`` carries its
+        complex step: the frame, the perturbed coordinate if the pose moves with it, and the
+        values (each with its sign: −0.0 is not 0.0) of the parameters and variables it
+        depends on. None when one is not a plain number (the pose is not kept)."""
+        values: list[Any] = [frame, perturbed if perturbed in self.frames[frame] else None]
+        for name in self._pose_names[frame]:
+            if name not in env:  # a constant (pi)
+                continue
+            v = env[name]
+            if not isinstance(v, (float, int)):
+                return None
+            values.append((v, math.copysign(1.0, v)))
+        return tuple(values)
 
     def _element_columns(self, elements: Sequence[_Element], base: Mapping[str, float], gravity: Sequence[float], rows: slice) -> np.ndarray:
         """∂(energy)/∂q of each of ``elements`` at the configurations ``rows``, per unit
