@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
+
+#: resolution of the PNG files
+DPI = 110
 
 
 def pyplot() -> Any:
@@ -14,8 +18,13 @@ def pyplot() -> Any:
     return plt
 
 
-def save(fig: Any, path: Any) -> None:
-    """Write ``fig`` as PNG through a temporary file and a rename, then close it."""
+def save(fig: Any, path: Any, crop: bool = True) -> None:
+    """Write ``fig`` as PNG through a temporary file and a rename, then close it.
+
+    ``crop``: cut the PNG to what is drawn (``bbox_inches="tight"``), which costs a second
+    draw of the whole figure to find that box. A figure laid out by its layout engine (or
+    frozen by :func:`freeze_layout`) fills its canvas already: ``crop=False`` draws it once.
+    """
     import os
     import tempfile
     from pathlib import Path
@@ -27,7 +36,7 @@ def save(fig: Any, path: Any) -> None:
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".png", dir=path.parent)
     os.close(fd)
     try:
-        fig.savefig(tmp, dpi=110, bbox_inches="tight")
+        fig.savefig(tmp, dpi=DPI, **({"bbox_inches": "tight"} if crop else {}))
         respect_umask(tmp)
         os.replace(tmp, path)
     except BaseException:
@@ -35,3 +44,28 @@ def save(fig: Any, path: Any) -> None:
         raise
     finally:
         pyplot().close(fig)
+
+
+def freeze_layout(fig: Any, axes: Sequence[Any] = ()) -> Any:
+    """Lay ``fig`` out as its first draw would, without drawing it: run its layout engine
+    (constrained layout), apply each axes' aspect at its final place, fix the limits of
+    ``axes`` and turn the engine off, so that pixels measured now are the pixels of the
+    saved picture (up to its resolution). Returns the renderer to measure text with.
+
+    A draw does the same (``Figure.draw`` runs the engine, ``Axes.draw`` applies the aspect
+    at the box its locator gives) and then rasterizes every artist, which costs as much
+    again and is thrown away when the figure is saved.
+    """
+    renderer = fig.canvas.get_renderer()
+    engine = fig.get_layout_engine()
+    if engine is not None:
+        engine.execute(fig)
+    for ax in fig.axes:
+        locator = ax.get_axes_locator()
+        ax.apply_aspect(locator(ax, renderer) if locator else None)
+    for ax in axes:
+        ax.set_xlim(ax.get_xlim())
+        ax.set_ylim(ax.get_ylim())
+        ax.set_autoscale_on(False)
+    fig.set_layout_engine("none")
+    return renderer
