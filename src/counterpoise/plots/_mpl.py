@@ -18,12 +18,14 @@ def pyplot() -> Any:
     return plt
 
 
-def save(fig: Any, path: Any, crop: bool = True) -> None:
+def save(fig: Any, path: Any, crop: bool | None = None) -> None:
     """Write ``fig`` as PNG through a temporary file and a rename, then close it.
 
     ``crop``: cut the PNG to what is drawn (``bbox_inches="tight"``), which costs a second
-    draw of the whole figure to find that box. A figure laid out by its layout engine (or
-    frozen by :func:`freeze_layout`) fills its canvas already: ``crop=False`` draws it once.
+    draw of the whole figure to find that box. A figure laid out by constrained layout
+    fills its canvas already: with ``crop`` None it is laid out once (:func:`freeze_layout`)
+    and drawn once, uncropped; any other figure (``tight_layout``) is cropped. ``False``:
+    the figure is laid out and frozen already (:func:`freeze_layout`): drawn once.
     """
     import os
     import tempfile
@@ -31,6 +33,12 @@ def save(fig: Any, path: Any, crop: bool = True) -> None:
 
     from ..report.files import respect_umask
 
+    if crop is None:
+        from matplotlib.layout_engine import ConstrainedLayoutEngine
+
+        crop = not isinstance(fig.get_layout_engine(), ConstrainedLayoutEngine)
+        if not crop:
+            freeze_layout(fig)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".png", dir=path.parent)
