@@ -62,7 +62,8 @@ def freeze_layout(fig: Any, axes: Sequence[Any] = ()) -> Any:
 
     A draw does the same (``Figure.draw`` runs the engine, ``Axes.draw`` applies the aspect
     at the box its locator gives) and then rasterizes every artist, which costs as much
-    again and is thrown away when the figure is saved.
+    again and is thrown away when the figure is saved. With no engine left, ``savefig``
+    draws the figure once (with one, it runs a draw without rendering first).
     """
     renderer = fig.canvas.get_renderer()
     engine = fig.get_layout_engine()
@@ -75,5 +76,10 @@ def freeze_layout(fig: Any, axes: Sequence[Any] = ()) -> Any:
         ax.set_xlim(ax.get_xlim())
         ax.set_ylim(ax.get_ylim())
         ax.set_autoscale_on(False)
-    fig.set_layout_engine("none")
+    import matplotlib
+
+    # no engine at all (not the "none" placeholder, for which savefig still runs a draw without
+    # rendering before the real one); None means no engine unless the rc file asks for one
+    with matplotlib.rc_context({"figure.autolayout": False, "figure.constrained_layout.use": False}):
+        fig.set_layout_engine(None)
     return renderer
