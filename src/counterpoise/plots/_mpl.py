@@ -7,6 +7,9 @@ from typing import Any
 
 #: resolution of the PNG files
 DPI = 110
+#: zlib level of the PNG files (lossless at any level): 3 encoded the demo's 87 PNGs in 3.0 s
+#: CPU against 4.9 s at Pillow's default 6, for files 2 % larger (12.5 MB against 12.3 MB)
+COMPRESS_LEVEL = 3
 
 
 def pyplot() -> Any:
@@ -44,7 +47,7 @@ def save(fig: Any, path: Any, crop: bool | None = None) -> None:
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".png", dir=path.parent)
     os.close(fd)
     try:
-        fig.savefig(tmp, dpi=DPI, **({"bbox_inches": "tight"} if crop else {}))
+        fig.savefig(tmp, dpi=DPI, pil_kwargs={"compress_level": COMPRESS_LEVEL}, **({"bbox_inches": "tight"} if crop else {}))
         respect_umask(tmp)
         os.replace(tmp, path)
     except BaseException:
