@@ -131,10 +131,10 @@ def test_the_study_plot_draws_the_objective_and_each_design_variable_once_laid_o
     code, _ = _cli(["study", file, "--vary", "m_c=300 g:500 g:3", "--out", str(tmp_path), "--jobs", "1", "--no-plot"], capsys)
     assert code == 0
     saved = []
-    monkeypatch.setattr(study_plot, "save", lambda fig, path, tight=True: saved.append((fig, path, tight)))
+    monkeypatch.setattr(study_plot, "save", lambda fig, path, crop=None: saved.append((fig, path, crop)))
     study_plot.study_plots(tmp_path / "yasir2019_counter_mass-study")
-    [(fig, path, tight)] = saved
-    assert path.name == "study.png" and tight is False
+    [(fig, path, crop)] = saved
+    assert path.name == "study.png" and crop is False
     assert [ax.get_ylabel() for ax in fig.axes] == ["objective [kg]", "M_a [g]", "M_b [g]", "M_c [g]"]
     assert all(ax.get_xlabel() == "m_c [g]" for ax in fig.axes)
 

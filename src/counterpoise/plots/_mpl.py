@@ -2,7 +2,14 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
+
+#: resolution of the PNG files
+DPI = 110
+#: zlib level of the PNG files (lossless at any level): 3 encoded the demo's 87 PNGs in 3.0 s
+#: CPU against 4.9 s at Pillow's default 6, for files 2 % larger (12.5 MB against 12.3 MB)
+COMPRESS_LEVEL = 3
 
 
 def pyplot() -> Any:
@@ -14,11 +21,16 @@ def pyplot() -> Any:
     return plt
 
 
-def save(fig: Any, path: Any, *, tight: bool = True) -> None:
+def save(fig: Any, path: Any, crop: bool | None = None) -> None:
     """Write ``fig`` as PNG through a temporary file and a rename, then close it.
 
-    ``tight``: crop the picture to what is drawn (``bbox_inches="tight"``, which draws the
-    figure once more to find it); False for a figure laid out by its maker."""
+    ``crop``: cut the PNG to what is drawn (``bbox_inches="tight"``), which costs a second
+    draw of the whole figure to find that box. A figure laid out by constrained layout
+    fills its canvas already: with ``crop`` None it is laid out once (:func:`freeze_layout`)
+    and drawn once, uncropped; any other figure (``tight_layout``) is cropped. ``False``:
+    the figure is laid out by its maker (a fixed layout, or frozen by :func:`freeze_layout`):
+    drawn once.
+    """
     import os
     import sys
     import tempfile
@@ -26,12 +38,18 @@ def save(fig: Any, path: Any, *, tight: bool = True) -> None:
 
     from ..report.files import respect_umask
 
+    if crop is None:
+        from matplotlib.layout_engine import ConstrainedLayoutEngine
+
+        crop = not isinstance(fig.get_layout_engine(), ConstrainedLayoutEngine)
+        if not crop:
+            freeze_layout(fig)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".png", dir=path.parent)
     os.close(fd)
     try:
-        fig.savefig(tmp, dpi=110, bbox_inches="tight" if tight else None)
+        fig.savefig(tmp, dpi=DPI, pil_kwargs={"compress_level": COMPRESS_LEVEL}, **({"bbox_inches": "tight"} if crop else {}))
         respect_umask(tmp)
         os.replace(tmp, path)
     except BaseException:
@@ -40,3 +58,34 @@ def save(fig: Any, path: Any, *, tight: bool = True) -> None:
     finally:
         if "matplotlib.pyplot" in sys.modules:  # a figure made by pyplot: forget it there; others have no pyplot state
             pyplot().close(fig)
+
+
+def freeze_layout(fig: Any, axes: Sequence[Any] = ()) -> Any:
+    """Lay ``fig`` out as its first draw would, without drawing it: run its layout engine
+    (constrained layout), apply each axes' aspect at its final place, fix the limits of
+    ``axes`` and turn the engine off, so that pixels measured now are the pixels of the
+    saved picture (up to its resolution). Returns the renderer to measure text with.
+
+    A draw does the same (``Figure.draw`` runs the engine, ``Axes.draw`` applies the aspect
+    at the box its locator gives) and then rasterizes every artist, which costs as much
+    again and is thrown away when the figure is saved. With no engine left, ``savefig``
+    draws the figure once (with one, it runs a draw without rendering first).
+    """
+    renderer = fig.canvas.get_renderer()
+    engine = fig.get_layout_engine()
+    if engine is not None:
+        engine.execute(fig)
+    for ax in fig.axes:
+        locator = ax.get_axes_locator()
+        ax.apply_aspect(locator(ax, renderer) if locator else None)
+    for ax in axes:
+        ax.set_xlim(ax.get_xlim())
+        ax.set_ylim(ax.get_ylim())
+        ax.set_autoscale_on(False)
+    import matplotlib
+
+    # no engine at all (not the "none" placeholder, for which savefig still runs a draw without
+    # rendering before the real one); None means no engine unless the rc file asks for one
+    with matplotlib.rc_context({"figure.autolayout": False, "figure.constrained_layout.use": False}):
+        fig.set_layout_engine(None)
+    return renderer

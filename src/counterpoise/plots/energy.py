@@ -176,6 +176,6 @@ def energy_plot(result: "DesignResult", folder: str | Path) -> list[Path]:
         fig.legend(list(legend.values()), list(legend.keys()), loc="outside lower center", ncols=3, fontsize=9)
         label = (scenario.setting or scenario.name) if problem.tilts else scenario.name
         path = Path(folder) / ("energy.png" if len(scenarios) == 1 else f"energy-{label}.png")
-        save(fig, path)
+        save(fig, path)  # constrained layout once, then one draw into the PNG
         paths.append(path)
     return paths

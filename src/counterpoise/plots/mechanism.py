@@ -40,7 +40,7 @@ import numpy as np
 from ..mechanics.poses import Placed, assembled, default_values, mechanics, place
 from ..model.mechanism import GROUND
 from ..model.problem import Problem, Scenario
-from ._mpl import pyplot, save
+from ._mpl import freeze_layout, pyplot, save
 
 if TYPE_CHECKING:
     from ..pipeline import DesignResult
@@ -342,7 +342,7 @@ def mechanism_drawing(
     fig.suptitle("\n".join(line for line in lines if line), fontsize=10)
     labels, omitted, boxes = _place_labels(fig, list(axes[0]), requests, obstacles)
     path = Path(folder) / "mechanism.png"
-    save(fig, path)
+    save(fig, path, crop=False)  # laid out and frozen by _place_labels: one draw
     return Drawing(path, tuple(v[0] for v in views), forces, tuple(labels), tuple(omitted), tuple(boxes))
 
 
@@ -634,16 +634,11 @@ def _draw(
 def _place_labels(fig: Any, axes: list[Any], requests: list[_Request], obstacles: Mapping[Any, _Obstacles]) -> tuple[list[Label], list[str], list[tuple[float, float, float, float]]]:
     """Place every label at the free spot nearest to its point (see the module docstring);
     returns the labels, those left out (frame names that found no free spot) and the axes'
-    boxes. The layout is fixed first (drawn once, then frozen), so that pixels here are the
-    pixels of the saved picture, up to its resolution."""
+    boxes. The layout is fixed first (:func:`~._mpl.freeze_layout`: laid out as a draw would,
+    then frozen), so that pixels here are the pixels of the saved picture, up to its
+    resolution."""
     fig.set_dpi(100)
-    fig.canvas.draw()
-    for ax in axes:
-        ax.set_xlim(ax.get_xlim())
-        ax.set_ylim(ax.get_ylim())
-        ax.set_autoscale_on(False)
-    fig.set_layout_engine("none")
-    renderer = fig.canvas.get_renderer()
+    renderer = freeze_layout(fig, axes)
     frames = {ax: np.array(ax.get_window_extent(renderer).extents) for ax in axes}
     placed: list[np.ndarray] = []
     labels: list[Label] = []

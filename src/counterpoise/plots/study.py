@@ -118,7 +118,7 @@ def study_plots(folder: str | Path) -> list[Path]:
     fig.suptitle(f"{meta['problem']}: study of {', '.join(varied)}\n{len(rows)} points ({meta['plan']['method']}), {int(ok.sum())} optimal",
                  fontsize=11, y=1 - TITLE_TOP / fig.get_figheight(), va="top")
     paths = [folder / "study.png"]
-    save(fig, paths[0], tight=False)  # laid out by _grid: drawn once
+    save(fig, paths[0], crop=False)  # laid out by _grid: drawn once
     weights = [v for v in varied if v.startswith("objective.")]
     if weights:
         w = data[weights[0]]
