@@ -264,3 +264,16 @@ def test_solve_twice_through_the_kept_designer_and_evaluators_writes_the_same_fi
     for name in ("design.csv", "springs.csv", "build.csv", "verification.csv"):
         first = (tmp_path / "first" / "yasir2019_hybrid" / name).read_bytes()
         assert (tmp_path / "second" / "yasir2019_hybrid" / name).read_bytes() == first, name
+
+
+def test_a_solve_of_several_files_keeps_no_built_objects(tmp_path, cache_on, capsys):
+    """``counterpoise solve A B`` (a batch such as ``make demo``) keeps the loaded problems but
+    no designers or evaluators: those are for the repeated solve of one file."""
+    from counterpoise.cli import main
+
+    files = [str(PROBLEMS / "fourbar_springs.toml"), str(PROBLEMS / "yasir2019_counter_mass.toml")]
+    with pytest.raises(SystemExit) as stop:
+        main(["solve", *files, "--out", str(tmp_path / "out")])
+    assert stop.value.code == 0, capsys.readouterr().err
+    assert not list((cache_on / "built").glob("*.pickle"))
+    assert list(cache_on.rglob("*.pickle")), "the loaded problems are kept"

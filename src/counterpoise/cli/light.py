@@ -280,6 +280,10 @@ def run_solve(
     except UsageError as exc:
         err(str(exc))
         return 2
+    if len(files) > 1:
+        from ..io.cache import keep_no_built
+
+        keep_no_built()  # built designers and evaluators are kept for a solve of one file only
     warnings: dict[str, tuple[str, ...]] = {}  # found at load, written into status.txt as found
     problems = load_all(list(files), sets, err, warnings)
     if problems is None:

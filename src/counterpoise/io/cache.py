@@ -97,6 +97,15 @@ def enable(built: bool = False) -> None:
     _built = built
 
 
+def keep_no_built() -> None:
+    """Stop :func:`fetch_built` and :func:`keep_built` in this process (a ``solve`` of several
+    files: the built objects are kept for the repeated solve of one file, the edit-and-solve
+    loop; a batch such as ``make demo`` would fill the folder with each problem's evaluators,
+    ~6 MB each, and pay their writing on every file)."""
+    global _built
+    _built = False
+
+
 def folder() -> Path | None:
     """The cache folder, or None when the cache is off (not enabled, or ``COUNTERPOISE_CACHE=off``)."""
     if not _enabled:
