@@ -220,6 +220,13 @@ def test_the_dense_checks_evaluators_are_kept_after_their_first_check(cache_on, 
     monkeypatch.setattr(residuals.SubsystemResiduals, "__init__", no_build)
     again = pipeline.design(load_problem(file))
     assert again.verification == first.verification and again.solution.values == first.solution.values
+    # what the first check found (the refined maxima and where they were) is not kept: a later
+    # solve with other designs or options refines from its own samples, as a cold one would
+    problem = load_problem(file)
+    settings = problem.settings
+    kept = check._restore(problem, check._kept_parts(problem, settings.verify_samples, settings.seed + 1))
+    assert kept is not None and any(e.box_state for *_, e in kept)  # the box maximum's functions are kept
+    assert all("maximisers" not in e.box_state and not e.box_state.get("found") for *_, e in kept)
 
 
 def test_built_objects_beyond_the_byte_budget_are_removed(cache_on, monkeypatch):
@@ -277,3 +284,27 @@ def test_a_solve_of_several_files_keeps_no_built_objects(tmp_path, cache_on, cap
     assert stop.value.code == 0, capsys.readouterr().err
     assert not list((cache_on / "built").glob("*.pickle"))
     assert list(cache_on.rglob("*.pickle")), "the loaded problems are kept"
+
+
+def test_folders_the_cache_creates_are_private_whatever_the_umask(tmp_path, monkeypatch):
+    """The first entry written may be a built one (its problem was not kept: a robot model),
+    two folders below a cache folder that does not exist yet: each folder made is 0700, so
+    the cache is used afterwards (with a umask of 002 ``mkdir(parents=True)`` gives the
+    parents 0775, which :func:`private` refuses for good)."""
+    import os
+    import stat
+
+    from counterpoise.io import cache
+
+    folder = tmp_path / "made" / "cache"
+    monkeypatch.setenv(cache.ENVIRONMENT, str(folder))
+    monkeypatch.setattr(cache, "_enabled", True)
+    monkeypatch.setattr(cache, "_built", True)
+    old = os.umask(0o002)
+    try:
+        cache.keep_built("test", ("a",), {"x": 1}, {})
+    finally:
+        os.umask(old)
+    for made in (tmp_path / "made", folder, cache.built_folder()):
+        assert made is not None and stat.S_IMODE(made.stat().st_mode) == 0o700, made
+    assert cache.fetch_built("test", ("a",), {}) == {"x": 1}

@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-from conftest import PROBLEMS
+from conftest import PROBLEMS, fresh_python
 from counterpoise.cli.app import main
 from counterpoise.io.loader import load_problem
 from counterpoise.studies.command import PlotPreload
@@ -143,11 +143,6 @@ def test_a_study_is_served_by_the_fast_path_without_typer(tmp_path):
     """``counterpoise study`` in a fresh process: parsed and run by the fast path
     (``light.run_study``), so typer (and the pydantic adapters it builds per option) is
     never imported; the study is written as by the app."""
-    import os
-    import subprocess
-    from pathlib import Path
-
-    src = str(Path(__file__).resolve().parent.parent / "src")
     code = (
         "import sys\n"
         "from counterpoise.cli import main\n"
@@ -156,9 +151,7 @@ def test_a_study_is_served_by_the_fast_path_without_typer(tmp_path):
         "except SystemExit as e:\n    code = e.code\n"
         "print(code, sorted(m for m in ('typer', 'click', 'matplotlib') if m in sys.modules))\n"
     )
-    environ = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [src, os.environ.get("PYTHONPATH")]))}
-    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=environ)
-    assert run.returncode == 0, run.stderr
-    assert run.stdout.strip().splitlines()[-1] == "0 []"
-    assert "2 points run (2 optimal)" in run.stdout
+    stdout = fresh_python(code)
+    assert stdout.strip().splitlines()[-1] == "0 []"
+    assert "2 points run (2 optimal)" in stdout
     assert len(read_rows(tmp_path / "yasir2019_counter_mass-study" / "study.csv")) == 2

@@ -31,7 +31,7 @@ class NumericFunction:
     Inputs with a sparse pattern, or a CasADi without ``Function.buffer``, go through the
     ordinary call (same results, slower).
 
-    ``remember``: the outputs of that many latest distinct inputs are kept (per thread) and
+    ``remember``: the outputs of that many latest distinct inputs (first in, first out) are kept (per thread) and
     given again (as copies) for the same inputs, bit for bit: a polish evaluates the
     balance equalities at a point it reached a moment before."""
 

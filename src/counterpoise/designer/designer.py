@@ -17,7 +17,7 @@ gets a certificate gap (:mod:`.convex`). Every polish of a solver's point (:meth
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
@@ -624,15 +624,16 @@ def _kept_parts(problem: Problem, ipopt_options: Mapping[str, Any] | None, backe
         return None
     import casadi as ca
 
-    from ..model.digest import content_key
+    from ..model.digest import content_key, digest
 
     version = str(getattr(ca, "__version__", ""))  # also in the entry's key by its installed version (io.cache.BUILT_LIBRARIES)
-    return (content_key(problem), repr(sorted((str(k), repr(v)) for k, v in (ipopt_options or {}).items())), backend, version)
+    return (content_key(problem), digest(dict(ipopt_options or {})), backend, version)
 
 
-def _numeric_function(function: Any) -> NumericFunction:
-    return NumericFunction(function)
+def _reduce_numeric(f: NumericFunction) -> tuple[Any, ...]:
+    return (NumericFunction, (f.function, f.remember))
 
 
-#: how a kept designer's parts that hold per-thread buffers pickle: rebuilt from their function
-_KEPT_REDUCERS: dict[type, Any] = {NumericFunction: lambda f: (_numeric_function, (f.function,))}
+#: how a kept designer's parts that hold per-thread buffers pickle: rebuilt from their
+#: function and settings (their buffers and remembered evaluations are not kept)
+_KEPT_REDUCERS: dict[type, Callable[[Any], tuple[Any, ...]]] = {NumericFunction: _reduce_numeric}

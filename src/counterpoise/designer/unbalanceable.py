@@ -16,9 +16,9 @@ z in the box
 
     max_j |g_j(z)| ≥ y·g(z) / |y|₁ ≥ ( y·c + Σ_i min(w_i l_i, w_i u_i) ) / |y|₁,  w = Jᵀy.
 
-With y the residual of the box-constrained least-squares design (found exactly by trying
-each variable at its lower bound, its upper bound or free), the bound is the least residual
-itself. When it exceeds the tolerance by more than rounding, no start of the restarts can end
+With y the residual r of the box-constrained least-squares design (found by trying each
+variable at its lower bound, its upper bound or free), the bound is |r|₂² / |r|₁, at most the
+least worst residual (:mod:`counterpoise.solvers.least_residual`). When it exceeds the tolerance by more than rounding, no start of the restarts can end
 balanced, so the solve's verdict is "infeasible" as soon as IPOPT says so: :func:`unbalanceable`
 runs that one IPOPT solve (the same as the solve's first) and returns True only then. It
 changes no result: it is asked only for the verdict, and a False answer means "solve it".

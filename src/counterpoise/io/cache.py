@@ -8,7 +8,7 @@ content unpickles both instead (~5 ms, importing neither pint nor pydantic).
 ``counterpoise solve`` also keeps what it built from a problem (:func:`fetch_built` /
 :func:`keep_built`): the designer (its CasADi functions and the sampled balance
 conditions) and the dense check's evaluators after their first check (the configurations,
-their complex-step arrays, the refined box maxima), which a later solve of the same
+their complex-step arrays, the box maximum's functions), which a later solve of the same
 content unpickles instead of building (for the hybrid ~20 ms against ~0.15 s).
 
 - **Key** (BLAKE2b): this format's version; the code (every file of the counterpoise
@@ -308,6 +308,18 @@ def _read(entry: Path, label: str, checked: str) -> tuple[Problem, Warnings] | N
     return None
 
 
+def _make_folders(folder: Path) -> None:
+    """Create ``folder`` and each missing folder above it as the user's own (``0700``: the
+    problems may be private, and :func:`private` refuses a folder others may write);
+    ``Path.mkdir(parents=True)`` would give the missing parents the umask's mode."""
+    missing = []
+    while not folder.exists():
+        missing.append(folder)
+        folder = folder.parent
+    for made in reversed(missing):
+        made.mkdir(mode=0o700, exist_ok=True)
+
+
 def _write(entry: Path, value: object, limit: int, dump: Callable[[object, Any], None] | None = None, size: float = float("inf")) -> None:
     """Keep ``value`` under ``entry`` (a temporary file renamed into place; ``dump(value,
     handle)``, default :func:`pickle.dump`); a cache that cannot be written, or a folder
@@ -316,7 +328,7 @@ def _write(entry: Path, value: object, limit: int, dump: Callable[[object, Any],
     import tempfile  # only when writing (it imports shutil, random, bz2, lzma)
 
     try:
-        entry.parent.mkdir(mode=0o700, parents=True, exist_ok=True)  # the user's own: problems may be private
+        _make_folders(entry.parent)
         if not private(entry.parent):
             return
         fd, tmp = tempfile.mkstemp(prefix=f".{entry.stem[:12]}.", suffix=".tmp", dir=entry.parent)

@@ -26,9 +26,9 @@ def _is_const(a: Any, c: float) -> bool:
     return isinstance(a, _NUMBER) and a == c
 
 
-# mul, add, add_all and dot are called hundreds of times per evaluation of a mechanism on a
-# few configurations (a study point's certificate): the tests of _is_const are written out
-# in them, with the same outcome in every case.
+# mul, add and add_all (and dot, through them) are called hundreds of times per evaluation
+# of a mechanism on a few configurations (a study point's certificate): the tests of
+# _is_const are written out in the three, with the same outcome in every case.
 def mul(a: Scalar, b: Scalar) -> Scalar:
     if isinstance(a, _NUMBER):
         if a == 0.0:

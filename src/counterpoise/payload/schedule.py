@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -155,7 +156,7 @@ class AdjustmentSolver:
         point, and without design constraints it keeps no state between solves (constraint
         rows may add verification rounds, so such a problem, and the minimax designer of
         directly attached springs, is always solved again)."""
-        key = (mass, tuple(self._last.items()))
+        key = self._key(mass)
         if self._solved is not None and key in self._solved:
             setting, self._last = self._solved[key]
             return setting
@@ -179,13 +180,17 @@ class AdjustmentSolver:
         adjustments enter the balance conditions affinely, a certificate settles it instead
         (:func:`~counterpoise.designer.unbalanceable.unbalanceable`: True only when the
         solve would end infeasible). Everything else is solved by :meth:`at`."""
-        if self._solved is not None and (mass, tuple(self._last.items())) in self._solved:
+        if self._solved is not None and self._key(mass) in self._solved:
             return self.at(mass)
-        if self._solved is not None and isinstance(self.designer, Designer):  # the plain designer, no state
+        if self._solved is not None and type(self.designer) is Designer:  # the plain designer, no state
             parameters = {**self.parameters, self.payload.name: mass}
             if unbalanceable(self.designer, self._last or None, parameters, self.bounds):
                 return None
         return self.at(mass)
+
+    def _key(self, mass: float) -> tuple[Any, ...]:
+        """What fixes a solve of :meth:`at`: the mass and the start (the last feasible adjustments)."""
+        return (mass, tuple(self._last.items()))
 
     def limit(self, setting: Setting, tolerance: float = 1e-4) -> tuple[str, str, float] | None:
         """(variable, 'lower'|'upper', bound) of the adjustment at a limit of its travel or

@@ -88,8 +88,8 @@ def _kept_parts(problem: Problem, samples: int, seed: int) -> tuple[str, ...] | 
 
 def _restore(problem: Problem, parts: tuple[str, ...]) -> list[tuple[str, str, SubsystemResiduals]] | None:
     """The evaluators of ``problem`` as an earlier ``counterpoise solve`` kept them after its
-    check (their configurations, complex-step arrays and refined box maxima: what the same
-    code computes again from the same content), or None. CasADi functions are unpickled in
+    check (their configurations, complex-step arrays and the box maximum's functions: what
+    the same code computes again from the same content; not the maxima its check found), or None. CasADi functions are unpickled in
     one CasADi context."""
     import casadi as ca
 
@@ -118,10 +118,17 @@ def _keep(found: list[tuple[str, str, SubsystemResiduals]]) -> None:
 def _reduce_residuals(evaluator: SubsystemResiduals) -> tuple[Any, ...]:
     """An evaluator without what it rebuilds on use: the per-chunk coordinate inputs (with
     their remembered sines and cosines) and the composed arrays (sums of the per-element
-    arrays, which are kept)."""
+    arrays, which are kept), and without the box maxima its checks found."""
     state = dict(evaluator.__dict__)
     state["_chunk_inputs"] = {}
     state["_arrays"] = None
+    # the box maximum's functions, not what its checks found nor where (the refined maxima and
+    # the maximisers a later check starts from): a later solve, with other options or designs,
+    # starts as a cold one would, so its numbers never depend on an earlier run
+    box = evaluator.box_state
+    state["box_state"] = {k: box[k] for k in ("maximum", "bases", "variables") if k in box}
+    if "maximum" in box:
+        state["box_state"]["found"] = {}
     return (_restore_residuals, (state,))
 
 
