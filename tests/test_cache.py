@@ -249,11 +249,12 @@ def test_built_objects_beyond_the_byte_budget_are_removed(cache_on, monkeypatch)
 
 def test_solve_twice_through_the_kept_designer_and_evaluators_writes_the_same_files(tmp_path, cache_on, capsys, monkeypatch):
     """``counterpoise solve`` as the console script runs it (problems and built objects
-    kept): the second run takes the problem, the designer and the evaluators from the disk
-    (nothing is built: building would fail) and writes the same report files, byte for
-    byte (the summary and status hold timings)."""
+    kept): the second run takes the problem, the designer, the evaluators and the designed
+    springs' sample from the disk (nothing is built or drawn: that would fail) and writes
+    the same report files, byte for byte (the summary and status hold timings)."""
     from counterpoise.cli import main
     from counterpoise.designer import designer
+    from counterpoise.mechanics import sampling
     from counterpoise.verify import residuals
 
     def no_build(*args, **kwargs):
@@ -264,10 +265,11 @@ def test_solve_twice_through_the_kept_designer_and_evaluators_writes_the_same_fi
         if run == "second":
             monkeypatch.setattr(designer, "Formulation", no_build)
             monkeypatch.setattr(residuals.SubsystemResiduals, "__init__", no_build)
+            monkeypatch.setattr(sampling, "configurations", no_build)
         with pytest.raises(SystemExit) as stop:
             main(["solve", str(file), "--out", str(tmp_path / run)])
         assert stop.value.code == 0, capsys.readouterr().err
-    assert sorted(p.name.split(".")[0] for p in (cache_on / "built").glob("*.pickle")) == ["designer", "evaluators"]
+    assert sorted(p.name.split(".")[0] for p in (cache_on / "built").glob("*.pickle")) == ["designer", "evaluators", "workspace"]
     for name in ("design.csv", "springs.csv", "build.csv", "verification.csv"):
         first = (tmp_path / "first" / "yasir2019_hybrid" / name).read_bytes()
         assert (tmp_path / "second" / "yasir2019_hybrid" / name).read_bytes() == first, name

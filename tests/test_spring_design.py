@@ -98,6 +98,27 @@ def test_worked_example_is_the_lightest_candidate_that_keeps_the_rules(example):
             assert ph.mass(mat, d, D, Nb) >= example.mass * (1 - 2e-3), (d, C)
 
 
+def test_springs_of_one_rate_share_the_kept_candidates_and_design_as_fresh_ones():
+    """The (wire, index) candidates of a rate are computed once and kept (read-only); a
+    design from the kept candidates is the design computed afresh, field for field, for
+    two requirements of one rate (the springs of a problem often share a rate)."""
+    import sys
+
+    module = sys.modules["counterpoise.springs.design"]
+    second = Requirement(rate=EXAMPLE.rate, force_min=0.5 * EXAMPLE.force_min, force_max=0.9 * EXAMPLE.force_max)
+    module._grid.cache_clear()
+    kept = [design(EXAMPLE), design(second)]
+    assert module._grid.cache_info().misses == 1 and module._grid.cache_info().hits == 1
+    grid = module._grid(material("music_wire"), EXAMPLE.rate)
+    assert not any(a.flags.writeable for a in grid.values())
+    fresh = []
+    for r in (EXAMPLE, second):
+        module._grid.cache_clear()
+        module._wires.cache_clear()
+        fresh.append(design(r))
+    assert kept == fresh and kept[0] != kept[1]
+
+
 REQUIREMENTS = [
     Requirement(rate=k, force_min=f * lo, force_max=f)
     for k in (50.0, 300.0, 2000.0, 20000.0)

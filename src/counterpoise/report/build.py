@@ -119,11 +119,13 @@ def workspace_distances(result: DesignResult) -> dict[str, tuple[float, float]]:
 
     Open chains: over the configurations ``springs.csv`` takes its extremes on (the dense
     sample of :func:`counterpoise.selection.geometry.sample_configurations`, seed + 11,
-    drawn here the same way without importing the selection layer). Closed loops: over the
+    drawn the same way without importing the selection layer:
+    :func:`counterpoise.springs.workspace.sample`). Closed loops: over the
     assembled configurations the dense verification checked (its evaluators are cached:
     assembling a new sample would cost more than the rest of the page).
     """
-    from ..mechanics.sampling import configurations
+    from ..springs.workspace import SEED_OFFSET
+    from ..springs.workspace import sample as drawn
     from ..verify.check import evaluators
 
     problem = result.problem
@@ -134,9 +136,8 @@ def workspace_distances(result: DesignResult) -> dict[str, tuple[float, float]]:
     if problem.loops:
         for scenario, subsystem, evaluator in evaluators(result.solution):
             by_scenario.setdefault(scenario, {})[subsystem] = evaluator.q
-    else:
-        rng = np.random.default_rng(settings.seed + 11)
-        sample = {s.name: configurations(problem, s.name, settings.verify_samples, rng) for s in problem.subsystems}
+    else:  # open chains: the draws of springs.csv's sample (kept on disk by counterpoise solve)
+        sample = drawn(problem, {}, settings.verify_samples, settings.seed + SEED_OFFSET)
         by_scenario = {s.name: sample for s in problem.scenarios}
     out: dict[str, tuple[float, float]] = {}
     for scenario, q in by_scenario.items():

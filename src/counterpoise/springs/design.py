@@ -138,21 +138,70 @@ def _round(x: np.ndarray, step: float) -> np.ndarray:
     return np.round(x / step) * step
 
 
-def _candidates(mat: Material, k: float) -> dict[str, np.ndarray]:
-    """Every (wire, index) candidate for rate ``k``, rounded, as flat arrays."""
+def _frozen(**arrays: np.ndarray) -> dict[str, np.ndarray]:
+    """``arrays``, each made read-only (they are kept by :func:`_grid` and shared)."""
+    for a in arrays.values():
+        a.flags.writeable = False
+    return arrays
+
+
+@functools.lru_cache(maxsize=4)
+def _wires(mat: Material) -> dict[str, np.ndarray]:
+    """What of the candidates depends on the material alone (kept: every design of the
+    material starts from it): the (wire, index) grid as flat arrays, G·d⁴ and the
+    allowable stresses of each wire."""
     d = np.asarray(wire_diameters(mat), dtype=float)
     C0 = np.linspace(ph.C_MIN, ph.C_MAX, INDEX_STEPS)
     d, C0 = (a.ravel() for a in np.meshgrid(d, C0, indexing="ij"))
+    sut = ph.tensile_strength(mat, d)
+    return _frozen(
+        d=d,
+        Gd=mat.G * d,
+        C3=8.0 * C0**3,
+        Gd4=mat.G * d**4,
+        body=mat.body_torsion * sut,
+        bend=mat.end_bending * sut,
+        tors=mat.end_torsion * sut,
+    )
+
+
+@functools.lru_cache(maxsize=4)
+def _grid(mat: Material, k: float) -> dict[str, np.ndarray]:
+    """Every (wire, index) candidate for rate ``k``, rounded, as flat arrays, with what of
+    them depends on the rate alone (capacity, windable initial-tension band, lengths,
+    mass). Kept for the last few rates: the springs of one problem often share a rate
+    (read-only arrays; at most ~2 MB each)."""
+    w = _wires(mat)
+    d = w["d"]
     offset = mat.G / mat.E
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        Nb = _round(mat.G * d / (8.0 * C0**3 * k) - offset, COIL_STEP)  # N_a for D = C0 d, then rounded
+        Nb = _round(w["Gd"] / (w["C3"] * k) - offset, COIL_STEP)  # N_a for D = C0 d, then rounded
         Na = ph.active_coils(mat, Nb)
-        exact = (mat.G * d**4 / (8.0 * k * Na)) ** (1.0 / 3.0)
+        exact = (w["Gd4"] / (8.0 * k * Na)) ** (1.0 / 3.0)
         D = _round(exact, DIAMETER_STEPS[0])
-        fine = np.abs(ph.rate(mat, d, D, Na) / k - 1.0) > RATE_ROUNDING
+        fine = np.abs(w["Gd4"] / (8.0 * D**3 * Na) / k - 1.0) > RATE_ROUNDING  # ph.rate
         D = np.where(fine, _round(exact, DIAMETER_STEPS[1]), D)
-        rate = ph.rate(mat, d, D, Na)
-    return {"d": d, "D": D, "Nb": Nb, "Na": Na, "rate": rate, "C": D / d}
+        rate = w["Gd4"] / (8.0 * D**3 * Na)  # ph.rate
+        C = D / d
+        a_body, a_bend, a_tors = w["body"], w["bend"], w["tors"]
+        unit = (ph.shear_stress(1.0, d, D), ph.hook_bending_stress(1.0, d, D), ph.hook_torsion_stress(1.0, d, D))
+        capacity = np.minimum.reduce([a / u for a, u in zip((a_body, a_bend, a_tors), unit)])  # (S10)
+        mid, half = ph.initial_stress_mid(C), ph.initial_stress_half_band(C)
+        t_lo, t_mid, t_hi = (ph.tension_of_stress(t, d, D) for t in (mid - half, mid, mid + half))
+        L0 = ph.free_length(d, D, Nb)
+        Lb = ph.body_length(d, Nb)
+        index = np.isfinite(D) & (C >= ph.C_MIN - 1e-9) & (C <= ph.C_MAX + 1e-9) & (np.abs(rate / k - 1.0) <= RATE_ROUNDING)
+        mass = ph.mass(mat, d, D, Nb)
+    return _frozen(
+        d=d, D=D, Nb=Nb, Na=Na, rate=rate, C=C, a_body=a_body, a_bend=a_bend, a_tors=a_tors, capacity=capacity,
+        t_lo=t_lo, t_mid=t_mid, t_hi=t_hi, L0=L0, Lb=Lb, index=index, coils=Nb >= MIN_BODY_COILS, mass=mass,
+    )  # fmt: skip
+
+
+def _candidates(mat: Material, k: float) -> dict[str, np.ndarray]:
+    """Every (wire, index) candidate for rate ``k``, rounded, as flat arrays."""
+    g = _grid(mat, k)
+    return {name: g[name] for name in ("d", "D", "Nb", "Na", "rate", "C")}
 
 
 def _capacity(mat: Material, d: np.ndarray, D: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -195,23 +244,20 @@ def design(
         return fail(f"its rate {k:.4g} N/m is not positive")
     if not (math.isfinite(f_hi) and f_hi > 0 and math.isfinite(f_lo)):
         return fail(f"its working force {f_lo:.4g}-{f_hi:.4g} N is not a positive range")
-    c = _candidates(m, k)
-    d, D, Nb, Na, C = c["d"], c["D"], c["Nb"], c["Na"], c["C"]
+    g = _grid(m, k)
+    d, D, Nb, Na, C, rate = g["d"], g["D"], g["Nb"], g["Na"], g["C"], g["rate"]
+    a_body, a_bend, a_tors, capacity = g["a_body"], g["a_bend"], g["a_tors"], g["capacity"]
+    t_lo, t_mid, t_hi, L0, Lb = g["t_lo"], g["t_mid"], g["t_hi"], g["L0"], g["Lb"]
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        a_body, a_bend, a_tors, capacity = _capacity(m, d, D)
-        mid, half = ph.initial_stress_mid(C), ph.initial_stress_half_band(C)
-        t_lo, t_mid, t_hi = (ph.tension_of_stress(t, d, D) for t in (mid - half, mid, mid + half))
         if r.initial_tension is None:  # the middle of the band, lower down to f_lo, not below the band
             F0 = np.minimum(np.maximum(f_lo, t_lo), t_mid)
         else:
             F0 = np.full_like(d, r.initial_tension)
-        L0 = ph.free_length(d, D, Nb)
-        Lb = ph.body_length(d, Nb)
         free = L0 if r.free_length is None else np.full_like(d, r.free_length)
-        L_hi = free + (f_hi - F0) / c["rate"]
+        L_hi = free + (f_hi - F0) / rate
     stages = [
-        ("index", np.isfinite(D) & (C >= ph.C_MIN - 1e-9) & (C <= ph.C_MAX + 1e-9) & (np.abs(c["rate"] / k - 1.0) <= RATE_ROUNDING)),
-        ("coils", Nb >= MIN_BODY_COILS),
+        ("index", g["index"]),
+        ("coils", g["coils"]),
         ("strength", capacity >= f_hi * min_safety_factor),
         ("tension", (F0 >= t_lo * (1 - 1e-12)) & (F0 <= t_hi * (1 + 1e-12)) & (F0 < f_hi)),
         ("free length", L0 <= free * (1 + 1e-12)),
@@ -222,7 +268,7 @@ def design(
         if not np.any(keep & ok):
             return fail(_reason(stage, m, r, envelope, keep, capacity / min_safety_factor, L0, F0))
         keep &= ok
-    mass = ph.mass(m, d, D, Nb)
+    mass = g["mass"]
     slack = np.maximum(F0 - f_lo, 0.0)  # > 0: the cable goes slack at the shortest distance
     long_hooks = np.maximum((free - L0) / 2.0 - D, 0.0)  # direct mount: hooks longer than a coil diameter more
     order = np.lexsort((f_hi / capacity, np.where(keep, mass, np.inf), np.where(keep, long_hooks, np.inf), np.where(keep, slack, np.inf)))
@@ -248,16 +294,16 @@ def design(
         mean_diameter=float(D[i]),
         body_coils=float(Nb[i]),
         active_coils=float(Na[i]),
-        rate=float(c["rate"][i]),
+        rate=float(rate[i]),
         initial_tension=f0,
         initial_tension_band=(float(t_lo[i]), float(t_hi[i])),
         body_length=float(Lb[i]),
         free_length=float(free[i]),
         hook_extension=float(free[i] - L0[i]) / 2.0,
-        length_min=float(free[i] + max(f_lo - f0, 0.0) / c["rate"][i]),  # slack cable: the spring stays at L0
+        length_min=float(free[i] + max(f_lo - f0, 0.0) / rate[i]),  # slack cable: the spring stays at L0
         length_max=float(L_hi[i]),
         max_force=float(capacity[i]),
-        max_length=float(free[i] + (capacity[i] - f0) / c["rate"][i]),
+        max_length=float(free[i] + (capacity[i] - f0) / rate[i]),
         body_stress=float(ph.shear_stress(f_hi, d[i], D[i])),
         hook_bending_stress=float(ph.hook_bending_stress(f_hi, d[i], D[i])),
         hook_torsion_stress=float(ph.hook_torsion_stress(f_hi, d[i], D[i])),

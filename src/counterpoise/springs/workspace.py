@@ -97,7 +97,18 @@ def sample(problem: Any, base: Mapping[str, float], samples: int, seed: int) -> 
     """Per subsystem: ``samples`` random configurations plus the corners of its box, on
     the configuration manifold (geometry ``base``) for closed loops. The same draws as the
     sample catalogue parts are checked on (:func:`counterpoise.selection.geometry.sample_configurations`,
-    for one geometry), from the mechanics layer alone: the after-solve path imports no part search."""
+    for one geometry), from the mechanics layer alone: the after-solve path imports no part search.
+
+    ``counterpoise solve`` keeps the draws on disk (:mod:`counterpoise.io.cache`, kind
+    :data:`KEPT_KIND`): its later runs of the same file read them instead of drawing them
+    again (and of importing ``numpy.random``, ~10 ms)."""
+    parts = _kept_parts(problem, base, samples, seed)
+    if parts is not None:
+        from ..io.cache import fetch_built
+
+        kept = fetch_built(KEPT_KIND, parts, {})
+        if _valid(kept, problem, samples):
+            return kept  # type: ignore[return-value]  # checked by _valid
     from ..mechanics.closure import manifold_configurations
     from ..mechanics.sampling import configurations
 
@@ -108,7 +119,40 @@ def sample(problem: Any, base: Mapping[str, float], samples: int, seed: int) -> 
             out[s.name] = manifold_configurations(problem, s.name, samples, rng, base).q
         else:
             out[s.name] = configurations(problem, s.name, samples, rng)
+    if parts is not None:
+        from ..io.cache import keep_built
+
+        keep_built(KEPT_KIND, parts, out, {})
     return out
+
+
+#: the kind of :mod:`counterpoise.io.cache`'s built entries that hold a problem's dense sample
+KEPT_KIND = "workspace"
+
+
+def _kept_parts(problem: Any, base: Mapping[str, float], samples: int, seed: int) -> tuple[str, ...] | None:
+    """The key parts of a sample kept on disk, or None when built objects are not kept in
+    this process (anything but the console script's ``solve``). The geometry ``base``
+    counts only where the problem has closed loops (an open chain's draws do not use it)."""
+    from ..io.cache import built_folder
+
+    if built_folder() is None:
+        return None
+    from ..model.digest import content_key
+
+    geometry = repr(sorted((str(k), float(v)) for k, v in base.items())) if problem.loops else ""
+    return (content_key(problem), str(samples), str(seed), geometry)
+
+
+def _valid(kept: object, problem: Any, samples: int) -> bool:
+    """Whether ``kept`` is a sample of ``problem``'s subsystems as :func:`sample` draws it."""
+    if not isinstance(kept, dict) or list(kept) != [s.name for s in problem.subsystems]:
+        return False
+    for s in problem.subsystems:
+        q = kept[s.name]
+        if type(q) is not np.ndarray or q.dtype != np.float64 or q.ndim != 2 or q.shape[1] != len(problem.subsystem_coordinates(s.name)) or q.shape[0] < samples:
+            return False
+    return True
 
 
 def distances(problem: Any, springs: list[Any], q: Mapping[str, np.ndarray], variables: Mapping[str, Any], base: Mapping[str, Any], gravity: Any) -> dict[str, np.ndarray]:
