@@ -14,15 +14,9 @@ from __future__ import annotations
 
 import base64
 import csv
+import html
 import io
 from collections.abc import Mapping, Sequence
-
-
-def escape(text: str) -> str:
-    """``html.escape(text)``, quotes included, the same replacements in the same order
-    (the ``html`` package loads its table of entities, ~3 ms of a single solve)."""
-    return text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;").replace('"', "&quot;").replace("'", "&#x27;")
-
 
 #: the images a page shows, in this order: (file, section title, what it shows)
 IMAGES = (
@@ -119,8 +113,8 @@ SHORT = 24
 def _cell(cell: str) -> str:
     shown = _number(cell) if cell else None
     if shown is not None:
-        return f'<td class="num">{escape(shown)}</td>'
-    return f'<td class="nw">{escape(cell)}</td>' if len(cell) <= SHORT else f"<td>{escape(cell)}</td>"
+        return f'<td class="num">{html.escape(shown)}</td>'
+    return f'<td class="nw">{html.escape(cell)}</td>' if len(cell) <= SHORT else f"<td>{html.escape(cell)}</td>"
 
 
 #: a column name's unit suffix -> how a header shows it
@@ -140,9 +134,9 @@ def table(columns: Sequence[str], rows: Sequence[Mapping[str, str]], caption: st
     are left out (``drop_empty``). Headers show the CSV names with their unit in brackets."""
     if drop_empty:
         columns = [c for c in columns if any(r.get(c, "") for r in rows)]
-    head = "".join(f'<th title="{escape(c)}">{escape(label(c))}</th>' for c in columns)
+    head = "".join(f'<th title="{html.escape(c)}">{html.escape(label(c))}</th>' for c in columns)
     body = "".join("<tr>" + "".join(_cell(r.get(c, "") or "") for c in columns) + "</tr>" for r in rows)
-    cap = f"<caption>{escape(caption)}</caption>" if caption else ""
+    cap = f"<caption>{html.escape(caption)}</caption>" if caption else ""
     wide = ' class="wide"' if len(columns) > WIDE else ""
     return f'<div class="wrap"><table{wide}>{cap}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table></div>'
 
@@ -156,14 +150,14 @@ def _summary(text: str) -> str:
     _, rows = _rows(text)
     row = rows[0] if rows else {}
     body = "".join(
-        f"<tr><th>{escape(k)}</th>{_cell(v)}</tr>" for k, v in row.items() if v not in ("", None)
+        f"<tr><th>{html.escape(k)}</th>{_cell(v)}</tr>" for k, v in row.items() if v not in ("", None)
     )
     return f'<div class="wrap"><table class="kv"><tbody>{body}</tbody></table></div>'
 
 
 def _image(name: str, data: bytes, title: str, what: str) -> str:
     encoded = base64.b64encode(data).decode("ascii")
-    return f'<figure><img src="data:image/png;base64,{encoded}" alt="{escape(title)} ({escape(name)})"><figcaption>{escape(what)} ({escape(name)})</figcaption></figure>'
+    return f'<figure><img src="data:image/png;base64,{encoded}" alt="{html.escape(title)} ({html.escape(name)})"><figcaption>{html.escape(what)} ({html.escape(name)})</figcaption></figure>'
 
 
 def _build_section(text: str) -> str:
@@ -179,7 +173,7 @@ def _build_section(text: str) -> str:
     ]
     if points:
         notes = "".join(
-            f"<li><strong>{escape(r.get('item', ''))} {escape(r.get('name', ''))}</strong>: {escape(r.get('note', ''))}</li>"
+            f"<li><strong>{html.escape(r.get('item', ''))} {html.escape(r.get('name', ''))}</strong>: {html.escape(r.get('note', ''))}</li>"
             for r in points
             if r.get("note") and r.get("kind") != "counter_mass"
         )
@@ -189,7 +183,7 @@ def _build_section(text: str) -> str:
             + (f'<ul class="note">{notes}</ul>' if notes else "")
         )
     if springs:
-        notes = "".join(f"<li><strong>{escape(r.get('name', ''))}</strong>: {escape(r.get('note', ''))}</li>" for r in springs)
+        notes = "".join(f"<li><strong>{html.escape(r.get('name', ''))}</strong>: {html.escape(r.get('note', ''))}</li>" for r in springs)
         parts.append(
             "<h3>Springs</h3>"
             + table(SPRING_COLUMNS, springs, "the part (empty: a designed spring), its rate, free length L0 and initial tension F0, the cable")
@@ -205,7 +199,7 @@ def report_html(name: str, title: str, status: str, texts: Mapping[str, str], im
     """The page of one design: ``texts`` are the report files' text (name -> text),
     ``images`` the PNG plots written beside them (name -> bytes)."""
     sections: list[tuple[str, str, str]] = []  # (id, title, html)
-    sections.append(("summary", "Summary", _summary(texts.get("summary.csv", "")) + f"<pre>{escape(texts.get('status.txt', ''))}</pre>"))
+    sections.append(("summary", "Summary", _summary(texts.get("summary.csv", "")) + f"<pre>{html.escape(texts.get('status.txt', ''))}</pre>"))
     drawing = images.get("mechanism.png")
     if drawing is not None:
         sections.append(("drawing", IMAGES[0][1], _image("mechanism.png", drawing, *IMAGES[0][1:])))
@@ -226,15 +220,15 @@ def report_html(name: str, title: str, status: str, texts: Mapping[str, str], im
     sections.append(("design", "Design variables", csv_table(texts.get("design.csv", ""), "design.csv: every design variable and report quantity, in the file's units")))
     if drawing is None or energy is None:
         sections.append(("plots", "Plots", '<p class="note">The drawing and the energy plot are written by <code>counterpoise solve --plot</code>.</p>'))
-    nav = "".join(f'<a href="#{sid}">{escape(t)}</a>' for sid, t, _ in sections)
-    body = "".join(f'<section id="{sid}"><h2>{escape(t)}</h2>{content}</section>' for sid, t, content in sections)
+    nav = "".join(f'<a href="#{sid}">{html.escape(t)}</a>' for sid, t, _ in sections)
+    body = "".join(f'<section id="{sid}"><h2>{html.escape(t)}</h2>{content}</section>' for sid, t, content in sections)
     badge = "ok" if status == "optimal" else "bad"
     return (
         "<!DOCTYPE html>\n"
         '<html lang="en"><head><meta charset="utf-8">'
         '<meta name="viewport" content="width=device-width, initial-scale=1">'
-        f"<title>{escape(name)}: counterpoise report</title><style>{CSS}</style></head><body>"
-        f"<header><h1>{escape(title or name)}</h1>"
-        f'<p class="lead">Problem <code>{escape(name)}</code> · design <span class="status {badge}">{escape(status)}</span></p>'
+        f"<title>{html.escape(name)}: counterpoise report</title><style>{CSS}</style></head><body>"
+        f"<header><h1>{html.escape(title or name)}</h1>"
+        f'<p class="lead">Problem <code>{html.escape(name)}</code> · design <span class="status {badge}">{html.escape(status)}</span></p>'
         f"<nav>{nav}</nav></header><main>{body}</main></body></html>\n"
     )
