@@ -48,6 +48,13 @@ class Spy:
         self.inner = inner
         self.returned: list[tuple[Solution, dict[str, object]]] = []
 
+    @classmethod
+    def on(cls, method: object) -> "Spy":
+        """Put a spy between ``method`` and its inner method."""
+        spy = cls(method.inner)  # type: ignore[attr-defined]  # every wrapping layer has .inner
+        method.inner = spy  # type: ignore[attr-defined]
+        return spy
+
     def __getattr__(self, name: str) -> object:
         return getattr(self.inner, name)
 
@@ -63,6 +70,18 @@ class Spy:
             now = _snapshot(solution)
             changed = [name for name in before if not _same(before[name], now[name])]
             assert not changed, f"the layer changed its inner solution: {changed}"
+
+
+def _run_spied(problem: object, layer: str) -> tuple[DesignResult, Spy]:
+    """``problem``'s design method (of type ``layer``) run with a spy on its inner method;
+    the design is optimal and the layer left every inner solution as it was returned."""
+    method = build_method(problem)
+    assert type(method).__name__ == layer
+    spy = Spy.on(method)
+    result = run(method)
+    assert result.optimal, result.message
+    spy.check_untouched(result.solution)
+    return result, spy
 
 
 def _mutation_raises(solution: Solution) -> None:
@@ -107,8 +126,7 @@ def test_designer_certify_returns_a_new_solution():
 def test_multi_start_returns_a_new_solution_and_leaves_its_starts_alone():
     method = build_method(plain_pendulum(0.8, 0.3, (0.02, 1.0), 25.0).build(), starts=3)
     assert isinstance(method, MultiStart)
-    spy = Spy(method.inner)
-    method.inner = spy
+    spy = Spy.on(method)
     best = method.solve()
     spy.check_untouched(best)
     assert len(spy.returned) == 3
@@ -152,13 +170,7 @@ def test_parts_layer_wraps_its_inner_design_and_its_verdict_names_the_part(tmp_p
     from test_catalogue import pendulum
 
     problem = pendulum(tmp_path, ["GOOD,200,0.05,1,50,0.3,0.01,0.001,x"], 2.0 / (9.81 * 0.2))
-    method = build_method(problem)
-    assert type(method).__name__ == "PartsMethod"
-    spy = Spy(method.inner)
-    method.inner = spy
-    result = run(method)
-    assert result.optimal, result.message
-    spy.check_untouched(result.solution)
+    result, spy = _run_spied(problem, "PartsMethod")
     assert result.verdict.source == "parts"
     assert "; parts " in result.message and result.message.endswith(": GOOD")  # the layer's own line
     assert result.parts is not None and result.parts is result.solution.parts
@@ -174,13 +186,7 @@ def test_robust_layer_wraps_the_nominal_design_and_its_verdict_is_the_counterpar
     from test_robust import _pendulum
 
     problem = load_problem(_pendulum(tmp_path, "limit", 'mode = "limit"\nlimit = 0.04\ntolerances.rate = "10 %"'))
-    method = build_method(problem)
-    assert type(method).__name__ == "RobustMethod"
-    spy = Spy(method.inner)
-    method.inner = spy
-    result = run(method)
-    assert result.optimal, result.message
-    spy.check_untouched(result.solution)
+    result, spy = _run_spied(problem, "RobustMethod")
     assert result.verdict.source == "robust"
     assert result.solution.robust is not None
     assert all(s.robust is None and s.verdict is None for s, _ in spy.returned)

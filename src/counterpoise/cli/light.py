@@ -254,6 +254,36 @@ def guarded(err: Err, debug: bool, body: Callable[[], int | None]) -> int | None
         return INTERNAL_ERROR
 
 
+def _load(
+    files: list[Path],
+    set_: list[str] | None,
+    out: Path,
+    err: Err,
+    loaded: Callable[[], None] | None,
+    warnings: dict[str, tuple[str, ...]] | None = None,
+) -> "tuple[list[Problem], dict[str, object]] | None":
+    """What ``solve`` and ``study`` do before their work: read the ``--set`` values, load
+    and check every file, check the output folder, then call ``loaded``; the problems and
+    the values set, or None after one line on ``err`` per error (the command exits 2)."""
+    from .run import load_all, out_error
+
+    try:
+        sets = overrides(set_)
+    except UsageError as exc:
+        err(str(exc))
+        return None
+    problems = load_all(list(files), sets, err, warnings)
+    if problems is None:
+        return None
+    wrong = out_error(out)
+    if wrong is not None:
+        err(wrong)
+        return None
+    if loaded is not None:
+        loaded()
+    return problems, sets
+
+
 def run_solve(
     err: Err,
     summary: Summary,
@@ -273,27 +303,17 @@ def run_solve(
     every file, design, verify and write each, print the summary; the exit status. Every
     message goes through ``err`` (one line each); ``loaded`` is called once every file has
     loaded, before the design work."""
-    from .run import load_all, out_error, solve_all
+    from .run import solve_all
 
-    try:
-        sets = overrides(set_)
-    except UsageError as exc:
-        err(str(exc))
-        return 2
     if len(files) > 1:
         from ..io.cache import keep_no_built
 
         keep_no_built()  # built designers and evaluators are kept for a solve of one file only
     warnings: dict[str, tuple[str, ...]] = {}  # found at load, written into status.txt as found
-    problems = load_all(list(files), sets, err, warnings)
-    if problems is None:
+    found = _load(files, set_, out, err, loaded, warnings)
+    if found is None:
         return 2
-    wrong = out_error(out)
-    if wrong is not None:
-        err(wrong)
-        return 2
-    if loaded is not None:
-        loaded()
+    problems, _ = found
     rows, worst = solve_all(problems, out, plot, starts, err, html=report == "html", jobs=jobs, check=check, warnings=warnings)
     summary(rows, wide)
     return worst
@@ -351,23 +371,10 @@ def run_study(
 
     from ..errors import ProblemFileError
     from ..studies.command import StudyOptions, run_study_command
-    from .run import load_all, out_error
-
-    try:
-        sets = overrides(set_)
-    except UsageError as exc:
-        err(str(exc))
+    found = _load([file], set_, out, err, loaded)
+    if found is None:
         return 2
-    problems = load_all([file], sets, err)
-    if problems is None:
-        return 2
-    problem = problems[0]
-    wrong = out_error(out)
-    if wrong is not None:
-        err(wrong)
-        return 2
-    if loaded is not None:
-        loaded()
+    (problem,), sets = found
     options = StudyOptions(tuple(vary), samples, method, seed, out, jobs, scheduler, scheduler_timeout, resume, time_limit, batch_size, plot,
                            overrides=tuple(sets.items()), check=check)
     try:

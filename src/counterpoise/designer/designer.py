@@ -618,16 +618,16 @@ def _kept_parts(problem: Problem, ipopt_options: Mapping[str, Any] | None, backe
     """The key parts of a designer kept on disk (the problem's content, the options, the
     CasADi version), or None when designers are not kept in this process (anything but the
     console script's ``solve``) or this one is not (a verification round's, with ``extra``)."""
-    from ..io.cache import built_folder
+    from ..io.cache import built_parts
 
-    if extra or built_folder() is None:
+    if extra:
         return None
     import casadi as ca
 
-    from ..model.digest import content_key, digest
+    from ..model.digest import digest
 
     version = str(getattr(ca, "__version__", ""))  # also in the entry's key by its installed version (io.cache.BUILT_LIBRARIES)
-    return (content_key(problem), digest(dict(ipopt_options or {})), backend, version)
+    return built_parts(problem, digest(dict(ipopt_options or {})), backend, version)
 
 
 def _reduce_numeric(f: NumericFunction) -> tuple[Any, ...]:

@@ -385,6 +385,17 @@ def built_folder() -> Path | None:
     return None if where is None else where / BUILT
 
 
+def built_parts(problem: Any, *parts: str) -> tuple[str, ...] | None:
+    """The key parts of an object built from ``problem`` (its content key, then ``parts``:
+    what else the object depends on), or None when built objects are not kept in this
+    process (anything but the console script's ``solve`` of one file)."""
+    if built_folder() is None:
+        return None
+    from ..model.digest import content_key
+
+    return (content_key(problem), *parts)
+
+
 def _built_entry(where: Path, kind: str, parts: Iterable[str]) -> Path:
     h = hashlib.blake2b(digest_size=20)
     for part in (code_fingerprint(BUILT_LIBRARIES), kind, *parts):

@@ -134,14 +134,11 @@ def _kept_parts(problem: Any, base: Mapping[str, float], samples: int, seed: int
     """The key parts of a sample kept on disk, or None when built objects are not kept in
     this process (anything but the console script's ``solve``). The geometry ``base``
     counts only where the problem has closed loops (an open chain's draws do not use it)."""
-    from ..io.cache import built_folder
+    from ..io.cache import built_parts
+    from ..model.digest import digest
 
-    if built_folder() is None:
-        return None
-    from ..model.digest import content_key
-
-    geometry = repr(sorted((str(k), float(v)) for k, v in base.items())) if problem.loops else ""
-    return (content_key(problem), str(samples), str(seed), geometry)
+    geometry = digest({str(k): float(v) for k, v in base.items()}) if problem.loops else ""
+    return built_parts(problem, str(samples), str(seed), geometry)
 
 
 def _valid(kept: object, problem: Any, samples: int) -> bool:

@@ -77,13 +77,9 @@ _to_keep: dict[int, tuple[list[tuple[str, str, SubsystemResiduals]], Problem, tu
 def _kept_parts(problem: Problem, samples: int, seed: int) -> tuple[str, ...] | None:
     """The key parts of a problem's evaluators kept on disk, or None when they are not kept
     in this process (anything but the console script's ``solve``)."""
-    from ..io.cache import built_folder
+    from ..io.cache import built_parts
 
-    if built_folder() is None:
-        return None
-    from ..model.digest import content_key
-
-    return (content_key(problem), str(samples), str(seed))
+    return built_parts(problem, str(samples), str(seed))
 
 
 def _restore(problem: Problem, parts: tuple[str, ...]) -> list[tuple[str, str, SubsystemResiduals]] | None:
