@@ -108,8 +108,23 @@ def parser(command: Command) -> argparse.ArgumentParser:
         def error(self, message: str) -> Any:  # argparse's errors that ignore exit_on_error
             raise _Defer(message)
 
+    class Formatter(argparse.HelpFormatter):
+        """argparse's formatter at a fixed width: it asks :mod:`shutil` for the terminal's
+        (importing it, ~4 ms) whenever an argument is added, and nothing this parser
+        formats is ever printed (help and usage errors are the typer app's)."""
+
+        def __init__(self, prog: str, indent_increment: int = 2, max_help_position: int = 24, width: int | None = None) -> None:
+            super().__init__(prog, indent_increment, max_help_position, PLAIN_WIDTH if width is None else width)
+
     types: dict[str, Callable[[str], Any]] = {"int": _number(_INT, int), "float": _number(_FLOAT, float)}
-    p = Parser(prog=f"counterpoise {command.name}", description=command.help, add_help=False, allow_abbrev=False, exit_on_error=False)
+    p = Parser(
+        prog=f"counterpoise {command.name}",
+        description=command.help,
+        add_help=False,
+        allow_abbrev=False,
+        exit_on_error=False,
+        formatter_class=Formatter,
+    )
     for param in command.params:
         text = param.help.replace("%", "%%")  # argparse formats help with %
         if not param.flags:

@@ -34,13 +34,14 @@ the compiling is skipped.
 from __future__ import annotations
 
 import builtins
-import hashlib
 import marshal
 import os
 import sys
 from pathlib import Path
 from types import CodeType
 from typing import Any
+
+from .cache import blake2b
 
 #: codes kept in one package's file at most (counterpoise's dataclasses need ~400)
 MAX_CODES = 2048
@@ -56,7 +57,7 @@ compiles = 0
 
 
 def _digest(source: str) -> bytes:
-    return hashlib.blake2b(source.encode("utf-8", "surrogatepass"), digest_size=16).digest()
+    return blake2b(source.encode("utf-8", "surrogatepass"), digest_size=16).digest()
 
 
 def _file(folder: Path, package: str) -> Path:

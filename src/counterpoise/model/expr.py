@@ -11,7 +11,6 @@ by handing :func:`evaluate` the matching function table.
 from __future__ import annotations
 
 import ast
-import difflib
 import math
 from collections.abc import Callable, Iterable, Mapping
 import re
@@ -262,6 +261,8 @@ def calls(expr: Expr) -> tuple[Call, ...]:
 
 def nearest(name: str, candidates: Iterable[str]) -> str | None:
     """The candidate closest to ``name`` (difflib's ratio ≥ 0.6), or None."""
+    import difflib  # only for a message (~1.5 ms to import)
+
     close = difflib.get_close_matches(name, sorted(candidates), n=1)
     return close[0] if close else None
 
