@@ -89,6 +89,8 @@ class Variable:
 
 @dataclass(frozen=True)
 class Gravity:
+    """Gravity: its acceleration and its unit direction."""
+
     acceleration: float  # m/s^2
     direction: tuple[float, float, float]  # unit vector
 
@@ -132,6 +134,8 @@ class Objective:
 
 @dataclass(frozen=True)
 class ReportQuantity:
+    """A quantity the report evaluates at the design (``[report.<name>]``, and substituted masses)."""
+
     name: str
     expr: Expr
     unit: DisplayUnit
@@ -151,6 +155,12 @@ class Settings:
 
 @dataclass(frozen=True)
 class Problem:
+    """A resolved problem: the mechanism, its elements, parameters and settings, in SI.
+
+    (A docstring of its own also spares :mod:`dataclasses` computing one from the
+    signature of ``__init__`` at import.)
+    """
+
     name: str
     title: str
     source: str
