@@ -190,14 +190,11 @@ def code_fingerprint(libraries: tuple[str, ...] = LIBRARIES) -> str:
     modification time), each of ``libraries`` by its installed version (its ``.dist-info``
     folder beside the package, read without importing it) and its ``__init__`` file, and
     the Python version."""
-    import importlib.util
-
     h = blake2b(digest_size=16)
     h.update(_package_fingerprint().encode())
     sites: dict[str, dict[str, str]] = {}
     for library in libraries:
-        spec = importlib.util.find_spec(library)
-        origin = getattr(spec, "origin", None)
+        origin = getattr(_find_spec(library), "origin", None)
         if origin and os.path.exists(origin):
             st = os.stat(origin)
             site = os.path.dirname(os.path.dirname(origin)) if os.path.basename(origin).startswith("__init__.") else os.path.dirname(origin)
@@ -208,6 +205,23 @@ def code_fingerprint(libraries: tuple[str, ...] = LIBRARIES) -> str:
         else:
             h.update(f"{library}:-;".encode())
     return h.hexdigest()
+
+
+def _find_spec(library: str) -> Any:
+    """Where ``library`` is: an imported module's spec, else the path finder's (without
+    importing :mod:`importlib.util`), else :func:`importlib.util.find_spec`'s (a library that
+    another finder installs)."""
+    module = sys.modules.get(library)
+    if module is not None:
+        return getattr(module, "__spec__", None)
+    from importlib.machinery import PathFinder
+
+    spec = PathFinder.find_spec(library)
+    if spec is None:
+        import importlib.util
+
+        spec = importlib.util.find_spec(library)
+    return spec
 
 
 def key(label: str, path: Path, data: bytes, overrides: Mapping[str, object], checked: str = "") -> str:
