@@ -11,18 +11,21 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import TYPE_CHECKING
 
 from .constraints import Constraint
 from .elements import CounterMass, ZeroFreeLengthSpring
 from .expr import Expr
-from .loops import Loop
 from .mechanism import Body, Coordinate, Frame, Subsystem
 from .substitution import Substitution
 from .tilt import Tilt
 from .payload import MIN_ADDED, Payload
 from .parts import SelectionSettings, SpringSlot
-from .robust import RobustSpec
 from .units import DisplayUnit
+
+if TYPE_CHECKING:  # annotations only: a problem without loops or [robust] never needs them (pickle imports them for one with)
+    from .loops import Loop
+    from .robust import RobustSpec
 
 
 @dataclass(frozen=True)
