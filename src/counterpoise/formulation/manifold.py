@@ -24,7 +24,6 @@ import numpy as np
 
 from ..kept import Kept
 from ..model.problem import Problem
-from .compression import NOISE_TOLERANCE, adaptive_compression, coordinate_weights, largest_value, sample_residuals
 
 
 def manifold_conditions(
@@ -38,6 +37,7 @@ def manifold_conditions(
     import casadi as ca
 
     from ..mechanics.closure import closure  # imported for closed loops only (~3 ms)
+    from .compression import NOISE_TOLERANCE, adaptive_compression, coordinate_weights, largest_value, sample_residuals
 
     f = formulation
     _, base = f.parameters.scenario_values(parameters)[block.scenario]
