@@ -19,9 +19,9 @@ the compiling is skipped.
   ``pint``, ``pydantic``... when a problem file is read), read when the first dataclass of
   that package is created, so a solve that reads its problem from the cache reads
   counterpoise's file only.
-- Keyed on the Python version (code objects and marshal's format belong to it); each
-  code under the BLAKE2b digest of its text. A file holds at most :data:`MAX_CODES` codes
-  (beyond that it starts again).
+- Keyed on the Python version (code objects and marshal's format belong to it) and its
+  optimisation level (``-O``); each code under the BLAKE2b digest of its text. A file
+  holds at most :data:`MAX_CODES` codes (beyond that it starts again).
 - :func:`save` (the command line, before it exits) writes a package's file back when this
   process compiled new codes for it (the first run, another counterpoise, pint, pydantic
   or Python version), through a temporary file and a rename.
@@ -61,7 +61,7 @@ def _digest(source: str) -> bytes:
 
 
 def _file(folder: Path, package: str) -> Path:
-    return folder / f"dataclass-code.{sys.implementation.cache_tag}-{sys.hexversion:x}.{package}.marshal"
+    return folder / f"dataclass-code.{sys.implementation.cache_tag}-{sys.hexversion:x}-O{sys.flags.optimize}.{package}.marshal"
 
 
 def _package(globals: dict[str, Any]) -> str:
