@@ -71,8 +71,8 @@ def compiled(tmp_path):
 
 
 def test_kept_codes_make_the_same_classes_and_are_not_compiled_again(compiled):
-    """A first process compiles the methods and saves them (one file for the package); a
-    second reads them back and compiles nothing; both make the classes plain
+    """A first process compiles the methods and saves them (one file for the package,
+    another Python's file of it removed); a second reads them back and compiles nothing; both make the classes plain
     :mod:`dataclasses` makes (same code, annotations as objects: no ``__future__`` flag
     inherited)."""
     module, folder = compiled
@@ -83,9 +83,13 @@ def test_kept_codes_make_the_same_classes_and_are_not_compiled_again(compiled):
     # frozen Point: __init__, __repr__, __eq__, __setattr__, __delattr__, __hash__ (6);
     # Box: __init__, __repr__, __eq__ (3; eq without frozen sets __hash__ to None, no code)
     assert module.compiles == 9
+    stale = folder / "dataclass-code.cpython-000-0-O0.cp_kept.marshal"  # another Python's file
+    folder.mkdir(mode=0o700, exist_ok=True)
+    stale.write_bytes(b"")
+    os.chmod(stale, 0o600)
     module.save()
-    (entry,) = folder.glob("dataclass-code.*.cp_kept.marshal")
-    assert entry.stat().st_mode & 0o077 == 0
+    (entry,) = folder.glob("dataclass-code.*.cp_kept.marshal")  # the other Python's is removed
+    assert entry != stale and entry.stat().st_mode & 0o077 == 0
     module.uninstall()
     module.install(folder)
     second = _behaviour(_module("cp_kept"))

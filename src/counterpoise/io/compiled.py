@@ -24,7 +24,8 @@ the compiling is skipped.
   holds at most :data:`MAX_CODES` codes (beyond that it starts again).
 - :func:`save` (the command line, before it exits) writes a package's file back when this
   process compiled new codes for it (the first run, another counterpoise, pint, pydantic
-  or Python version), through a temporary file and a rename.
+  or Python version), through a temporary file and a rename, and removes that package's
+  files of other Python versions or levels (never read again).
 - Read only from a :func:`~counterpoise.io.cache.private` folder and file, like every
   entry of the cache (marshal, like pickle, must not read what others could write); a file
   that cannot be read is removed and its codes compiled again. In-process calls
@@ -139,13 +140,17 @@ def save() -> None:
     """Write back each package's codes to which this process added (see the module docstring)."""
     if _folder is None:
         return
-    from .cache import MAX_ENTRIES, _write
+    from .cache import MAX_ENTRIES, _write, private
 
     for package in sorted(_added):
         codes = _codes[package]
         if len(codes) > MAX_CODES:
             codes = {}
-        _write(_file(_folder, package), codes, MAX_ENTRIES, _dump)
+        entry = _file(_folder, package)
+        _write(entry, codes, MAX_ENTRIES, _dump)
+        for other in _folder.glob(f"dataclass-code.*.{package}.marshal"):  # another Python's: never read again
+            if other != entry and private(other):
+                other.unlink(missing_ok=True)
     _added.clear()
 
 
