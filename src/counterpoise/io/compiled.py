@@ -76,6 +76,8 @@ def _read(folder: Path, package: str) -> dict[bytes, CodeType]:
     this user's private one (left alone) or cannot be read (removed)."""
     from .cache import private
 
+    if not private(folder):  # as every entry of the cache: never from a folder others may write
+        return {}
     entry = _file(folder, package)
     try:
         handle = entry.open("rb")
@@ -148,6 +150,8 @@ def save() -> None:
             codes = {}
         entry = _file(_folder, package)
         _write(entry, codes, MAX_ENTRIES, _dump)
+        if not private(_folder):  # nothing was written there
+            continue
         for other in _folder.glob(f"dataclass-code.*.{package}.marshal"):  # another Python's: never read again
             if other != entry and private(other):
                 other.unlink(missing_ok=True)
