@@ -87,6 +87,11 @@ def new_folder(parent: Path, prefix: str, suffix: str) -> Path:
     raise FileExistsError(errno.EEXIST, "no unused name for a temporary folder", str(parent))
 
 
+#: descriptor-relative calls, as ``shutil.rmtree`` uses them where they exist
+_SAFE_FD = {os.open, os.unlink, os.rmdir} <= os.supports_dir_fd and os.scandir in os.supports_fd and hasattr(os, "O_NOFOLLOW")
+_OPEN_FOLDER = os.O_RDONLY | getattr(os, "O_DIRECTORY", 0) | getattr(os, "O_NOFOLLOW", 0)
+
+
 def remove_folder(path: Path) -> None:
     """Remove ``path`` and everything in it, ignoring errors, as ``shutil.rmtree(path,
     ignore_errors=True)`` does: each folder opened without following a link and emptied
@@ -107,11 +112,6 @@ def remove_folder(path: Path) -> None:
     import shutil
 
     shutil.rmtree(path, ignore_errors=True)
-
-
-#: descriptor-relative calls, as ``shutil.rmtree`` uses them where they exist
-_SAFE_FD = {os.open, os.unlink, os.rmdir} <= os.supports_dir_fd and os.scandir in os.supports_fd and hasattr(os, "O_NOFOLLOW")
-_OPEN_FOLDER = os.O_RDONLY | getattr(os, "O_DIRECTORY", 0) | getattr(os, "O_NOFOLLOW", 0)
 
 
 def _empty(fd: int) -> None:
