@@ -184,12 +184,17 @@ def test_cache_off_and_in_process_calls_write_nothing(tmp_path, monkeypatch, cap
 def test_console_script_keeps_the_problem_and_then_imports_neither_pint_nor_pydantic(tmp_path):
     """The console script (a real process: :func:`counterpoise.cli.main` without
     arguments) keeps the loaded problem; its next run on the same file unpickles it and
-    imports neither pint nor pydantic nor the loader, and writes the same reports."""
+    imports neither pint nor pydantic nor the loader, and writes the same reports. That
+    run imports none of shutil, tempfile, random (reports written and replaced through
+    ``report.files.new_folder``/``remove_folder``, argparse at a fixed width), hashlib
+    (BLAKE2 from ``_blake2``, without OpenSSL) or difflib (only for messages) either, nor
+    the closed loops' ``mechanics.closure`` (this chain is open)."""
     code = (
         "import os, sys\n"
         "sys.argv = ['counterpoise', 'solve', {file!r}, '--out', {out!r}]\n"
         "end = os._exit\n"
         "def report(status):\n"
+        "    print(sorted(m for m in ('shutil', 'tempfile', 'random', 'hashlib', 'difflib', 'counterpoise.mechanics.closure') if m in sys.modules), flush=True)\n"
         "    print(status, sorted(m for m in ('pint', 'pydantic', 'counterpoise.io.loader') if m in sys.modules), flush=True)\n"
         "    end(status)\n"
         "os._exit = report\n"
@@ -204,6 +209,8 @@ def test_console_script_keeps_the_problem_and_then_imports_neither_pint_nor_pyda
         lines = fresh_python(code.format(file=file, out=str(out)), cwd=ROOT, **environ).strip().splitlines()
         outs.append(lines[-1])
     assert outs == ["0 ['counterpoise.io.loader', 'pint', 'pydantic']", "0 []"]
+    # nor, on the repeated run, the standard library's modules the reports and keys do without
+    assert lines[-2] == "[]"
     assert len(list((tmp_path / "cache").glob("*.pickle"))) == 1
     for f in ("design.csv", "status.txt", "build.csv"):
         assert (tmp_path / "first" / "yasir2019_counter_mass" / f).read_text() == (tmp_path / "second" / "yasir2019_counter_mass" / f).read_text()

@@ -251,4 +251,4 @@ def test_quantity_pattern_unchanged_by_its_faster_form():
     samples = ["135 mm", "5 Ω", "5Ω", "5 Ωm", "5 Ω_it", "0.5 N/mm", "57.2deg", "3 1/m", "x + 1", "1e3 g", "2 %", "5 µm", "5 μm",
                "-1.5e-3 kg", "1e", "3 ·", "3 °", ".5 g", "5.", "5 Ω", "r_a * 2", "2 * r_a", "+3 Z", "3 _", "3\tkg", "3 ω"]
     for text in samples:
-        assert bool(units._QUANTITY_RE.match(text)) == bool(before.match(text)), text
+        assert bool(re.match(units._QUANTITY, text)) == bool(before.match(text)), text

@@ -16,7 +16,8 @@ ECHO_LIMIT = 200
 KEY_LIMIT = 150
 MESSAGE_LIMIT = 440
 
-_QUOTED = re.compile(r"'([^']{%d,})'" % (ECHO_LIMIT + 1))
+#: a quoted piece of input longer than ECHO_LIMIT (compiled on first use: only messages need it)
+_QUOTED = r"'([^']{%d,})'" % (ECHO_LIMIT + 1)
 
 
 def clip(text: str, limit: int = ECHO_LIMIT) -> str:
@@ -26,7 +27,7 @@ def clip(text: str, limit: int = ECHO_LIMIT) -> str:
 
 def clip_quoted(message: str) -> str:
     """Every quoted piece of input in ``message`` ('...') cut to :data:`ECHO_LIMIT`."""
-    return _QUOTED.sub(lambda m: f"'{clip(m.group(1))}'", message)
+    return re.sub(_QUOTED, lambda m: f"'{clip(m.group(1))}'", message)
 
 
 class CounterpoiseError(Exception):

@@ -8,7 +8,6 @@ removes what it was writing before it goes, so an interrupted run leaves no hidd
 
 from __future__ import annotations
 
-import shutil
 from pathlib import Path
 
 _PATHS: set[Path] = set()
@@ -26,6 +25,8 @@ def end(path: Path) -> None:
 
 def discard_all() -> None:
     """Remove every temporary folder this process is still writing."""
+    import shutil  # not at import: a solve imports this module and rarely needs shutil
+
     for path in list(_PATHS):
         shutil.rmtree(path, ignore_errors=True)
     _PATHS.clear()

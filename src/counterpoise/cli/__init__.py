@@ -12,6 +12,10 @@ once the command has returned and stdout and stderr are flushed: every report is
 closed and renamed into place by then (:mod:`counterpoise.report.files`), and tearing down
 the imported modules (numpy, CasADi, pint, pydantic) would take longer than the work.
 
+The console script (not an in-process call) turns on the cache of :mod:`counterpoise.io.cache`
+and, with it, the dataclass methods compiled once (:mod:`counterpoise.io.compiled`), whose
+new codes it writes back before it exits.
+
 Before anything is imported, the process environment gets (unless the user set them):
 one BLAS thread (:mod:`counterpoise.threads`) and ``PYDANTIC_DISABLE_PLUGINS=__all__``:
 pydantic otherwise scans every installed package's entry points for plugins when the
@@ -49,24 +53,42 @@ def main(argv: list[str] | None = None) -> None:
         from ..io import cache
 
         cache.enable(built=args[:1] == ["solve"])
+        where = cache.folder()
+        if where is not None:  # dataclasses' methods compiled once (counterpoise.io.compiled)
+            from ..io import compiled
+
+            compiled.install(where)
     from . import light
 
     code = light.run(args, pause_gc=fast)
     if code is not None:
+        _save_compiled()
         if fast:
             _fast_exit(code)
         raise SystemExit(code)
     from .app import main as app_main
 
     if not fast:
-        app_main(args)
+        try:
+            app_main(args)
+        finally:
+            _save_compiled()
         return
     try:
         app_main(args)
         code = 0
     except SystemExit as exc:
         code = _status(exc.code)
+    _save_compiled()
     _fast_exit(code)
+
+
+def _save_compiled() -> None:
+    """Keep the dataclass methods this process compiled (when :mod:`counterpoise.io.compiled`
+    was installed: the console script with the cache on)."""
+    compiled = sys.modules.get("counterpoise.io.compiled")
+    if compiled is not None:
+        compiled.save()
 
 
 def _status(code: object) -> int:

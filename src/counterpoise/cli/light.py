@@ -49,7 +49,7 @@ INTERNAL_ERROR = 3
 PLAIN_WIDTH = 160
 
 #: rich replaces ``:name:`` by an emoji even with markup off; text like this goes to rich.
-_EMOJI_LIKE = re.compile(r":\S*?:")
+_EMOJI_LIKE = r":\S*?:"
 
 #: The summary table: header and justification of each column (as the app's). ``--wide``
 #: shows them all; by default only those marked True, so the table fits 80 columns.
@@ -108,8 +108,23 @@ def parser(command: Command) -> argparse.ArgumentParser:
         def error(self, message: str) -> Any:  # argparse's errors that ignore exit_on_error
             raise _Defer(message)
 
+    class Formatter(argparse.HelpFormatter):
+        """argparse's formatter at a fixed width: it asks :mod:`shutil` for the terminal's
+        (importing it, ~4 ms) whenever an argument is added, and nothing this parser
+        formats is ever printed (help and usage errors are the typer app's)."""
+
+        def __init__(self, prog: str, indent_increment: int = 2, max_help_position: int = 24, width: int | None = None) -> None:
+            super().__init__(prog, indent_increment, max_help_position, PLAIN_WIDTH if width is None else width)
+
     types: dict[str, Callable[[str], Any]] = {"int": _number(_INT, int), "float": _number(_FLOAT, float)}
-    p = Parser(prog=f"counterpoise {command.name}", description=command.help, add_help=False, allow_abbrev=False, exit_on_error=False)
+    p = Parser(
+        prog=f"counterpoise {command.name}",
+        description=command.help,
+        add_help=False,
+        allow_abbrev=False,
+        exit_on_error=False,
+        formatter_class=Formatter,
+    )
     for param in command.params:
         text = param.help.replace("%", "%%")  # argparse formats help with %
         if not param.flags:
@@ -133,14 +148,15 @@ def parser(command: Command) -> argparse.ArgumentParser:
 
 
 #: Numbers the fast path reads; anything else (' 3', '3_0', '1e3' for an int, 'inf'...) goes
-#: to the typer app, which reads it its own way or says what is wrong.
-_INT = re.compile(r"[-+]?[0-9]+")
-_FLOAT = re.compile(r"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?")
+#: to the typer app, which reads it its own way or says what is wrong. (The patterns of this
+#: module are compiled on first use, by ``re``'s cache: a solve without a number reads none.)
+_INT = r"[-+]?[0-9]+"
+_FLOAT = r"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?"
 
 
-def _number(pattern: re.Pattern[str], kind: Callable[[str], object]) -> Callable[[str], object]:
+def _number(pattern: str, kind: Callable[[str], object]) -> Callable[[str], object]:
     def read(text: str) -> object:
-        if not pattern.fullmatch(text):
+        if not re.fullmatch(pattern, text):
             raise ValueError(text)  # argparse: an ArgumentError, the call goes to the app
         return kind(text)
 
@@ -464,7 +480,7 @@ def rich_is_terminal(stream: Any, environ: Any = os.environ) -> bool:
 def _plain(text: str, ascii_only: bool) -> bool:
     """Whether rich prints ``text`` unchanged (no control characters, nothing emoji-like;
     ASCII when its width must be known)."""
-    return text.isprintable() and not _EMOJI_LIKE.search(text) and (text.isascii() or not ascii_only)
+    return text.isprintable() and not re.search(_EMOJI_LIKE, text) and (text.isascii() or not ascii_only)
 
 
 def _err(line: str) -> None:

@@ -33,7 +33,6 @@ from ..formulation.formulation import Formulation
 from ..formulation.layout import Slot
 from ..formulation.manifold import Geometries, for_geometry
 from ..mechanics import Mechanics, casadi_functions
-from ..mechanics.closure import manifold_configurations
 from ..mechanics.kinematics import dot, sub
 from ..mechanics.sampling import configurations
 from ..model.problem import Problem
@@ -125,6 +124,8 @@ class MinimaxDesigner:
                 ind = np.array([i for i, c in enumerate(coords) if not c.dependent], dtype=int)
                 dep = np.array([i for i, c in enumerate(coords) if c.dependent], dtype=int)
                 _, base = f.parameters.scenario_values(self.parameters)[block.scenario]
+                from ..mechanics.closure import manifold_configurations  # closed loops only (~3 ms to import)
+
                 points = manifold_configurations(problem, block.subsystem, SAMPLES_PER_COORDINATE * len(ind), rng, base)
                 q = points.q
                 tangents[key] = (ind, dep, points.tangent)

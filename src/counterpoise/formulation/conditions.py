@@ -12,10 +12,10 @@ from typing import Any
 
 import numpy as np
 
-from .assumptions import check_exact_conditions
-from .compression import NOISE_TOLERANCE, adaptive_compression, coordinate_weights, largest_value, numerical_rank, sample_residuals
 from .formulation import Block, Formulation
-from .manifold import manifold_conditions
+
+# .assumptions, .compression and .manifold's conditions are imported where the equalities are
+# built: a designer kept by ``counterpoise solve`` (counterpoise.io.cache) is read back without them
 
 
 class BalanceConditions:
@@ -23,6 +23,10 @@ class BalanceConditions:
 
     def __init__(self, formulation: Formulation, parameters: np.ndarray, seed: int) -> None:
         import casadi as ca
+
+        from .assumptions import check_exact_conditions
+        from .compression import NOISE_TOLERANCE, adaptive_compression, coordinate_weights, largest_value, sample_residuals
+        from .manifold import manifold_conditions
 
         check_exact_conditions(formulation.problem)
         self.formulation = formulation
@@ -66,6 +70,8 @@ class BalanceConditions:
 
     def _compress_stack(self, stacked: Any, parameters: np.ndarray, rng: np.random.Generator) -> Any:
         import casadi as ca
+
+        from .compression import numerical_rank
 
         f = self.formulation
         if stacked.numel() == 0:

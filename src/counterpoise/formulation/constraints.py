@@ -25,7 +25,6 @@ from typing import Any
 import numpy as np
 
 from ..mechanics import Mechanics, casadi_functions
-from ..mechanics.closure import manifold_configurations, scenario_base
 from ..mechanics.kinematics import dot, sub
 from ..mechanics.sampling import configurations
 from ..model import expr as ex
@@ -117,6 +116,8 @@ def sample(problem: Problem, spring: ZeroFreeLengthSpring, scenario: str, rng: n
         return np.zeros((1, 0))
     coords = problem.subsystem_coordinates(spring.subsystem)
     if problem.subsystem_loops(spring.subsystem):
+        from ..mechanics.closure import manifold_configurations, scenario_base  # only for closed loops (~3 ms to import)
+
         n_i = sum(1 for c in coords if not c.dependent)
         return manifold_configurations(problem, spring.subsystem, SAMPLES_PER_COORDINATE * n_i, rng, scenario_base(problem, scenario)).q
     return configurations(problem, spring.subsystem, SAMPLES_PER_COORDINATE * len(coords), rng)
@@ -302,6 +303,8 @@ def dense_sample(problem: Problem, spring: ZeroFreeLengthSpring, scenario: str, 
     if spring.subsystem is None:
         return np.zeros((1, 0))
     if problem.subsystem_loops(spring.subsystem):
+        from ..mechanics.closure import manifold_configurations, scenario_base  # only for closed loops
+
         return manifold_configurations(problem, spring.subsystem, n, rng, scenario_base(problem, scenario)).q
     return configurations(problem, spring.subsystem, n, rng)
 

@@ -23,9 +23,7 @@ from typing import Any
 import numpy as np
 
 from ..kept import Kept
-from ..mechanics.closure import closure, geometry_parameters
 from ..model.problem import Problem
-from .compression import NOISE_TOLERANCE, adaptive_compression, coordinate_weights, largest_value, sample_residuals
 
 
 def manifold_conditions(
@@ -37,6 +35,9 @@ def manifold_conditions(
 ) -> tuple[int, Any]:
     """(rank, CasADi column of equalities or None) of one (subsystem, scenario) block."""
     import casadi as ca
+
+    from ..mechanics.closure import closure  # imported for closed loops only (~3 ms)
+    from .compression import NOISE_TOLERANCE, adaptive_compression, coordinate_weights, largest_value, sample_residuals
 
     f = formulation
     _, base = f.parameters.scenario_values(parameters)[block.scenario]
@@ -82,6 +83,8 @@ def changed_geometry(problem: Problem, parameters: Any) -> tuple[tuple[str, floa
     sorted (name, value) pairs, empty when every manifold stays the one the equalities were built on."""
     if not parameters or not problem.loops:
         return ()
+    from ..mechanics.closure import geometry_parameters  # imported for closed loops only (~3 ms)
+
     names = {n for sub in {loop.subsystem for loop in problem.loops} for n in geometry_parameters(problem, sub)}
     values = {q.name: q.value for q in problem.base_parameters}
     out = []

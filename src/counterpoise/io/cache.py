@@ -43,7 +43,6 @@ content unpickles instead of building (for the hybrid ~20 ms against ~0.15 s).
 
 from __future__ import annotations
 
-import hashlib
 import io
 import os
 import pickle
@@ -54,6 +53,11 @@ from contextlib import AbstractContextManager, nullcontext
 from functools import lru_cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
+
+try:  # CPython's own BLAKE2, which hashlib.blake2b is; importing hashlib also loads OpenSSL (~4 ms)
+    from _blake2 import blake2b
+except ImportError:  # pragma: no cover - a Python without it
+    from hashlib import blake2b
 
 if TYPE_CHECKING:
     from ..model.problem import Problem
@@ -149,19 +153,35 @@ def _dist_versions(site: str) -> dict[str, str]:
     return found
 
 
+#: the files of the package that are code or data (their path, size and modification time are digested)
+CODE_SUFFIXES = (".py", ".csv", ".txt", ".toml", ".json")
+
+
 @lru_cache(maxsize=1)
 def _package_fingerprint() -> str:
     """counterpoise's own files (path, size, modification time) and the Python version."""
-    h = hashlib.blake2b(digest_size=16)
+    h = blake2b(digest_size=16)
     h.update(f"{FORMAT};{sys.version};{sys.implementation.cache_tag};".encode())
-    package = Path(__file__).resolve().parent.parent
-    for root, dirs, files in os.walk(package):
-        dirs[:] = sorted(d for d in dirs if d != "__pycache__")
-        for name in sorted(files):
-            if name.endswith((".py", ".csv", ".txt", ".toml", ".json")):
-                st = os.stat(os.path.join(root, name))
-                h.update(f"{os.path.relpath(os.path.join(root, name), package)}:{st.st_size}:{st.st_mtime_ns};".encode())
+    parts: list[str] = []
+    _package_files(os.path.dirname(os.path.dirname(os.path.realpath(__file__))), "", parts)
+    h.update("".join(parts).encode("utf-8", "surrogatepass"))
     return h.hexdigest()
+
+
+def _package_files(folder: str, prefix: str, parts: list[str]) -> None:
+    """``path:size:mtime;`` of each code or data file under ``folder`` (paths relative to
+    the package, ``/``-separated), the files of a folder by name, then its subfolders by
+    name (``__pycache__`` left out). One ``scandir`` per folder: ~1.5 ms for the package,
+    where ``os.walk``, ``os.stat`` and ``os.path.relpath`` took ~5–8 ms."""
+    with os.scandir(folder) as found:
+        entries = sorted(found, key=lambda e: e.name)
+    for entry in entries:
+        if entry.name.endswith(CODE_SUFFIXES) and entry.is_file():
+            st = entry.stat()
+            parts.append(f"{prefix}{entry.name}:{st.st_size}:{st.st_mtime_ns};")
+    for entry in entries:
+        if entry.name != "__pycache__" and entry.is_dir(follow_symlinks=False):
+            _package_files(entry.path, f"{prefix}{entry.name}/", parts)
 
 
 @lru_cache(maxsize=4)
@@ -170,14 +190,11 @@ def code_fingerprint(libraries: tuple[str, ...] = LIBRARIES) -> str:
     modification time), each of ``libraries`` by its installed version (its ``.dist-info``
     folder beside the package, read without importing it) and its ``__init__`` file, and
     the Python version."""
-    import importlib.util
-
-    h = hashlib.blake2b(digest_size=16)
+    h = blake2b(digest_size=16)
     h.update(_package_fingerprint().encode())
     sites: dict[str, dict[str, str]] = {}
     for library in libraries:
-        spec = importlib.util.find_spec(library)
-        origin = getattr(spec, "origin", None)
+        origin = getattr(_find_spec(library), "origin", None)
         if origin and os.path.exists(origin):
             st = os.stat(origin)
             site = os.path.dirname(os.path.dirname(origin)) if os.path.basename(origin).startswith("__init__.") else os.path.dirname(origin)
@@ -190,10 +207,27 @@ def code_fingerprint(libraries: tuple[str, ...] = LIBRARIES) -> str:
     return h.hexdigest()
 
 
+def _find_spec(library: str) -> Any:
+    """Where ``library`` is: an imported module's spec, else the path finder's (without
+    importing :mod:`importlib.util`), else :func:`importlib.util.find_spec`'s (a library that
+    another finder installs)."""
+    module = sys.modules.get(library)
+    if module is not None:
+        return getattr(module, "__spec__", None)
+    from importlib.machinery import PathFinder
+
+    spec = PathFinder.find_spec(library)
+    if spec is None:
+        import importlib.util
+
+        spec = importlib.util.find_spec(library)
+    return spec
+
+
 def key(label: str, path: Path, data: bytes, overrides: Mapping[str, object], checked: str = "") -> str:
     """The entry's key (see the module docstring); ``checked``: the name of the check whose
     result the entry holds (:func:`check_name`)."""
-    h = hashlib.blake2b(digest_size=20)
+    h = blake2b(digest_size=20)
     for part in (code_fingerprint(), label, str(path.resolve()), repr(sorted((str(k), repr(v)) for k, v in overrides.items())), checked):
         h.update(part.encode("utf-8", "surrogatepass") + b"\0")
     h.update(data)
@@ -397,7 +431,7 @@ def built_parts(problem: Any, *parts: str) -> tuple[str, ...] | None:
 
 
 def _built_entry(where: Path, kind: str, parts: Iterable[str]) -> Path:
-    h = hashlib.blake2b(digest_size=20)
+    h = blake2b(digest_size=20)
     for part in (code_fingerprint(BUILT_LIBRARIES), kind, *parts):
         h.update(part.encode("utf-8", "surrogatepass") + b"\0")
     return where / f"{kind}.{h.hexdigest()}.pickle"

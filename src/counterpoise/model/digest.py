@@ -14,9 +14,13 @@ and kept on the object (problems are frozen).
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 from collections.abc import Mapping
 from typing import Any
+
+try:  # CPython's own BLAKE2, which hashlib.blake2b is; importing hashlib also loads OpenSSL (~4 ms)
+    from _blake2 import blake2b
+except ImportError:  # pragma: no cover - a Python without it
+    from hashlib import blake2b
 
 import numpy as np
 
@@ -64,7 +68,7 @@ def _feed(h: Any, obj: Any) -> None:
 
 def digest(obj: Any) -> str:
     """Hex digest (BLAKE2b, 16 bytes) of ``obj``'s content (see the module's rules)."""
-    h = hashlib.blake2b(digest_size=16)
+    h = blake2b(digest_size=16)
     _feed(h, obj)
     return h.hexdigest()
 

@@ -11,7 +11,6 @@ by handing :func:`evaluate` the matching function table.
 from __future__ import annotations
 
 import ast
-import difflib
 import math
 from collections.abc import Callable, Iterable, Mapping
 import re
@@ -39,11 +38,15 @@ class Num:
 
 @dataclass(frozen=True)
 class Name:
+    """A parameter, constant or coordinate named in an expression."""
+
     id: str
 
 
 @dataclass(frozen=True)
 class BinOp:
+    """``left op right``, one of + - * / **."""
+
     op: str  # one of + - * / **
     left: "Expr"
     right: "Expr"
@@ -51,11 +54,15 @@ class BinOp:
 
 @dataclass(frozen=True)
 class Neg:
+    """``-operand``."""
+
     operand: "Expr"
 
 
 @dataclass(frozen=True)
 class Call:
+    """A call of a whitelisted function."""
+
     func: str
     args: tuple["Expr", ...]
 
@@ -88,8 +95,9 @@ _FORBIDDEN = {
 
 
 #: A number directly followed by a unit inside an expression: ``90 deg``, ``135 mm``,
-#: ``0.5 N/mm`` (a compound unit is written without spaces), ``2 m^2``.
-_NUMBER_UNIT = re.compile(
+#: ``0.5 N/mm`` (a compound unit is written without spaces), ``2 m^2``. Compiled on first
+#: use (``re``'s own cache), not at import: a solve whose problem comes from the cache parses none.
+_NUMBER_UNIT = (
     r"(?<![\w.])((?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*"
     r"([A-Za-z][A-Za-z0-9_]*(?:/[A-Za-z][A-Za-z0-9_]*)*(?:(?:\^|\*\*)-?\d+)?)(?![\w(])"
 )
@@ -118,7 +126,7 @@ def parse(text: str, functions: Iterable[str] = MATH_FUNCTIONS, quantity: Quanti
     try:
         tree = ast.parse(source.strip(), mode="eval")
     except SyntaxError as exc:
-        unit = _NUMBER_UNIT.search(source)
+        unit = re.search(_NUMBER_UNIT, source)
         if unit is not None and quantity is None:
             raise ExpressionError(
                 f"cannot parse '{text}': units are not allowed in this expression ('{unit.group(0)}'); "
@@ -154,7 +162,7 @@ def _quantities(text: str, quantity: QuantityReader | None) -> tuple[str, dict[s
         found[name] = Num(si, unit)
         return f" {name} "
 
-    return _NUMBER_UNIT.sub(replace, text), found
+    return re.sub(_NUMBER_UNIT, replace, text), found
 
 
 def _check_characters(text: str) -> None:
@@ -262,6 +270,8 @@ def calls(expr: Expr) -> tuple[Call, ...]:
 
 def nearest(name: str, candidates: Iterable[str]) -> str | None:
     """The candidate closest to ``name`` (difflib's ratio ≥ 0.6), or None."""
+    import difflib  # only for a message (~1.5 ms to import)
+
     close = difflib.get_close_matches(name, sorted(candidates), n=1)
     return close[0] if close else None
 

@@ -61,6 +61,8 @@ class Rotation:
 
 @dataclass(frozen=True)
 class Translation:
+    """A shift by ``vector`` (expressions, SI lengths)."""
+
     vector: Vector
 
     @property

@@ -11,18 +11,21 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import TYPE_CHECKING
 
 from .constraints import Constraint
 from .elements import CounterMass, ZeroFreeLengthSpring
 from .expr import Expr
-from .loops import Loop
 from .mechanism import Body, Coordinate, Frame, Subsystem
 from .substitution import Substitution
 from .tilt import Tilt
 from .payload import MIN_ADDED, Payload
 from .parts import SelectionSettings, SpringSlot
-from .robust import RobustSpec
 from .units import DisplayUnit
+
+if TYPE_CHECKING:  # annotations only: a problem without loops or [robust] never needs them (pickle imports them for one with)
+    from .loops import Loop
+    from .robust import RobustSpec
 
 
 @dataclass(frozen=True)
@@ -89,6 +92,8 @@ class Variable:
 
 @dataclass(frozen=True)
 class Gravity:
+    """Gravity: its acceleration and its unit direction."""
+
     acceleration: float  # m/s^2
     direction: tuple[float, float, float]  # unit vector
 
@@ -132,6 +137,8 @@ class Objective:
 
 @dataclass(frozen=True)
 class ReportQuantity:
+    """A quantity the report evaluates at the design (``[report.<name>]``, and substituted masses)."""
+
     name: str
     expr: Expr
     unit: DisplayUnit
@@ -151,6 +158,12 @@ class Settings:
 
 @dataclass(frozen=True)
 class Problem:
+    """A resolved problem: the mechanism, its elements, parameters and settings, in SI.
+
+    (A docstring of its own also spares :mod:`dataclasses` computing one from the
+    signature of ``__init__`` at import.)
+    """
+
     name: str
     title: str
     source: str

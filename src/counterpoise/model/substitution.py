@@ -36,6 +36,8 @@ class SubstitutedMass:
 
 @dataclass(frozen=True)
 class Substitution:
+    """A body replaced by point masses (``[substitutions.<body>]``)."""
+
     body: str
     frame: str  # the substituted body's frame
     masses: tuple[SubstitutedMass, ...]

@@ -19,8 +19,10 @@ from ..errors import UnitError
 #: e.g. ``"135 mm"``, ``"0.5161 N/mm"``, ``"57.2deg"``; otherwise it is an expression.
 _NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?(?![\d.]|[eE][-+]?\d)"
 #: (Ω, above U+00FF, is an alternative of its own: inside the character class it made
-#: ``re`` build a table of the whole plane, 13 ms of every process's import.)
-_QUANTITY_RE = re.compile(rf"^\s*{_NUMBER}(?:\s*(?:[A-Za-z°µ%]|Ω)|\s+1\s*/)")
+#: ``re`` build a table of the whole plane, 13 ms of every process's import.) The patterns
+#: of this module are compiled on first use (``re``'s own cache), not at import: a solve
+#: whose problem comes from the cache reads no quantity.
+_QUANTITY = rf"^\s*{_NUMBER}(?:\s*(?:[A-Za-z°µ%]|Ω)|\s+1\s*/)"
 
 #: Physical dimensions used by the schema, as pint dimensionality strings.
 LENGTH = "[length]"
@@ -101,7 +103,7 @@ def ureg() -> Any:
 
 def looks_like_quantity(text: str) -> bool:
     """True when ``text`` is a quantity literal (number then unit), not an expression."""
-    return bool(_QUANTITY_RE.match(text))
+    return bool(re.match(_QUANTITY, text))
 
 
 def dimension_name(dimensionality: str) -> str:
@@ -183,7 +185,7 @@ class Quantity:
         return self.unit.from_si(self.si)
 
 
-_UNIT_SPLIT_RE = re.compile(rf"^\s*({_NUMBER})\s*(.*?)\s*$")
+_UNIT_SPLIT = rf"^\s*({_NUMBER})\s*(.*?)\s*$"
 
 
 def parse_quantity(value: str | int | float) -> Quantity:
@@ -197,7 +199,7 @@ def parse_quantity(value: str | int | float) -> Quantity:
             raise UnitError(f"number too large ({len(str(abs(value)))} digits)") from None
         unit = SI_DIMENSIONLESS
     else:
-        match = _UNIT_SPLIT_RE.match(value)
+        match = re.match(_UNIT_SPLIT, value)
         if match is None:
             raise UnitError(f"'{value}' is not a quantity such as '135 mm'")
         number = float(match.group(1))

@@ -12,7 +12,6 @@ No solve, no plot: building the page costs only the formatting of text already m
 
 from __future__ import annotations
 
-import base64
 import csv
 import html
 import io
@@ -156,6 +155,8 @@ def _summary(text: str) -> str:
 
 
 def _image(name: str, data: bytes, title: str, what: str) -> str:
+    import base64  # only for a page with plots
+
     encoded = base64.b64encode(data).decode("ascii")
     return f'<figure><img src="data:image/png;base64,{encoded}" alt="{html.escape(title)} ({html.escape(name)})"><figcaption>{html.escape(what)} ({html.escape(name)})</figcaption></figure>'
 

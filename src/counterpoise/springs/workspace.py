@@ -181,7 +181,6 @@ def designed_springs(solution: Any) -> tuple[DesignedSpring, ...]:
     if not free_springs(solution.problem):
         return ()
     from ..mechanics import Mechanics
-    from ..mechanics.closure import geometry_key
 
     outcome = getattr(solution, "payload", None)
     checked = outcome.schedule_solution() if outcome is not None and getattr(outcome, "schedule", None) is not None else solution
@@ -196,6 +195,8 @@ def designed_springs(solution: Any) -> tuple[DesignedSpring, ...]:
     every: dict[str, tuple[dict[str, float], dict[str, float]]] = {}
     groups: dict[tuple[Any, ...], list[str]] = {}
     loops = [s.name for s in problem.subsystems if problem.subsystem_loops(s.name)]
+    if loops:  # mechanics.closure (~3 ms to import) for closed loops only
+        from ..mechanics.closure import geometry_key
     for sc in problem.scenarios:
         values, base = checked.variable_values(sc.name), checked.scenario_parameters[sc.name][1]
         key = (tuple(sorted(values.items())), tuple(sorted(base.items())))

@@ -15,13 +15,16 @@ The gravity torque of the unbalanced mechanism is projected the same way, so
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..mechanics.closure import ManifoldPoints, closure, geometry_key, scenario_base
 from ..model.problem import Problem
 from ..mechanics.sampling import MAX_CORNERS
 from .residuals import SubsystemResiduals
+
+if TYPE_CHECKING:
+    from ..mechanics.closure import ManifoldPoints
 
 
 class ManifoldResiduals:
@@ -36,6 +39,8 @@ class ManifoldResiduals:
     def __init__(self, problem: Problem, subsystem: str, samples: int, rng: np.random.Generator, scenario: str) -> None:
         self.problem = problem
         self.subsystem = subsystem
+        from ..mechanics.closure import closure, scenario_base  # not at import: an open chain's check needs none (~3 ms)
+
         c = closure(problem, subsystem, scenario_base(problem, scenario))
         n_i = len(c.independent)
         qi = c.lower + (c.upper - c.lower) * rng.random((samples, n_i))
@@ -50,6 +55,8 @@ class ManifoldResiduals:
         self._solve(c.base)
 
     def _solve(self, base: Mapping[str, float]) -> None:
+        from ..mechanics.closure import closure, geometry_key
+
         key = geometry_key(self.problem, self.subsystem, base)
         if key == self._key:
             return
