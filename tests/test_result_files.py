@@ -88,29 +88,6 @@ def test_concurrent_writers_each_leave_a_whole_folder(tmp_path, two_results):
     assert sorted(p.name for p in tmp_path.iterdir()) == [folder.name]
 
 
-def test_temporary_folders_are_private_and_removed_without_following_links(tmp_path):
-    """``new_folder`` makes a new, absolute, 0700 folder each call (as ``tempfile.mkdtemp``);
-    ``remove_folder`` removes a folder with files, folders and links in it, and a link to
-    a folder outside is removed, never followed (as ``shutil.rmtree``)."""
-    from counterpoise.report.files import new_folder, remove_folder
-
-    made = {new_folder(tmp_path, ".p.", ".new") for _ in range(3)}
-    assert len(made) == 3 and all(p.is_absolute() and p.name.startswith(".p.") and p.name.endswith(".new") for p in made)
-    assert {_mode(p) for p in made} == {0o700}
-    outside = tmp_path / "outside"
-    outside.mkdir()
-    (outside / "keep.txt").write_text("kept")
-    folder = made.pop()
-    (folder / "a.csv").write_text("a")
-    (folder / "inner" / "deeper").mkdir(parents=True)
-    (folder / "inner" / "deeper" / "b.txt").write_text("b")
-    (folder / "inner" / "to_outside").symlink_to(outside, target_is_directory=True)
-    (folder / "file_link").symlink_to(outside / "keep.txt")
-    remove_folder(folder)
-    assert not folder.exists() and (outside / "keep.txt").read_text() == "kept"
-    remove_folder(tmp_path / "missing")  # errors are ignored, as rmtree(ignore_errors=True)
-
-
 def test_worst_configuration_names_its_coordinates(two_results):
     from counterpoise.report.rows import verification_rows
 

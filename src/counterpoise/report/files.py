@@ -62,73 +62,9 @@ def umask() -> int:
 
 def respect_umask(path: str | Path, directory: bool = False) -> None:
     """Give a file made by :func:`tempfile.mkstemp` (0600) or a folder made by
-    :func:`new_folder` or :func:`tempfile.mkdtemp` (0700) the mode an ordinary
+    :func:`tempfile.mkdtemp` (0700) the mode an ordinary
     ``open``/``mkdir`` would give it."""
     os.chmod(path, (0o777 if directory else 0o666) & ~umask())
-
-
-#: names tried for a new temporary folder before giving up (as :mod:`tempfile`'s ``TMP_MAX``)
-NAME_ATTEMPTS = 10000
-
-
-def new_folder(parent: Path, prefix: str, suffix: str) -> Path:
-    """A new empty folder ``parent/<prefix><random><suffix>`` (absolute), mode 0700, made
-    as :func:`tempfile.mkdtemp` makes one (``os.mkdir``, another name while one exists), the
-    random part from :func:`os.urandom`: importing :mod:`tempfile` (with :mod:`shutil`,
-    :mod:`random`, bz2 and lzma) cost a repeated ``solve`` ~6 ms."""
-    parent = Path(os.path.abspath(parent))
-    for _ in range(NAME_ATTEMPTS):
-        path = parent / f"{prefix}{os.urandom(6).hex()}{suffix}"
-        try:
-            os.mkdir(path, 0o700)
-        except FileExistsError:
-            continue
-        return path
-    raise FileExistsError(errno.EEXIST, "no unused name for a temporary folder", str(parent))
-
-
-#: descriptor-relative calls, as ``shutil.rmtree`` uses them where they exist
-_SAFE_FD = {os.open, os.unlink, os.rmdir} <= os.supports_dir_fd and os.scandir in os.supports_fd and hasattr(os, "O_NOFOLLOW")
-_OPEN_FOLDER = os.O_RDONLY | getattr(os, "O_DIRECTORY", 0) | getattr(os, "O_NOFOLLOW", 0)
-
-
-def remove_folder(path: Path) -> None:
-    """Remove ``path`` and everything in it, ignoring errors, as ``shutil.rmtree(path,
-    ignore_errors=True)`` does: each folder opened without following a link and emptied
-    through its descriptor (a link is removed, never followed). Importing :mod:`shutil`
-    cost a repeated ``solve``, which replaces its report folder, ~4 ms; it is used where
-    the system has no descriptor-relative calls, and for what this leaves (an error)."""
-    if _SAFE_FD:
-        try:
-            fd = os.open(path, _OPEN_FOLDER)
-            try:
-                _empty(fd)
-            finally:
-                os.close(fd)
-            os.rmdir(path)
-            return
-        except OSError:
-            pass
-    import shutil
-
-    shutil.rmtree(path, ignore_errors=True)
-
-
-def _empty(fd: int) -> None:
-    """Remove everything in the open folder ``fd``: files and links unlinked, folders
-    opened without following links, emptied and removed."""
-    with os.scandir(fd) as found:
-        entries = [(entry.name, entry.is_dir(follow_symlinks=False)) for entry in found]
-    for name, folder in entries:
-        if folder:
-            inner = os.open(name, _OPEN_FOLDER, dir_fd=fd)
-            try:
-                _empty(inner)
-            finally:
-                os.close(inner)
-            os.rmdir(name, dir_fd=fd)
-        else:
-            os.unlink(name, dir_fd=fd)
 
 
 def atomic_write_text(path: Path, text: str) -> None:
@@ -157,8 +93,11 @@ def atomic_folder(folder: Path, fill: Callable[[Path], None]) -> Path:
     the new folder is complete; if ``fill`` fails (a full disk), it stays as it was. Two runs
     writing the same folder at once each leave a whole folder, the last one to finish wins.
     """
+    import shutil  # here, not at import (with bz2 and lzma): only a written folder needs them
+    import tempfile
+
     folder.parent.mkdir(parents=True, exist_ok=True)
-    temp = new_folder(folder.parent, f".{folder.name}.", ".new")
+    temp = Path(tempfile.mkdtemp(prefix=f".{folder.name}.", suffix=".new", dir=folder.parent))
     unfinished.begin(temp)  # an ended pool worker removes it (counterpoise.unfinished)
     try:
         fill(temp)
@@ -168,7 +107,7 @@ def atomic_folder(folder: Path, fill: Callable[[Path], None]) -> Path:
             if folder.exists():
                 # not registered with counterpoise.unfinished: between the two renames it holds
                 # the previous whole folder, which an ended worker must not delete
-                old = new_folder(folder.parent, f".{folder.name}.", ".old")
+                old = Path(tempfile.mkdtemp(prefix=f".{folder.name}.", suffix=".old", dir=folder.parent))
                 try:
                     os.replace(folder, old / folder.name)
                 except FileNotFoundError:  # another run moved it first
@@ -181,11 +120,11 @@ def atomic_folder(folder: Path, fill: Callable[[Path], None]) -> Path:
                 continue  # another run put its folder there in between: move it aside again
             finally:
                 if old is not None:
-                    remove_folder(old)
+                    shutil.rmtree(old, ignore_errors=True)
             return folder
         raise OSError(errno.EBUSY, f"other runs keep replacing {folder}")
     except BaseException:
-        remove_folder(temp)
+        shutil.rmtree(temp, ignore_errors=True)
         raise
     finally:
         unfinished.end(temp)
