@@ -163,21 +163,37 @@ def run_study_command(problem: Problem, options: StudyOptions, console: Any) -> 
     runner = make_runner(options, label)
     task = StudyTask(problem, time_limit=options.time_limit, check=options.check)
     build_before_fork(task, plan, runner)
+    preload = PlotPreload(True, *plot_inputs(problem, plan)) if options.plot and not isinstance(runner, SerialRunner) else PlotPreload(False)
     try:
         with terminate_as_interrupt():
-            outcome = _run(problem, plan, options, runner, task, console)
+            outcome = _run(problem, plan, options, runner, task, console, preload)
     finally:
         close = getattr(runner, "close", None)
         if close is not None:
             close()
     if options.plot:
-        from ..plots import study_plots
+        from ..plots.study import study_plots
 
-        study_plots(outcome.folder)
+        study_plots(outcome.folder, preload.figure)
     return outcome
 
 
-def _run(problem: Problem, plan: Any, options: StudyOptions, runner: Runner, task: StudyTask, console: Any) -> StudyOutcome:
+def plot_inputs(problem: Problem, plan: StudyPlan) -> tuple[dict[str, Any], list[list[float]]]:
+    """What ``study.png`` is laid out from before the points are solved
+    (:func:`counterpoise.plots.study.prepare`): the study's ``study.json`` content that the
+    plot reads (problem, plan, columns), and every point's varied values as ``study.csv``
+    will hold them (display unit, the file's number format)."""
+    import json
+
+    from ..report.files import FLOAT_FORMAT
+    from .study import columns
+
+    meta = {"problem": problem.name, "plan": json.loads(json.dumps(plan.identity())), "columns": columns(problem, plan)}
+    xs = [[float(FLOAT_FORMAT % v.unit.from_si(point[v.key])) for point in plan.points] for v in plan.varies]
+    return meta, xs
+
+
+def _run(problem: Problem, plan: Any, options: StudyOptions, runner: Runner, task: StudyTask, console: Any, preload: PlotPreload) -> StudyOutcome:
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
     columns = (
@@ -201,8 +217,6 @@ def _run(problem: Problem, plan: Any, options: StudyOptions, runner: Runner, tas
         bar.update(job, completed=skipped)
         bar.start()
 
-    preload = PlotPreload(options.plot and not isinstance(runner, SerialRunner))
-
     def progress(results: list[PointResult]) -> None:
         preload.start()  # every worker process exists once a batch came back
         state["done"] += len(results)
@@ -222,32 +236,35 @@ def _run(problem: Problem, plan: Any, options: StudyOptions, runner: Runner, tas
 
 
 class PlotPreload:
-    """Imports matplotlib (≈ 0.5 s of CPU) and warms it up (:func:`counterpoise.plots.study.prepare`:
-    the font loaded, a small figure drawn) in a thread of this process while worker
-    processes solve the points, instead of after them: the study's own process only waits
-    for results meanwhile. Started after the first batch came back, when every pool worker
-    has been forked (a fork during an import would leave the child a module lock held by a
-    thread it does not have). Not for a study run in this process (``enabled`` False):
-    there the thread would only take turns with the points."""
+    """Imports matplotlib (≈ 0.5 s of CPU) and draws ``study.png`` up to the points' results
+    (:func:`counterpoise.plots.study.prepare`: the figure, its axes, x axes and labels, for
+    the layout of a study whose points all end optimal) in a thread of this process while
+    worker processes solve the points, instead of after them: the study's own process only
+    waits for results meanwhile, and the plot at the end draws what the results decide.
+    Started after the first batch came back, when every pool worker has been forked (a fork
+    during an import would leave the child a module lock held by a thread it does not
+    have). Not for a study run in this process (``enabled`` False): there the thread would
+    only take turns with the points. ``meta``, ``xs``: :func:`plot_inputs`."""
 
-    def __init__(self, enabled: bool) -> None:
+    def __init__(self, enabled: bool, meta: dict[str, Any] | None = None, xs: list[list[float]] | None = None) -> None:
         self.enabled = enabled
+        self.meta, self.xs = meta, xs or []
+        self.figure: Any = None  # the prepared StudyFigure, once joined
         self._thread: threading.Thread | None = None
 
     def start(self) -> None:
         if self.enabled and self._thread is None:
-            self._thread = threading.Thread(target=_import_matplotlib, name="plot-preload", daemon=True)
+            self._thread = threading.Thread(target=self._prepare, name="plot-preload", daemon=True)
             self._thread.start()
 
     def join(self) -> None:
         if self._thread is not None:
             self._thread.join()
 
+    def _prepare(self) -> None:
+        try:
+            from ..plots.study import prepare
 
-def _import_matplotlib() -> None:
-    try:
-        from ..plots.study import prepare
-
-        prepare()
-    except ImportError:  # pragma: no cover - the plot itself reports it
-        pass
+            self.figure = prepare(self.meta, self.xs)
+        except ImportError:  # pragma: no cover - the plot itself reports it
+            pass
