@@ -103,19 +103,81 @@ def test_a_prepared_figure_is_used_when_its_layout_is_the_studys(tmp_path):
     assert not prepared.used and _pixels(tmp_path / "failed" / "study.png").shape[0] > _pixels(tmp_path / "ok" / "study.png").shape[0]
 
 
-def test_the_study_command_plots_with_the_figure_prepared_from_its_plan(tmp_path, capsys, monkeypatch):
-    """A --jobs 2 study prepares study.png from its plan while its points are solved (every
-    point of the varied range is known from the plan: the prepared layout is the finished
-    study's) and draws the results on that figure: one StudyFigure in all."""
+def _study_command(tmp_path, capsys, *extra):
     from conftest import PROBLEMS
     from counterpoise.cli.app import main
 
-    made = []
-    init = study_plot.StudyFigure.__init__
-    monkeypatch.setattr(study_plot.StudyFigure, "__init__", lambda self, layout: made.append(self) or init(self, layout))
     file = str(PROBLEMS / "yasir2019_counter_mass.toml")
     with pytest.raises(SystemExit) as exit_:
-        main(["study", file, "--vary", "m_c=300 g:500 g:4", "--out", str(tmp_path), "--jobs", "2", "--batch-size", "2"])
-    assert exit_.value.code == 0 and "4 points run (4 optimal)" in capsys.readouterr().out
-    [figure] = made
-    assert figure.used and (tmp_path / "yasir2019_counter_mass-study" / "study.png").exists()
+        main(["study", file, "--vary", "m_c=300 g:500 g:4", "--out", str(tmp_path), "--batch-size", "2", *extra])
+    return exit_.value.code, capsys.readouterr()
+
+
+def _logged(monkeypatch, log, name):
+    """Each call of StudyFigure.``name`` writes its process id to ``log`` (from a forked
+    process too)."""
+    import os
+
+    method = getattr(study_plot.StudyFigure, name)
+
+    def logged(self, *args):
+        with open(log, "a", encoding="utf-8") as handle:
+            handle.write(f"{name} {os.getpid()}\n")
+        return method(self, *args)
+
+    monkeypatch.setattr(study_plot.StudyFigure, name, logged)
+
+
+def test_a_pool_study_plots_in_a_helper_process_on_the_figure_prepared_from_its_plan(tmp_path, capsys, monkeypatch):
+    """A --jobs 2 study forks a helper that prepares study.png from the plan while the points
+    are solved (the varied range is known from the plan: the prepared layout is the
+    finished study's) and then draws the results on it: one StudyFigure in all, made and
+    finished in the helper; the study's process draws nothing and no helper is left."""
+    import multiprocessing
+    import os
+
+    if "fork" not in multiprocessing.get_all_start_methods():
+        pytest.skip("the helper is forked")
+    log = tmp_path / "figures.txt"
+    _logged(monkeypatch, log, "__init__")
+    _logged(monkeypatch, log, "finish")
+    code, printed = _study_command(tmp_path, capsys, "--jobs", "2")
+    assert code == 0 and "4 points run (4 optimal)" in printed.out and printed.err.count("\n") <= 1
+    [(made, pid), (finished, same)] = [line.split() for line in log.read_text(encoding="utf-8").splitlines()]
+    assert (made, finished) == ("__init__", "finish") and pid == same != str(os.getpid())
+    assert _pixels(tmp_path / "yasir2019_counter_mass-study" / "study.png").shape[2] == 3
+    assert multiprocessing.active_children() == []
+
+
+def test_a_helper_that_fails_leaves_the_plot_to_the_study(tmp_path, capsys, monkeypatch):
+    """The helper's plot fails (here: writing it): the study's process draws it instead, and
+    the helper printed nothing."""
+    import os
+
+    parent = os.getpid()
+    finish = study_plot.StudyFigure.finish
+
+    def failing_in_the_helper(self, *args):
+        if os.getpid() != parent:
+            raise OSError("disk full")
+        return finish(self, *args)
+
+    monkeypatch.setattr(study_plot.StudyFigure, "finish", failing_in_the_helper)
+    code, printed = _study_command(tmp_path, capsys, "--jobs", "2")
+    assert code == 0 and "disk full" not in printed.err
+    assert (tmp_path / "yasir2019_counter_mass-study" / "study.png").exists()
+
+
+def test_a_study_refused_ends_its_helper(tmp_path, capsys):
+    """A study that stops before its points (here: --resume of another plan) leaves no helper
+    process behind."""
+    import multiprocessing
+
+    assert _study_command(tmp_path, capsys, "--jobs", "1", "--no-plot")[0] == 0
+    from conftest import PROBLEMS
+    from counterpoise.cli.app import main
+
+    with pytest.raises(SystemExit) as exit_:
+        main(["study", str(PROBLEMS / "yasir2019_counter_mass.toml"), "--vary", "m_c=300 g:400 g:4", "--out", str(tmp_path), "--jobs", "2", "--resume"])
+    assert exit_.value.code == 2 and "--resume" in capsys.readouterr().err
+    assert multiprocessing.active_children() == []

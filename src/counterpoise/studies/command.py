@@ -162,20 +162,37 @@ def run_study_command(problem: Problem, options: StudyOptions, console: Any) -> 
         raise ProblemFileError(label, "--batch-size", f"must be at least 1, got {options.batch_size}")
     runner = make_runner(options, label)
     task = StudyTask(problem, time_limit=options.time_limit, check=options.check)
-    build_before_fork(task, plan, runner)
-    preload = PlotPreload(True, *plot_inputs(problem, plan)) if options.plot and not isinstance(runner, SerialRunner) else PlotPreload(False)
+    preload = plot_preload(options, runner, problem, plan)
     try:
-        with terminate_as_interrupt():
-            outcome = _run(problem, plan, options, runner, task, console, preload)
+        build_before_fork(task, plan, runner)
+        try:
+            with terminate_as_interrupt():
+                outcome = _run(problem, plan, options, runner, task, console, preload)
+        finally:
+            close = getattr(runner, "close", None)
+            if close is not None:
+                close()
+        if options.plot:
+            preload.plot(outcome.folder)
     finally:
-        close = getattr(runner, "close", None)
-        if close is not None:
-            close()
-    if options.plot:
-        from ..plots.study import study_plots
-
-        study_plots(outcome.folder, preload.figure)
+        preload.close()
     return outcome
+
+
+def plot_preload(options: StudyOptions, runner: Runner, problem: Problem, plan: StudyPlan) -> PlotPreload:
+    """How ``study.png`` is prepared while the points are solved: by a :class:`PlotProcess`
+    forked now for a local process pool (the study's process then never imports
+    matplotlib), by a :class:`PlotPreload` thread for a Dask scheduler (whose client runs
+    threads already: no fork then), not at all for a study run in this process or
+    ``--no-plot`` (the plot, if any, drawn at the end)."""
+    import multiprocessing
+
+    if not options.plot or isinstance(runner, SerialRunner):
+        return PlotPreload(False)
+    meta, xs = plot_inputs(problem, plan)
+    if isinstance(runner, ProcessRunner) and "fork" in multiprocessing.get_all_start_methods() and threading.active_count() == 1:
+        return PlotProcess(meta, xs)
+    return PlotPreload(True, meta, xs)
 
 
 def plot_inputs(problem: Problem, plan: StudyPlan) -> tuple[dict[str, Any], list[list[float]]]:
@@ -240,11 +257,11 @@ class PlotPreload:
     (:func:`counterpoise.plots.study.prepare`: the figure, its axes, x axes and labels, for
     the layout of a study whose points all end optimal) in a thread of this process while
     worker processes solve the points, instead of after them: the study's own process only
-    waits for results meanwhile, and the plot at the end draws what the results decide.
-    Started after the first batch came back, when every pool worker has been forked (a fork
-    during an import would leave the child a module lock held by a thread it does not
-    have). Not for a study run in this process (``enabled`` False): there the thread would
-    only take turns with the points. ``meta``, ``xs``: :func:`plot_inputs`."""
+    waits for results meanwhile, and the plot at the end (:meth:`plot`) draws what the
+    results decide. Started after the first batch came back, when every worker process has
+    been forked (a fork during an import would leave the child a module lock held by a
+    thread it does not have). Not enabled: nothing prepared, :meth:`plot` draws it all.
+    ``meta``, ``xs``: :func:`plot_inputs`."""
 
     def __init__(self, enabled: bool, meta: dict[str, Any] | None = None, xs: list[list[float]] | None = None) -> None:
         self.enabled = enabled
@@ -261,6 +278,16 @@ class PlotPreload:
         if self._thread is not None:
             self._thread.join()
 
+    def plot(self, folder: Path) -> list[Path]:
+        """Write the plots of the finished study in ``folder``."""
+        from ..plots.study import study_plots
+
+        self.join()
+        return study_plots(folder, self.figure)
+
+    def close(self) -> None:
+        """Nothing left running (the thread, a daemon, ends with its preparation)."""
+
     def _prepare(self) -> None:
         try:
             from ..plots.study import prepare
@@ -268,3 +295,64 @@ class PlotPreload:
             self.figure = prepare(self.meta, self.xs)
         except ImportError:  # pragma: no cover - the plot itself reports it
             pass
+
+
+class PlotProcess(PlotPreload):
+    """:class:`PlotPreload` in a process forked before the study's work starts (before the
+    design method is built and the pool forks its workers): it imports matplotlib and
+    prepares ``study.png`` while this process still works alone (one core idle), then waits
+    for the finished study's folder, draws the results and writes the plots. The study's
+    process never imports matplotlib. The helper ignores Ctrl-C (the study handles it and
+    ends the helper), ends with its parent (Linux), and writes nothing to the terminal:
+    should it fail or die, :meth:`plot` draws the plots here instead, where an error is
+    reported as for any plot."""
+
+    def __init__(self, meta: dict[str, Any], xs: list[list[float]]) -> None:
+        import multiprocessing
+
+        super().__init__(False, meta, xs)
+        context = multiprocessing.get_context("fork")
+        self._conn, child = context.Pipe()
+        self._process = context.Process(target=_plot_process, args=(child, self._conn, meta, xs), name="study-plot", daemon=True)
+        self._process.start()
+        child.close()
+
+    def plot(self, folder: Path) -> list[Path]:
+        try:
+            self._conn.send(str(folder))
+            reply = self._conn.recv()  # EOFError: the helper ended without an answer
+        except (OSError, EOFError):
+            reply = None
+        self.close()
+        if isinstance(reply, list):
+            return [Path(p) for p in reply]
+        return super().plot(folder)
+
+    def close(self) -> None:
+        if self._process.is_alive() and self._process.exitcode is None:
+            self._conn.close()  # the helper's recv ends (EOF), or it is terminated
+            self._process.join(0.05)
+            if self._process.is_alive():
+                self._process.terminate()
+        self._process.join()
+
+
+def _plot_process(conn: Any, parent_end: Any, meta: dict[str, Any], xs: list[list[float]]) -> None:
+    """The helper of :class:`PlotProcess`: prepare, then plot the folder it is sent."""
+    from .runners import _die_with_parent
+
+    parent_end.close()
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    _die_with_parent()
+    devnull = os.open(os.devnull, os.O_WRONLY)  # an error here is redone and reported by the study's process
+    os.dup2(devnull, 1)
+    os.dup2(devnull, 2)
+    from ..plots.study import prepare, study_plots
+
+    figure = prepare(meta, xs)
+    try:
+        folder = conn.recv()
+    except EOFError:  # the study ended without a plot
+        return
+    conn.send([str(p) for p in study_plots(folder, figure)])
