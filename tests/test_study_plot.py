@@ -181,3 +181,42 @@ def test_a_study_refused_ends_its_helper(tmp_path, capsys):
         main(["study", str(PROBLEMS / "yasir2019_counter_mass.toml"), "--vary", "m_c=300 g:400 g:4", "--out", str(tmp_path), "--jobs", "2", "--resume"])
     assert exit_.value.code == 2 and "--resume" in capsys.readouterr().err
     assert multiprocessing.active_children() == []
+
+
+@pytest.mark.skipif(not __import__("pathlib").Path("/proc").exists(), reason="reads /proc")
+def test_ctrl_c_ends_the_plot_helper_with_the_workers(tmp_path):
+    """Ctrl-C during a plotted pool study (a real process: signals): exit 130, one line, and
+    neither the pool workers nor the plot helper (three children) outlive the study."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    from pathlib import Path
+
+    from conftest import PROBLEMS, ROOT
+    from test_faults import START_WAIT_S, _children
+
+    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
+    args = [sys.executable, "-c", "from counterpoise.cli import main; main()", "study", str(PROBLEMS / "yasir2019_hybrid.toml"),
+            "--vary", "m_endo=400 g:1000 g:100000", "--jobs", "2", "--out", str(tmp_path)]
+    process = subprocess.Popen(  # SIGINT as a terminal's Ctrl-C meets it (see test_faults), in a process group of its own
+        args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+        start_new_session=True,
+    )
+    try:
+        deadline = time.monotonic() + START_WAIT_S
+        while len(children := _children(process.pid)) < 3 and time.monotonic() < deadline and process.poll() is None:
+            time.sleep(0.2)
+        assert len(children) == 3
+        time.sleep(1.0)
+        os.killpg(process.pid, signal.SIGINT)  # Ctrl-C: to the whole group, helper and workers too
+        _, err = process.communicate(timeout=START_WAIT_S)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+    assert process.returncode == 130 and "Traceback" not in err
+    assert "interrupted" in err.strip().splitlines()[-1]
+    time.sleep(0.5)
+    assert [p for p in children if Path(f"/proc/{p}").exists() and "Z" not in (Path(f"/proc/{p}/stat").read_text().rsplit(")", 1)[1].split()[0])] == []
