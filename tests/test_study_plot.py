@@ -220,3 +220,17 @@ def test_ctrl_c_ends_the_plot_helper_with_the_workers(tmp_path):
     assert "interrupted" in err.strip().splitlines()[-1]
     time.sleep(0.5)
     assert [p for p in children if Path(f"/proc/{p}").exists() and "Z" not in (Path(f"/proc/{p}/stat").read_text().rsplit(")", 1)[1].split()[0])] == []
+
+
+def test_a_file_that_does_not_load_ends_the_helper_forked_before_it(tmp_path, capsys):
+    """The helper is forked before the file is loaded: a file that does not load is still one
+    line, exit 2, nothing written, and no helper left."""
+    import multiprocessing
+
+    from counterpoise.cli.app import main
+
+    with pytest.raises(SystemExit) as exit_:
+        main(["study", str(tmp_path / "missing.toml"), "--vary", "m=1 g:2 g:3", "--out", str(tmp_path / "out"), "--jobs", "2"])
+    err = capsys.readouterr().err
+    assert exit_.value.code == 2 and len(err.strip().splitlines()) == 1 and "missing.toml" in err
+    assert not (tmp_path / "out").exists() and multiprocessing.active_children() == []

@@ -170,6 +170,13 @@ class StudyFigure:
         save_canvas(self.fig, path)
 
 
+def load() -> None:
+    """Import what :class:`StudyFigure` draws and writes with."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: F401
+    from matplotlib.figure import Figure  # noqa: F401
+    from PIL import PngImagePlugin  # noqa: F401
+
+
 def prepare(meta: Mapping[str, Any] | None = None, xs: Sequence[Sequence[float]] = ()) -> StudyFigure:
     """The :class:`StudyFigure` of a study whose points all end optimal (the usual
     case: :func:`study_plots` makes another when they do not), drawn up to the results;
@@ -177,9 +184,8 @@ def prepare(meta: Mapping[str, Any] | None = None, xs: Sequence[Sequence[float]]
     ``study.json``'s content, ``xs``: the varied values of every point (:func:`layout`).
     Without ``meta``: a one-axes figure, to warm matplotlib up. For a thread or another
     process of a study's while its points are solved
-    (:class:`counterpoise.studies.command.PlotPreload`)."""
-    from PIL import PngImagePlugin  # noqa: F401 - imported for the PNG writer
-
+    (:class:`counterpoise.studies.command.PlotPreload`, :mod:`counterpoise.plotter`)."""
+    load()
     if meta is None:
         return StudyFigure(Layout(("x [1]",), ("objective_kg",), ((0.0, 1.0),)))
     return StudyFigure(layout(meta, xs))

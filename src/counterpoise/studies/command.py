@@ -15,13 +15,16 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..errors import ProblemFileError
 from ..model.problem import Problem
 from .runners import PointResult, ProcessRunner, Runner, SerialRunner, StudyTask
 from .spec import StudyPlan, plan_study
 from .study import StudyOutcome, run_study
+
+if TYPE_CHECKING:
+    from ..plotter import PlotProcess
 
 
 @dataclass(frozen=True)
@@ -147,51 +150,62 @@ def terminate_as_interrupt() -> Iterator[None]:
         signal.signal(signal.SIGTERM, previous)
 
 
-def run_study_command(problem: Problem, options: StudyOptions, console: Any) -> StudyOutcome:
+def run_study_command(problem: Problem, options: StudyOptions, console: Any, plotter: PlotProcess | None = None) -> StudyOutcome:
     """Plan, run (with a progress bar on ``console``), and plot a study.
 
-    Ctrl-C (KeyboardInterrupt) and SIGTERM (:class:`StudyTerminated`, a KeyboardInterrupt)
-    propagate after the clean-up: every finished batch is in ``study.csv`` and no worker
-    is left running; ``--resume`` continues."""
-    label = problem.path or problem.name
-    plan = plan_study(problem, list(options.vary), label, options.samples, options.method, options.seed)
-    check_varied_values(problem, plan, dict(options.overrides))
-    if options.time_limit is not None and not options.time_limit > 0:
-        raise ProblemFileError(label, "--time-limit", f"must be positive, got {options.time_limit}")
-    if options.batch_size < 1:
-        raise ProblemFileError(label, "--batch-size", f"must be at least 1, got {options.batch_size}")
-    runner = make_runner(options, label)
-    task = StudyTask(problem, time_limit=options.time_limit, check=options.check)
-    preload = plot_preload(options, runner, problem, plan)
+    ``plotter``: a plot helper forked by the command before the file was loaded
+    (:mod:`counterpoise.plotter`); this function ends it. Ctrl-C (KeyboardInterrupt) and
+    SIGTERM (:class:`StudyTerminated`, a KeyboardInterrupt) propagate after the clean-up:
+    every finished batch is in ``study.csv`` and no worker or helper is left running;
+    ``--resume`` continues."""
     try:
-        build_before_fork(task, plan, runner)
+        label = problem.path or problem.name
+        plan = plan_study(problem, list(options.vary), label, options.samples, options.method, options.seed)
+        check_varied_values(problem, plan, dict(options.overrides))
+        if options.time_limit is not None and not options.time_limit > 0:
+            raise ProblemFileError(label, "--time-limit", f"must be positive, got {options.time_limit}")
+        if options.batch_size < 1:
+            raise ProblemFileError(label, "--batch-size", f"must be at least 1, got {options.batch_size}")
+        runner = make_runner(options, label)
+        task = StudyTask(problem, time_limit=options.time_limit, check=options.check)
+        preload = plot_preload(options, runner, problem, plan, plotter)
+        plotter = None  # the preload ends it
         try:
-            with terminate_as_interrupt():
-                outcome = _run(problem, plan, options, runner, task, console, preload)
+            build_before_fork(task, plan, runner)
+            try:
+                with terminate_as_interrupt():
+                    outcome = _run(problem, plan, options, runner, task, console, preload)
+            finally:
+                close = getattr(runner, "close", None)
+                if close is not None:
+                    close()
+            if options.plot:
+                preload.plot(outcome.folder)
         finally:
-            close = getattr(runner, "close", None)
-            if close is not None:
-                close()
-        if options.plot:
-            preload.plot(outcome.folder)
+            preload.close()
     finally:
-        preload.close()
+        if plotter is not None:
+            plotter.close()
     return outcome
 
 
-def plot_preload(options: StudyOptions, runner: Runner, problem: Problem, plan: StudyPlan) -> PlotPreload:
-    """How ``study.png`` is prepared while the points are solved: by a :class:`PlotProcess`
-    forked now for a local process pool (the study's process then never imports
-    matplotlib), by a :class:`PlotPreload` thread for a Dask scheduler (whose client runs
-    threads already: no fork then), not at all for a study run in this process or
+def plot_preload(options: StudyOptions, runner: Runner, problem: Problem, plan: StudyPlan, plotter: PlotProcess | None = None) -> PlotPreload:
+    """How ``study.png`` is prepared while the points are solved: by the plot helper
+    ``plotter`` forked by the command, or one forked now (:mod:`counterpoise.plotter`) for
+    a local process pool, by a :class:`PlotPreload` thread for a Dask scheduler (whose
+    client runs threads: no fork then), not at all for a study run in this process or
     ``--no-plot`` (the plot, if any, drawn at the end)."""
-    import multiprocessing
+    from ..plotter import PlotProcess
 
     if not options.plot or isinstance(runner, SerialRunner):
+        if plotter is not None:
+            plotter.close()
         return PlotPreload(False)
     meta, xs = plot_inputs(problem, plan)
-    if isinstance(runner, ProcessRunner) and "fork" in multiprocessing.get_all_start_methods() and threading.active_count() == 1:
-        return PlotProcess(meta, xs)
+    if plotter is None and isinstance(runner, ProcessRunner):
+        plotter = PlotProcess.fork_if_useful(True, runner.jobs, None)
+    if plotter is not None:
+        return HelperPreload(plotter, meta, xs)
     return PlotPreload(True, meta, xs)
 
 
@@ -297,62 +311,18 @@ class PlotPreload:
             pass
 
 
-class PlotProcess(PlotPreload):
-    """:class:`PlotPreload` in a process forked before the study's work starts (before the
-    design method is built and the pool forks its workers): it imports matplotlib and
-    prepares ``study.png`` while this process still works alone (one core idle), then waits
-    for the finished study's folder, draws the results and writes the plots. The study's
-    process never imports matplotlib. The helper ignores Ctrl-C (the study handles it and
-    ends the helper), ends with its parent (Linux), and writes nothing to the terminal:
-    should it fail or die, :meth:`plot` draws the plots here instead, where an error is
-    reported as for any plot."""
+class HelperPreload(PlotPreload):
+    """The plots drawn by a :class:`counterpoise.plotter.PlotProcess` (prepared there while
+    the study runs), or here if the helper failed."""
 
-    def __init__(self, meta: dict[str, Any], xs: list[list[float]]) -> None:
-        import multiprocessing
-
-        super().__init__(False, meta, xs)
-        context = multiprocessing.get_context("fork")
-        self._conn, child = context.Pipe()
-        self._process = context.Process(target=_plot_process, args=(child, self._conn, meta, xs), name="study-plot", daemon=True)
-        self._process.start()
-        child.close()
+    def __init__(self, helper: PlotProcess, meta: dict[str, Any], xs: list[list[float]]) -> None:
+        super().__init__(False)
+        self.helper = helper
+        helper.prepare(meta, xs)
 
     def plot(self, folder: Path) -> list[Path]:
-        try:
-            self._conn.send(str(folder))
-            reply = self._conn.recv()  # EOFError: the helper ended without an answer
-        except (OSError, EOFError):
-            reply = None
-        self.close()
-        if isinstance(reply, list):
-            return [Path(p) for p in reply]
-        return super().plot(folder)
+        paths = self.helper.plot(folder)
+        return super().plot(folder) if paths is None else paths
 
     def close(self) -> None:
-        if self._process.is_alive() and self._process.exitcode is None:
-            self._conn.close()  # the helper's recv ends (EOF), or it is terminated
-            self._process.join(0.05)
-            if self._process.is_alive():
-                self._process.terminate()
-        self._process.join()
-
-
-def _plot_process(conn: Any, parent_end: Any, meta: dict[str, Any], xs: list[list[float]]) -> None:
-    """The helper of :class:`PlotProcess`: prepare, then plot the folder it is sent."""
-    from .runners import _die_with_parent
-
-    parent_end.close()
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    _die_with_parent()
-    devnull = os.open(os.devnull, os.O_WRONLY)  # an error here is redone and reported by the study's process
-    os.dup2(devnull, 1)
-    os.dup2(devnull, 2)
-    from ..plots.study import prepare, study_plots
-
-    figure = prepare(meta, xs)
-    try:
-        folder = conn.recv()
-    except EOFError:  # the study ended without a plot
-        return
-    conn.send([str(p) for p in study_plots(folder, figure)])
+        self.helper.close()
