@@ -161,6 +161,8 @@ def run_study_command(problem: Problem, options: StudyOptions, console: Any, plo
     try:
         label = problem.path or problem.name
         plan = plan_study(problem, list(options.vary), label, options.samples, options.method, options.seed)
+        if plotter is not None and options.plot:  # the helper lays the figure out while this process goes on
+            plotter.prepare(*plot_inputs(problem, plan))
         check_varied_values(problem, plan, dict(options.overrides))
         if options.time_limit is not None and not options.time_limit > 0:
             raise ProblemFileError(label, "--time-limit", f"must be positive, got {options.time_limit}")
@@ -201,11 +203,12 @@ def plot_preload(options: StudyOptions, runner: Runner, problem: Problem, plan: 
         if plotter is not None:
             plotter.close()
         return PlotPreload(False)
+    if plotter is not None:  # sent the layout by run_study_command
+        return HelperPreload(plotter)
     meta, xs = plot_inputs(problem, plan)
-    if plotter is None and isinstance(runner, ProcessRunner):
-        plotter = PlotProcess.fork_if_useful(True, runner.jobs, None)
-    if plotter is not None:
-        return HelperPreload(plotter, meta, xs)
+    if isinstance(runner, ProcessRunner) and (plotter := PlotProcess.fork_if_useful(True, runner.jobs, None)) is not None:
+        plotter.prepare(meta, xs)
+        return HelperPreload(plotter)
     return PlotPreload(True, meta, xs)
 
 
@@ -315,10 +318,9 @@ class HelperPreload(PlotPreload):
     """The plots drawn by a :class:`counterpoise.plotter.PlotProcess` (prepared there while
     the study runs), or here if the helper failed."""
 
-    def __init__(self, helper: PlotProcess, meta: dict[str, Any], xs: list[list[float]]) -> None:
+    def __init__(self, helper: PlotProcess) -> None:
         super().__init__(False)
         self.helper = helper
-        helper.prepare(meta, xs)
 
     def plot(self, folder: Path) -> list[Path]:
         paths = self.helper.plot(folder)
