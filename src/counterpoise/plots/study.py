@@ -41,8 +41,8 @@ TEXT = ("status", "certificate", "solver", "message")
 LEFT, RIGHT, TOP, BOTTOM, TITLE_TOP = 1.0, 0.3, 0.8, 0.55, 0.1
 
 #: y tick objects made with each axes before its results are known (matplotlib makes them on
-#: demand, ~1 ms each, when the axis is drawn): a y axis of a study plot shows 5 to 9
-Y_TICKS = 9
+#: demand, ~1 ms each, when the axis is drawn): a y axis of a study plot needs 5 to 8
+Y_TICKS = 8
 
 
 @dataclass(frozen=True)
