@@ -112,6 +112,7 @@ class StudyFigure:
                     lo, hi = ax.xaxis.get_major_locator().nonsingular(*xrange)
                     margin = (hi - lo) * ax.margins()[0]
                     ax.set_xlim(lo - margin, hi + margin)
+                ax.set_autoscalex_on(False)  # the x axis is drawn now: the curves must not move it
         # what the results decide is drawn by finish(): hidden from the first drawing
         self._later = [self.title] + [a for ax in self.axes.flat for a in (ax.yaxis, *ax.spines.values())]
         for artist in self._later:
