@@ -103,6 +103,20 @@ def test_a_prepared_figure_is_used_when_its_layout_is_the_studys(tmp_path):
     assert not prepared.used and _pixels(tmp_path / "failed" / "study.png").shape[0] > _pixels(tmp_path / "ok" / "study.png").shape[0]
 
 
+@pytest.fixture
+def forking(monkeypatch):
+    """The plot helper is forked as on the command line: a test run may have left threads
+    of its own (a Dask client's), for which the command would prepare the plot in a
+    thread instead (:meth:`counterpoise.plotter.PlotProcess.fork_if_useful`)."""
+    import multiprocessing
+
+    from counterpoise import plotter
+
+    if "fork" not in multiprocessing.get_all_start_methods():
+        pytest.skip("the helper is forked")
+    monkeypatch.setattr(plotter, "active_count", lambda: 1)
+
+
 def _study_command(tmp_path, capsys, *extra):
     from conftest import PROBLEMS
     from counterpoise.cli.app import main
@@ -128,7 +142,7 @@ def _logged(monkeypatch, log, name):
     monkeypatch.setattr(study_plot.StudyFigure, name, logged)
 
 
-def test_a_pool_study_plots_in_a_helper_process_on_the_figure_prepared_from_its_plan(tmp_path, capsys, monkeypatch):
+def test_a_pool_study_plots_in_a_helper_process_on_the_figure_prepared_from_its_plan(tmp_path, capsys, monkeypatch, forking):
     """A --jobs 2 study forks a helper that prepares study.png from the plan while the points
     are solved (the varied range is known from the plan: the prepared layout is the
     finished study's) and then draws the results on it: one StudyFigure in all, made and
@@ -136,8 +150,6 @@ def test_a_pool_study_plots_in_a_helper_process_on_the_figure_prepared_from_its_
     import multiprocessing
     import os
 
-    if "fork" not in multiprocessing.get_all_start_methods():
-        pytest.skip("the helper is forked")
     log = tmp_path / "figures.txt"
     _logged(monkeypatch, log, "__init__")
     _logged(monkeypatch, log, "finish")
@@ -149,7 +161,7 @@ def test_a_pool_study_plots_in_a_helper_process_on_the_figure_prepared_from_its_
     assert multiprocessing.active_children() == []
 
 
-def test_a_helper_that_fails_leaves_the_plot_to_the_study(tmp_path, capsys, monkeypatch):
+def test_a_helper_that_fails_leaves_the_plot_to_the_study(tmp_path, capsys, monkeypatch, forking):
     """The helper's plot fails (here: writing it): the study's process draws it instead, and
     the helper printed nothing."""
     import os
@@ -157,18 +169,21 @@ def test_a_helper_that_fails_leaves_the_plot_to_the_study(tmp_path, capsys, monk
     parent = os.getpid()
     finish = study_plot.StudyFigure.finish
 
+    failed = tmp_path / "failed.txt"
+
     def failing_in_the_helper(self, *args):
         if os.getpid() != parent:
+            failed.write_text("helper", encoding="utf-8")
             raise OSError("disk full")
         return finish(self, *args)
 
     monkeypatch.setattr(study_plot.StudyFigure, "finish", failing_in_the_helper)
-    code, printed = _study_command(tmp_path, capsys, "--jobs", "2")
-    assert code == 0 and "disk full" not in printed.err
-    assert (tmp_path / "yasir2019_counter_mass-study" / "study.png").exists()
+    code, printed = _study_command(tmp_path / "out", capsys, "--jobs", "2")
+    assert code == 0 and "disk full" not in printed.err and failed.read_text(encoding="utf-8") == "helper"
+    assert (tmp_path / "out" / "yasir2019_counter_mass-study" / "study.png").exists()
 
 
-def test_a_study_refused_ends_its_helper(tmp_path, capsys):
+def test_a_study_refused_ends_its_helper(tmp_path, capsys, forking):
     """A study that stops before its points (here: --resume of another plan) leaves no helper
     process behind."""
     import multiprocessing
@@ -222,7 +237,7 @@ def test_ctrl_c_ends_the_plot_helper_with_the_workers(tmp_path):
     assert [p for p in children if Path(f"/proc/{p}").exists() and "Z" not in (Path(f"/proc/{p}/stat").read_text().rsplit(")", 1)[1].split()[0])] == []
 
 
-def test_a_file_that_does_not_load_ends_the_helper_forked_before_it(tmp_path, capsys):
+def test_a_file_that_does_not_load_ends_the_helper_forked_before_it(tmp_path, capsys, forking):
     """The helper is forked before the file is loaded: a file that does not load is still one
     line, exit 2, nothing written, and no helper left."""
     import multiprocessing

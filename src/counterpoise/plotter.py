@@ -20,8 +20,8 @@ from __future__ import annotations
 
 import os
 import signal
-import threading
 from pathlib import Path
+from threading import active_count
 from typing import Any
 
 
@@ -47,7 +47,7 @@ class PlotProcess:
 
         if not plot or scheduler is not None or (jobs or os.cpu_count() or 1) < 2:
             return None
-        if "fork" not in multiprocessing.get_all_start_methods() or threading.active_count() > 1:
+        if "fork" not in multiprocessing.get_all_start_methods() or active_count() > 1:
             return None
         return cls()
 
