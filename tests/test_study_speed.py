@@ -25,18 +25,18 @@ def test_plot_preload_warms_matplotlib_once_and_only_when_enabled(monkeypatch):
     from counterpoise.plots import study as study_plot
 
     calls = []
-    monkeypatch.setattr(study_plot, "prepare", lambda: calls.append(1))
+    monkeypatch.setattr(study_plot, "prepare", lambda *args: calls.append(args) or "figure")
     off = PlotPreload(False)
     off.start()
     off.join()
-    assert off._thread is None and calls == []
-    on = PlotPreload(True)
+    assert off._thread is None and calls == [] and off.figure is None
+    on = PlotPreload(True, {"problem": "p"}, [[1.0]])
     on.start()
     first = on._thread
     on.start()  # a second batch: no second thread
     on.join()
     assert on._thread is first and not first.is_alive()
-    assert calls == [1]
+    assert calls == [({"problem": "p"}, [[1.0]])] and on.figure == "figure"
 
 
 def test_the_plot_warm_up_draws_without_pyplot_and_writes_nothing(tmp_path, monkeypatch):
@@ -124,17 +124,22 @@ def test_vary_in_the_files_unit_is_read_as_pint_reads_it_without_pint(monkeypatc
 def test_the_study_plot_draws_the_objective_and_each_design_variable_once_laid_out(tmp_path, capsys, monkeypatch):
     """study.png of a one-key grid: one row for the objective and one per design variable of
     yasir2019_counter_mass (M_a, M_b, M_c), none for the text column ``certificate``; the
-    figure is saved as laid out (no second drawing to crop it)."""
+    figure is drawn once (what the results decide is drawn over that drawing, and the canvas
+    written as it is: no second drawing to save or crop it)."""
+    from matplotlib.figure import Figure
+
     from counterpoise.plots import study as study_plot
 
     file = str(PROBLEMS / "yasir2019_counter_mass.toml")
     code, _ = _cli(["study", file, "--vary", "m_c=300 g:500 g:3", "--out", str(tmp_path), "--jobs", "1", "--no-plot"], capsys)
     assert code == 0
-    saved = []
-    monkeypatch.setattr(study_plot, "save", lambda fig, path, crop=None: saved.append((fig, path, crop)))
+    saved, draws = [], []
+    monkeypatch.setattr(study_plot, "save_canvas", lambda fig, path: saved.append((fig, path)))
+    draw = Figure.draw
+    monkeypatch.setattr(Figure, "draw", lambda self, renderer: draws.append(self) or draw(self, renderer))
     study_plot.study_plots(tmp_path / "yasir2019_counter_mass-study")
-    [(fig, path, crop)] = saved
-    assert path.name == "study.png" and crop is False
+    [(fig, path)] = saved
+    assert path.name == "study.png" and draws == [fig]
     assert [ax.get_ylabel() for ax in fig.axes] == ["objective [kg]", "M_a [g]", "M_b [g]", "M_c [g]"]
     assert all(ax.get_xlabel() == "m_c [g]" for ax in fig.axes)
 

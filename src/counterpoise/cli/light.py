@@ -383,18 +383,23 @@ def run_study(
     ``said``; the exit status (2 bad input, 1 the study cannot be written, 130/143
     interrupted by Ctrl-C/SIGTERM with the finished points kept, else 0 whatever the
     points' statuses). ``loaded`` is called once the file has loaded."""
+    from ..plotter import PlotProcess
+
+    plotter = PlotProcess.fork_if_useful(plot, jobs, scheduler)  # draws the plot; imports matplotlib while this process loads
     from rich.console import Console
 
     from ..errors import ProblemFileError
     from ..studies.command import StudyOptions, run_study_command
     found = _load([file], set_, out, err, loaded)
     if found is None:
+        if plotter is not None:
+            plotter.close()
         return 2
     (problem,), sets = found
     options = StudyOptions(tuple(vary), samples, method, seed, out, jobs, scheduler, scheduler_timeout, resume, time_limit, batch_size, plot,
                            overrides=tuple(sets.items()), check=check)
     try:
-        outcome = run_study_command(problem, options, Console(stderr=True, highlight=False, soft_wrap=True))
+        outcome = run_study_command(problem, options, Console(stderr=True, highlight=False, soft_wrap=True), plotter)
     except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM: workers stopped, finished batches kept
         return _study_interrupted(err, problem, out, exc)
     except ProblemFileError as exc:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 #: resolution of the PNG files
@@ -31,12 +31,7 @@ def save(fig: Any, path: Any, crop: bool | None = None) -> None:
     the figure is laid out by its maker (a fixed layout, or frozen by :func:`freeze_layout`):
     drawn once.
     """
-    import os
     import sys
-    import tempfile
-    from pathlib import Path
-
-    from ..report.files import respect_umask
 
     if crop is None:
         from matplotlib.layout_engine import ConstrainedLayoutEngine
@@ -44,20 +39,50 @@ def save(fig: Any, path: Any, crop: bool | None = None) -> None:
         crop = not isinstance(fig.get_layout_engine(), ConstrainedLayoutEngine)
         if not crop:
             freeze_layout(fig)
+    try:
+        _write(path, lambda tmp: fig.savefig(tmp, dpi=DPI, pil_kwargs={"compress_level": COMPRESS_LEVEL}, **({"bbox_inches": "tight"} if crop else {})))
+    finally:
+        if "matplotlib.pyplot" in sys.modules:  # a figure made by pyplot: forget it there; others have no pyplot state
+            pyplot().close(fig)
+
+
+def save_canvas(fig: Any, path: Any) -> None:
+    """Write what is drawn on ``fig``'s Agg canvas now as PNG (the resolution and metadata
+    ``savefig`` writes), through a temporary file and a rename: for a figure drawn in parts
+    (``canvas.draw`` then each artist's ``draw``...), which ``savefig`` would draw again
+    from scratch. An opaque canvas is written as RGB, without its alpha channel (all 255):
+    the same pixels, a quarter less to filter and compress (≈ 60 ms against 87 ms for the
+    7-row ``study.png`` of ``yasir2019_hybrid``)."""
+    import matplotlib
+    import numpy as np
+    from PIL import Image, PngImagePlugin
+
+    rgba = np.asarray(fig.canvas.buffer_rgba())
+    image = Image.fromarray(rgba[..., :3] if (rgba[..., 3] == 255).all() else rgba)
+    info = PngImagePlugin.PngInfo()
+    info.add_text("Software", f"Matplotlib version{matplotlib.__version__}, https://matplotlib.org/")
+    _write(path, lambda tmp: image.save(tmp, format="png", dpi=(fig.dpi, fig.dpi), pnginfo=info, compress_level=COMPRESS_LEVEL))
+
+
+def _write(path: Any, write: Callable[[str], object]) -> None:
+    """``write(tmp)`` into a temporary file beside ``path``, then renamed to ``path``."""
+    import os
+    import tempfile
+    from pathlib import Path
+
+    from ..report.files import respect_umask
+
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".png", dir=path.parent)
     os.close(fd)
     try:
-        fig.savefig(tmp, dpi=DPI, pil_kwargs={"compress_level": COMPRESS_LEVEL}, **({"bbox_inches": "tight"} if crop else {}))
+        write(tmp)
         respect_umask(tmp)
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
-    finally:
-        if "matplotlib.pyplot" in sys.modules:  # a figure made by pyplot: forget it there; others have no pyplot state
-            pyplot().close(fig)
 
 
 def freeze_layout(fig: Any, axes: Sequence[Any] = ()) -> Any:

@@ -15,13 +15,16 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..errors import ProblemFileError
 from ..model.problem import Problem
 from .runners import PointResult, ProcessRunner, Runner, SerialRunner, StudyTask
 from .spec import StudyPlan, plan_study
 from .study import StudyOutcome, run_study
+
+if TYPE_CHECKING:
+    from ..plotter import PlotProcess
 
 
 @dataclass(frozen=True)
@@ -147,37 +150,84 @@ def terminate_as_interrupt() -> Iterator[None]:
         signal.signal(signal.SIGTERM, previous)
 
 
-def run_study_command(problem: Problem, options: StudyOptions, console: Any) -> StudyOutcome:
+def run_study_command(problem: Problem, options: StudyOptions, console: Any, plotter: PlotProcess | None = None) -> StudyOutcome:
     """Plan, run (with a progress bar on ``console``), and plot a study.
 
-    Ctrl-C (KeyboardInterrupt) and SIGTERM (:class:`StudyTerminated`, a KeyboardInterrupt)
-    propagate after the clean-up: every finished batch is in ``study.csv`` and no worker
-    is left running; ``--resume`` continues."""
-    label = problem.path or problem.name
-    plan = plan_study(problem, list(options.vary), label, options.samples, options.method, options.seed)
-    check_varied_values(problem, plan, dict(options.overrides))
-    if options.time_limit is not None and not options.time_limit > 0:
-        raise ProblemFileError(label, "--time-limit", f"must be positive, got {options.time_limit}")
-    if options.batch_size < 1:
-        raise ProblemFileError(label, "--batch-size", f"must be at least 1, got {options.batch_size}")
-    runner = make_runner(options, label)
-    task = StudyTask(problem, time_limit=options.time_limit, check=options.check)
-    build_before_fork(task, plan, runner)
+    ``plotter``: a plot helper forked by the command before the file was loaded
+    (:mod:`counterpoise.plotter`); this function ends it. Ctrl-C (KeyboardInterrupt) and
+    SIGTERM (:class:`StudyTerminated`, a KeyboardInterrupt) propagate after the clean-up:
+    every finished batch is in ``study.csv`` and no worker or helper is left running;
+    ``--resume`` continues."""
     try:
-        with terminate_as_interrupt():
-            outcome = _run(problem, plan, options, runner, task, console)
+        label = problem.path or problem.name
+        plan = plan_study(problem, list(options.vary), label, options.samples, options.method, options.seed)
+        if plotter is not None and options.plot:  # the helper lays the figure out while this process goes on
+            plotter.prepare(*plot_inputs(problem, plan))
+        check_varied_values(problem, plan, dict(options.overrides))
+        if options.time_limit is not None and not options.time_limit > 0:
+            raise ProblemFileError(label, "--time-limit", f"must be positive, got {options.time_limit}")
+        if options.batch_size < 1:
+            raise ProblemFileError(label, "--batch-size", f"must be at least 1, got {options.batch_size}")
+        runner = make_runner(options, label)
+        task = StudyTask(problem, time_limit=options.time_limit, check=options.check)
+        preload = plot_preload(options, runner, problem, plan, plotter)
+        plotter = None  # the preload ends it
+        try:
+            build_before_fork(task, plan, runner)
+            try:
+                with terminate_as_interrupt():
+                    outcome = _run(problem, plan, options, runner, task, console, preload)
+            finally:
+                close = getattr(runner, "close", None)
+                if close is not None:
+                    close()
+            if options.plot:
+                preload.plot(outcome.folder)
+        finally:
+            preload.close()
     finally:
-        close = getattr(runner, "close", None)
-        if close is not None:
-            close()
-    if options.plot:
-        from ..plots import study_plots
-
-        study_plots(outcome.folder)
+        if plotter is not None:
+            plotter.close()
     return outcome
 
 
-def _run(problem: Problem, plan: Any, options: StudyOptions, runner: Runner, task: StudyTask, console: Any) -> StudyOutcome:
+def plot_preload(options: StudyOptions, runner: Runner, problem: Problem, plan: StudyPlan, plotter: PlotProcess | None = None) -> PlotPreload:
+    """How ``study.png`` is prepared while the points are solved: by the plot helper
+    ``plotter`` forked by the command, or one forked now (:mod:`counterpoise.plotter`) for
+    a local process pool, by a :class:`PlotPreload` thread for a Dask scheduler (whose
+    client runs threads: no fork then), not at all for a study run in this process or
+    ``--no-plot`` (the plot, if any, drawn at the end)."""
+    from ..plotter import PlotProcess
+
+    if not options.plot or isinstance(runner, SerialRunner):
+        if plotter is not None:
+            plotter.close()
+        return PlotPreload(False)
+    if plotter is not None:  # sent the layout by run_study_command
+        return HelperPreload(plotter)
+    meta, xs = plot_inputs(problem, plan)
+    if isinstance(runner, ProcessRunner) and (plotter := PlotProcess.fork_if_useful(True, runner.jobs, None)) is not None:
+        plotter.prepare(meta, xs)
+        return HelperPreload(plotter)
+    return PlotPreload(True, meta, xs)
+
+
+def plot_inputs(problem: Problem, plan: StudyPlan) -> tuple[dict[str, Any], list[list[float]]]:
+    """What ``study.png`` is laid out from before the points are solved
+    (:func:`counterpoise.plots.study.prepare`): the study's ``study.json`` content that the
+    plot reads (problem, plan, columns), and every point's varied values as ``study.csv``
+    will hold them (display unit, the file's number format)."""
+    import json
+
+    from ..report.files import FLOAT_FORMAT
+    from .study import columns
+
+    meta = {"problem": problem.name, "plan": json.loads(json.dumps(plan.identity())), "columns": columns(problem, plan)}
+    xs = [[float(FLOAT_FORMAT % v.unit.from_si(point[v.key])) for point in plan.points] for v in plan.varies]
+    return meta, xs
+
+
+def _run(problem: Problem, plan: Any, options: StudyOptions, runner: Runner, task: StudyTask, console: Any, preload: PlotPreload) -> StudyOutcome:
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
     columns = (
@@ -201,8 +251,6 @@ def _run(problem: Problem, plan: Any, options: StudyOptions, runner: Runner, tas
         bar.update(job, completed=skipped)
         bar.start()
 
-    preload = PlotPreload(options.plot and not isinstance(runner, SerialRunner))
-
     def progress(results: list[PointResult]) -> None:
         preload.start()  # every worker process exists once a batch came back
         state["done"] += len(results)
@@ -222,32 +270,61 @@ def _run(problem: Problem, plan: Any, options: StudyOptions, runner: Runner, tas
 
 
 class PlotPreload:
-    """Imports matplotlib (≈ 0.5 s of CPU) and warms it up (:func:`counterpoise.plots.study.prepare`:
-    the font loaded, a small figure drawn) in a thread of this process while worker
-    processes solve the points, instead of after them: the study's own process only waits
-    for results meanwhile. Started after the first batch came back, when every pool worker
-    has been forked (a fork during an import would leave the child a module lock held by a
-    thread it does not have). Not for a study run in this process (``enabled`` False):
-    there the thread would only take turns with the points."""
+    """Imports matplotlib (≈ 0.5 s of CPU) and draws ``study.png`` up to the points' results
+    (:func:`counterpoise.plots.study.prepare`: the figure, its axes, x axes and labels, for
+    the layout of a study whose points all end optimal) in a thread of this process while
+    worker processes solve the points, instead of after them: the study's own process only
+    waits for results meanwhile, and the plot at the end (:meth:`plot`) draws what the
+    results decide. Started after the first batch came back, when every worker process has
+    been forked (a fork during an import would leave the child a module lock held by a
+    thread it does not have). Not enabled: nothing prepared, :meth:`plot` draws it all.
+    ``meta``, ``xs``: :func:`plot_inputs`."""
 
-    def __init__(self, enabled: bool) -> None:
+    def __init__(self, enabled: bool, meta: dict[str, Any] | None = None, xs: list[list[float]] | None = None) -> None:
         self.enabled = enabled
+        self.meta, self.xs = meta, xs or []
+        self.figure: Any = None  # the prepared StudyFigure, once joined
         self._thread: threading.Thread | None = None
 
     def start(self) -> None:
         if self.enabled and self._thread is None:
-            self._thread = threading.Thread(target=_import_matplotlib, name="plot-preload", daemon=True)
+            self._thread = threading.Thread(target=self._prepare, name="plot-preload", daemon=True)
             self._thread.start()
 
     def join(self) -> None:
         if self._thread is not None:
             self._thread.join()
 
+    def plot(self, folder: Path) -> list[Path]:
+        """Write the plots of the finished study in ``folder``."""
+        from ..plots.study import study_plots
 
-def _import_matplotlib() -> None:
-    try:
-        from ..plots.study import prepare
+        self.join()
+        return study_plots(folder, self.figure)
 
-        prepare()
-    except ImportError:  # pragma: no cover - the plot itself reports it
-        pass
+    def close(self) -> None:
+        """Nothing left running (the thread, a daemon, ends with its preparation)."""
+
+    def _prepare(self) -> None:
+        try:
+            from ..plots.study import prepare
+
+            self.figure = prepare(self.meta, self.xs)
+        except ImportError:  # pragma: no cover - the plot itself reports it
+            pass
+
+
+class HelperPreload(PlotPreload):
+    """The plots drawn by a :class:`counterpoise.plotter.PlotProcess` (prepared there while
+    the study runs), or here if the helper failed."""
+
+    def __init__(self, helper: PlotProcess) -> None:
+        super().__init__(False)
+        self.helper = helper
+
+    def plot(self, folder: Path) -> list[Path]:
+        paths = self.helper.plot(folder)
+        return super().plot(folder) if paths is None else paths
+
+    def close(self) -> None:
+        self.helper.close()
