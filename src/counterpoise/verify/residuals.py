@@ -285,18 +285,19 @@ class SubsystemResiduals:
         real, perturbed, functions, rotations = chunk.real, chunk.perturbed, chunk.functions, chunk.rotations
         still = Mechanics(self.problem, base, variables, real, gravity, functions, rotations=rotations)
         env = still.env
+        values: dict[str, tuple[Any, ...] | None] = {}  # per frame: the values its pose is computed from
         for j, name in enumerate(self.names):
             moving = [(k, e) for k, e in enumerate(elements) if name in e.moves_with]
             if not moving:
                 continue
-            coords = dict(real)
-            coords[name] = perturbed[name]
             # the poses of these frames at these values, computed before (a frame that does
             # not move with this coordinate has its pose in the unperturbed configurations)
             needed = [f for f in self.used_frames if any(f in e.chain for _, e in moving)]
-            keys = {f: self._pose_key(f, name, env) for f in needed}
+            keys = {f: self._pose_key(f, name, env, values) for f in needed}
             known = {f: pose for f in needed if (pose := chunk.pose(keys[f])) is not None}
-            mech = Mechanics(self.problem, base, variables, coords, gravity, functions, poses=known, rotations=rotations)
+            # the values a new Mechanics of these coordinates would hold (env: the parameters,
+            # the variables, then the coordinates), without evaluating the parameters again
+            mech = still.moved({name: perturbed[name]}, known)
             for f in needed:  # parents first: each computed from its parent's pose, as Mechanics does
                 if f not in known:
                     chunk.keep_pose(keys[f], mech.pose(f))
@@ -306,20 +307,31 @@ class SubsystemResiduals:
                     out[slots[k]][:, j] += np.imag(energy) / STEP
         return out
 
-    def _pose_key(self, frame: str, perturbed: str, env: Mapping[str, Any]) -> tuple[Any, ...] | None:
+    def _pose_key(self, frame: str, perturbed: str, env: Mapping[str, Any], values: dict[str, tuple[Any, ...] | None] | None = None) -> tuple[Any, ...] | None:
         """What the pose of ``frame`` is computed from when coordinate ``perturbed`` carries its
         complex step: the frame, the perturbed coordinate if the pose moves with it, and the
         values (each with its sign: −0.0 is not 0.0) of the parameters and variables it
-        depends on. None when one is not a plain number (the pose is not kept)."""
-        values: list[Any] = [frame, perturbed if perturbed in self.frames[frame] else None]
+        depends on. None when one is not a plain number (the pose is not kept).
+        ``values``: the frames' values already read from this ``env`` (filled in)."""
+        found = values.get(frame, ()) if values is not None else ()
+        if found == ():
+            found = self._pose_values(frame, env)
+            if values is not None:
+                values[frame] = found
+        if found is None:
+            return None
+        return (frame, perturbed if perturbed in self.frames[frame] else None, *found)
+
+    def _pose_values(self, frame: str, env: Mapping[str, Any]) -> tuple[Any, ...] | None:
+        out: list[Any] = []
         for name in self._pose_names[frame]:
             if name not in env:  # a constant (pi)
                 continue
             v = env[name]
             if not isinstance(v, (float, int)):
                 return None
-            values.append((v, math.copysign(1.0, v)))
-        return tuple(values)
+            out.append((v, math.copysign(1.0, v)))
+        return tuple(out)
 
     def _element_columns(self, elements: Sequence[_Element], base: Mapping[str, float], gravity: Sequence[float], rows: slice) -> np.ndarray:
         """∂(energy)/∂q of each of ``elements`` at the configurations ``rows``, per unit
