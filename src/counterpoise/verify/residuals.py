@@ -239,6 +239,7 @@ class SubsystemResiduals:
         coordinates = {c.name for c in problem.coordinates}
         #: the parameters and variables each frame's pose depends on (:meth:`_pose_key`)
         self._pose_names = {f: tuple(sorted(self.frames[f] - coordinates)) for f in self.used_frames}
+        self._plans: dict[tuple[int, ...], list[tuple[int, str, list[tuple[int, _Element]], list[str]]]] = {}  # :meth:`_plan`
         #: the reference's box maxima on these configurations, kept by the dense check
         #: (:func:`counterpoise.verify.check._box_loads`) for as long as this evaluator lives
         self.box_state: dict[str, Any] = {}
@@ -286,13 +287,9 @@ class SubsystemResiduals:
         still = Mechanics(self.problem, base, variables, real, gravity, functions, rotations=rotations)
         env = still.env
         values: dict[str, tuple[Any, ...] | None] = {}  # per frame: the values its pose is computed from
-        for j, name in enumerate(self.names):
-            moving = [(k, e) for k, e in enumerate(elements) if name in e.moves_with]
-            if not moving:
-                continue
+        for j, name, moving, needed in self._plan(elements):
             # the poses of these frames at these values, computed before (a frame that does
             # not move with this coordinate has its pose in the unperturbed configurations)
-            needed = [f for f in self.used_frames if any(f in e.chain for _, e in moving)]
             keys = {f: self._pose_key(f, name, env, values) for f in needed}
             known = {f: pose for f in needed if (pose := chunk.pose(keys[f])) is not None}
             # the values a new Mechanics of these coordinates would hold (env: the parameters,
@@ -306,6 +303,21 @@ class SubsystemResiduals:
                 if np.iscomplexobj(energy):
                     out[slots[k]][:, j] += np.imag(energy) / STEP
         return out
+
+    def _plan(self, elements: Sequence[_Element]) -> list[tuple[int, str, list[tuple[int, _Element]], list[str]]]:
+        """Per coordinate j that moves one of ``elements``: (j, its name, the (index, element)
+        pairs that move with it, the frames their poses need, parents first); kept per list
+        of elements (the elements live as long as this evaluator)."""
+        key = tuple(id(e) for e in elements)
+        found = self._plans.get(key)
+        if found is None:
+            found = []
+            for j, name in enumerate(self.names):
+                moving = [(k, e) for k, e in enumerate(elements) if name in e.moves_with]
+                if moving:
+                    found.append((j, name, moving, [f for f in self.used_frames if any(f in e.chain for _, e in moving)]))
+            self._plans[key] = found
+        return found
 
     def _pose_key(self, frame: str, perturbed: str, env: Mapping[str, Any], values: dict[str, tuple[Any, ...] | None] | None = None) -> tuple[Any, ...] | None:
         """What the pose of ``frame`` is computed from when coordinate ``perturbed`` carries its
