@@ -239,7 +239,7 @@ class SubsystemResiduals:
         coordinates = {c.name for c in problem.coordinates}
         #: the parameters and variables each frame's pose depends on (:meth:`_pose_key`)
         self._pose_names = {f: tuple(sorted(self.frames[f] - coordinates)) for f in self.used_frames}
-        self._plans: dict[tuple[int, ...], list[tuple[int, str, list[tuple[int, _Element]], list[str]]]] = {}  # :meth:`_plan`
+        self._plans: dict[tuple[_Element, ...], list[tuple[int, str, list[tuple[int, _Element]], list[str]]]] = {}  # :meth:`_plan`
         #: the reference's box maxima on these configurations, kept by the dense check
         #: (:func:`counterpoise.verify.check._box_loads`) for as long as this evaluator lives
         self.box_state: dict[str, Any] = {}
@@ -307,8 +307,9 @@ class SubsystemResiduals:
     def _plan(self, elements: Sequence[_Element]) -> list[tuple[int, str, list[tuple[int, _Element]], list[str]]]:
         """Per coordinate j that moves one of ``elements``: (j, its name, the (index, element)
         pairs that move with it, the frames their poses need, parents first); kept per list
-        of elements (the elements live as long as this evaluator)."""
-        key = tuple(id(e) for e in elements)
+        of elements (keyed on the elements themselves, not their ids: a pickled evaluator
+        keeps its plans with its elements)."""
+        key = tuple(elements)
         found = self._plans.get(key)
         if found is None:
             found = []
