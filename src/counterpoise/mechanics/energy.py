@@ -13,6 +13,7 @@ exists in one place, and the verification exercises the very code the optimiser 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 from ..model import expr as ex
 from ..model.elements import ZeroFreeLengthSpring
@@ -24,6 +25,10 @@ from .kinematics import _NUMBER, IDENTITY, Mat, Scalar, Vec, add, add_all, dot, 
 
 #: rotation matrices remembered per transform in a shared ``rotations`` memo (the latest angles)
 ROTATIONS_KEPT = 2
+#: world rotations (a parent's rotation times a transform's) remembered per transform, for
+#: arrays of at most PRODUCT_SIZE values (a certificate's grid, not a dense check's chunk)
+PRODUCTS_KEPT = 8
+PRODUCT_SIZE = 1024
 
 
 class Mechanics:
@@ -33,7 +38,7 @@ class Mechanics:
     ``variables``: values of the design variables; ``coordinates``: values of the
     coordinates (arrays evaluate many configurations at once); ``gravity``: the gravity
     vector (m/s²); ``poses``: world poses already known for these values (they are not
-    recomputed); ``rotations``: a memo of rotation matrices shared between instances. Derived parameters are evaluated here, so a study that changes a base
+    recomputed); ``rotations``: a memo of rotation matrices (and of their products with a parent's rotation) shared between instances. Derived parameters are evaluated here, so a study that changes a base
     parameter sees every parameter built on it change too.
     """
 
@@ -46,7 +51,7 @@ class Mechanics:
         gravity: Sequence[Scalar],
         functions: Functions = NUMPY_FUNCTIONS,
         poses: Mapping[str, tuple[Mat, Vec]] | None = None,
-        rotations: dict[tuple[str, int], tuple[tuple[Scalar, Mat], ...]] | None = None,
+        rotations: dict[Any, Any] | None = None,
     ) -> None:
         self.problem = problem
         self.functions = functions
@@ -98,13 +103,32 @@ class Mechanics:
         rot, origin = self.pose(f.parent) if f.parent is not None else (IDENTITY, [0.0, 0.0, 0.0])
         for i, t in enumerate(f.transforms[:upto]):
             if isinstance(t, Rotation):
-                rot = matmul(rot, self.rotation(frame, i, t))
+                rot = self._rotated(frame, i, rot, self.rotation(frame, i, t))
             else:
                 step = matvec(rot, self.vector(t.vector))
                 origin = [add(o, d) for o, d in zip(origin, step)]
         if upto is None:
             self._poses[frame] = (rot, origin)
         return rot, origin
+
+    def _rotated(self, frame: str, index: int, rot: Mat, matrix: Mat) -> Mat:
+        """``matmul(rot, matrix)``, remembered in the shared ``rotations`` memo for the very
+        same two matrices (found by identity: a parent's kept pose and a remembered rotation,
+        as when a study point changes only a length), for at most :data:`PRODUCTS_KEPT` pairs
+        per transform and arrays of at most :data:`PRODUCT_SIZE` values."""
+        memo = self._rotations
+        if memo is None:
+            return matmul(rot, matrix)
+        key = ("product", frame, index)
+        hits = memo.get(key)
+        if hits is not None:
+            for a, b, product in hits:
+                if a is rot and b is matrix:
+                    return product
+        product = matmul(rot, matrix)
+        if all(getattr(v, "size", 1) <= PRODUCT_SIZE for row in product for v in row):
+            memo[key] = ((rot, matrix, product), *(hits or ())[: PRODUCTS_KEPT - 1])
+        return product
 
     def rotation(self, frame: str, index: int, t: Rotation) -> Mat:
         """Rotation matrix of transform ``index`` of ``frame`` (remembered in ``rotations``
