@@ -54,3 +54,35 @@ def test_kept_poses_are_bounded(leg, monkeypatch):
     (chunk,) = evaluator._chunk_inputs.values()
     assert 0 < len(chunk._poses) <= 5
     assert chunk._bytes == sum(size for _, size in chunk._poses.values())
+
+
+def test_remembered_rotations_are_bounded(leg):
+    """The rotation memo shared by a chunk's designs (``Mechanics.rotation`` and
+    ``Mechanics._rotated``) keeps at most ROTATIONS_KEPT angles and PRODUCTS_KEPT products
+    per transform, however many designs move a length; and it does remember products (a
+    design that changes r_b finds link_c's rotations)."""
+    from counterpoise.mechanics import energy as E
+
+    problem, q = leg
+    evaluator = R.SubsystemResiduals(problem, "leg", q)
+    for variables, base in _designs(problem, 20):
+        evaluator.evaluate(variables, base, (0.0, -9.81, 0.0))
+    (chunk,) = evaluator._chunk_inputs.values()
+    products = {k: v for k, v in chunk.rotations.items() if k[0] == "product"}
+    angles = {k: v for k, v in chunk.rotations.items() if k[0] != "product"}
+    assert products and angles
+    assert all(len(v) <= E.PRODUCTS_KEPT for v in products.values())
+    assert all(len(v) <= E.ROTATIONS_KEPT for v in angles.values())
+
+
+def test_products_not_remembered_for_large_chunks(leg, monkeypatch):
+    """Above PRODUCT_SIZE values per array (a dense check's chunk) no product is kept."""
+    from counterpoise.mechanics import energy as E
+
+    problem, q = leg
+    monkeypatch.setattr(E, "PRODUCT_SIZE", len(q) - 1)
+    evaluator = R.SubsystemResiduals(problem, "leg", q)
+    for variables, base in _designs(problem, 4):
+        evaluator.evaluate(variables, base, (0.0, -9.81, 0.0))
+    (chunk,) = evaluator._chunk_inputs.values()
+    assert not any(k[0] == "product" for k in chunk.rotations)

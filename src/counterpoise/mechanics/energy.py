@@ -13,13 +13,22 @@ exists in one place, and the verification exercises the very code the optimiser 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 from ..model import expr as ex
 from ..model.elements import ZeroFreeLengthSpring
 from ..model.mechanism import GROUND, Point, Rotation
 from ..model.problem import Problem
 from ..model.functions import NUMPY_FUNCTIONS, Functions
-from .kinematics import IDENTITY, Mat, Scalar, Vec, add, add_all, dot, mul, matmul, matvec, rotation_matrix, sub, unit_vector
+from .kinematics import _NUMBER, IDENTITY, Mat, Scalar, Vec, add, add_all, dot, mul, matmul, matvec, rotation_matrix, sub, unit_vector
+
+
+#: rotation matrices remembered per transform in a shared ``rotations`` memo (the latest angles)
+ROTATIONS_KEPT = 2
+#: world rotations (a parent's rotation times a transform's) remembered per transform, for
+#: arrays of at most PRODUCT_SIZE values (a certificate's grid, not a dense check's chunk)
+PRODUCTS_KEPT = 8
+PRODUCT_SIZE = 1024
 
 
 class Mechanics:
@@ -29,7 +38,7 @@ class Mechanics:
     ``variables``: values of the design variables; ``coordinates``: values of the
     coordinates (arrays evaluate many configurations at once); ``gravity``: the gravity
     vector (m/s²); ``poses``: world poses already known for these values (they are not
-    recomputed); ``rotations``: a memo of rotation matrices shared between instances. Derived parameters are evaluated here, so a study that changes a base
+    recomputed); ``rotations``: a memo of rotation matrices (and of their products with a parent's rotation) shared between instances. Derived parameters are evaluated here, so a study that changes a base
     parameter sees every parameter built on it change too.
     """
 
@@ -42,7 +51,7 @@ class Mechanics:
         gravity: Sequence[Scalar],
         functions: Functions = NUMPY_FUNCTIONS,
         poses: Mapping[str, tuple[Mat, Vec]] | None = None,
-        rotations: dict[tuple[str, int], tuple[Scalar, Mat]] | None = None,
+        rotations: dict[Any, Any] | None = None,
     ) -> None:
         self.problem = problem
         self.functions = functions
@@ -55,6 +64,20 @@ class Mechanics:
         self.env = env
         self._poses: dict[str, tuple[Mat, Vec]] = dict(poses or {})  # known poses (e.g. of frames a perturbation leaves alone)
         self._rotations = rotations  # shared by instances whose angles may be the very same arrays
+
+    def moved(self, coordinates: Mapping[str, Scalar], poses: Mapping[str, tuple[Mat, Vec]] | None = None) -> "Mechanics":
+        """The same problem, parameters, variables, gravity, functions and rotation memo at
+        other values of some ``coordinates``: the very values a new instance would hold (the
+        parameters are evaluated before the coordinates enter, so they are this instance's),
+        without evaluating the parameters again."""
+        out = Mechanics.__new__(Mechanics)
+        out.problem, out.functions, out.gravity = self.problem, self.functions, self.gravity
+        env = dict(self.env)
+        env.update(coordinates)
+        out.env = env
+        out._poses = dict(poses or {})
+        out._rotations = self._rotations
+        return out
 
     def value(self, tree: ex.Expr) -> Scalar:
         return ex.evaluate(tree, self.env, self.functions)
@@ -80,7 +103,7 @@ class Mechanics:
         rot, origin = self.pose(f.parent) if f.parent is not None else (IDENTITY, [0.0, 0.0, 0.0])
         for i, t in enumerate(f.transforms[:upto]):
             if isinstance(t, Rotation):
-                rot = matmul(rot, self.rotation(frame, i, t))
+                rot = self._rotated(frame, i, rot, self.rotation(frame, i, t))
             else:
                 step = matvec(rot, self.vector(t.vector))
                 origin = [add(o, d) for o, d in zip(origin, step)]
@@ -88,17 +111,40 @@ class Mechanics:
             self._poses[frame] = (rot, origin)
         return rot, origin
 
+    def _rotated(self, frame: str, index: int, rot: Mat, matrix: Mat) -> Mat:
+        """``matmul(rot, matrix)``, remembered in the shared ``rotations`` memo for the very
+        same two matrices (found by identity: a parent's kept pose and a remembered rotation,
+        as when a study point changes only a length), for at most :data:`PRODUCTS_KEPT` pairs
+        per transform and arrays of at most :data:`PRODUCT_SIZE` values."""
+        memo = self._rotations
+        if memo is None:
+            return matmul(rot, matrix)
+        key = ("product", frame, index)
+        hits = memo.get(key)
+        if hits is not None:
+            for a, b, product in hits:
+                if a is rot and b is matrix:
+                    return product
+        product = matmul(rot, matrix)
+        if all(getattr(v, "size", 1) <= PRODUCT_SIZE for row in product for v in row):
+            memo[key] = ((rot, matrix, product), *(hits or ())[: PRODUCTS_KEPT - 1])
+        return product
+
     def rotation(self, frame: str, index: int, t: Rotation) -> Mat:
         """Rotation matrix of transform ``index`` of ``frame`` (remembered in ``rotations``
         for the same angle value when the axis is literal)."""
         angle = self.value(t.angle)
         if self._rotations is None or not all(isinstance(c, ex.Num) for c in t.axis):
             return rotation_matrix(self.axis(t), angle, self.functions)
-        hit = self._rotations.get((frame, index))
-        if hit is not None and hit[0] is angle:
-            return hit[1]
+        # the latest ROTATIONS_KEPT angles of this transform, found by identity (a complex
+        # step alternates the real and the perturbed array of one coordinate)
+        hits = self._rotations.get((frame, index))
+        if hits is not None:
+            for hit in hits:
+                if hit[0] is angle:
+                    return hit[1]
         matrix = rotation_matrix(self.axis(t), angle, self.functions)
-        self._rotations[(frame, index)] = (angle, matrix)
+        self._rotations[(frame, index)] = ((angle, matrix), *(hits or ())[: ROTATIONS_KEPT - 1])
         return matrix
 
     def axis(self, rotation: Rotation) -> Vec:
@@ -113,7 +159,13 @@ class Mechanics:
 
     # -- energy --------------------------------------------------------------------
     def gravity_energy(self, mass: Scalar, point: Point) -> Scalar:
-        return mul(-1.0, mul(mass, dot(self.gravity, self.position(point))))
+        """−m g·p. The components of p along which gravity is a literal 0 are not computed:
+        ``mul`` would drop them (the same value as ``dot(gravity, position(point))``)."""
+        gravity = self.gravity
+        rot, origin = self.pose(point.frame)
+        local = self.vector(point.position)
+        world = [0.0 if isinstance(g, _NUMBER) and g == 0.0 else add(o, dot(row, local)) for g, o, row in zip(gravity, origin, rot)]
+        return mul(-1.0, mul(mass, dot(gravity, world)))
 
     def spring_energy(self, s: ZeroFreeLengthSpring, stiffness: Scalar | None = None) -> Scalar:
         """A spring's energy: ½ k |a − b|² (zero free length), or for a real spring through a

@@ -65,8 +65,27 @@ def add_all(items: Sequence[Scalar]) -> Scalar:
     return out
 
 
-def dot(a: Vec, b: Vec) -> Scalar:
-    return add_all([mul(x, y) for x, y in zip(a, b)])
+def dot(a: Sequence[Scalar], b: Sequence[Scalar]) -> Scalar:
+    """``add_all([mul(x, y) for x, y in zip(a, b)])``, with ``mul`` and ``add_all``
+    written out (the same outcome in every case; the hot loop of the kinematics)."""
+    out: Scalar = 0.0
+    for x, y in zip(a, b):
+        if isinstance(x, _NUMBER):
+            if x == 0.0:
+                term = 0.0
+            elif isinstance(y, _NUMBER):
+                term = 0.0 if y == 0.0 else (y if x == 1.0 else (x if y == 1.0 else x * y))
+            else:
+                term = y if x == 1.0 else x * y
+        elif isinstance(y, _NUMBER):
+            term = 0.0 if y == 0.0 else (x if y == 1.0 else x * y)
+        else:
+            term = x * y
+        if isinstance(out, _NUMBER) and out == 0.0:
+            out = term
+        elif not (isinstance(term, _NUMBER) and term == 0.0):
+            out = out + term
+    return out
 
 
 def matvec(m: Mat, v: Vec) -> Vec:
@@ -74,7 +93,8 @@ def matvec(m: Mat, v: Vec) -> Vec:
 
 
 def matmul(a: Mat, b: Mat) -> Mat:
-    return [[add_all([mul(a[i][k], b[k][j]) for k in range(3)]) for j in range(3)] for i in range(3)]
+    columns = list(zip(*b))
+    return [[dot(row, column) for column in columns] for row in a]
 
 
 def sub(a: Vec, b: Vec) -> Vec:

@@ -239,6 +239,7 @@ class SubsystemResiduals:
         coordinates = {c.name for c in problem.coordinates}
         #: the parameters and variables each frame's pose depends on (:meth:`_pose_key`)
         self._pose_names = {f: tuple(sorted(self.frames[f] - coordinates)) for f in self.used_frames}
+        self._plans: dict[tuple[_Element, ...], list[tuple[int, str, list[tuple[int, _Element]], list[str]]]] = {}  # :meth:`_plan`
         #: the reference's box maxima on these configurations, kept by the dense check
         #: (:func:`counterpoise.verify.check._box_loads`) for as long as this evaluator lives
         self.box_state: dict[str, Any] = {}
@@ -285,18 +286,15 @@ class SubsystemResiduals:
         real, perturbed, functions, rotations = chunk.real, chunk.perturbed, chunk.functions, chunk.rotations
         still = Mechanics(self.problem, base, variables, real, gravity, functions, rotations=rotations)
         env = still.env
-        for j, name in enumerate(self.names):
-            moving = [(k, e) for k, e in enumerate(elements) if name in e.moves_with]
-            if not moving:
-                continue
-            coords = dict(real)
-            coords[name] = perturbed[name]
+        values: dict[str, tuple[Any, ...] | None] = {}  # per frame: the values its pose is computed from
+        for j, name, moving, needed in self._plan(elements):
             # the poses of these frames at these values, computed before (a frame that does
             # not move with this coordinate has its pose in the unperturbed configurations)
-            needed = [f for f in self.used_frames if any(f in e.chain for _, e in moving)]
-            keys = {f: self._pose_key(f, name, env) for f in needed}
+            keys = {f: self._pose_key(f, name, env, values) for f in needed}
             known = {f: pose for f in needed if (pose := chunk.pose(keys[f])) is not None}
-            mech = Mechanics(self.problem, base, variables, coords, gravity, functions, poses=known, rotations=rotations)
+            # the values a new Mechanics of these coordinates would hold (env: the parameters,
+            # the variables, then the coordinates), without evaluating the parameters again
+            mech = still.moved({name: perturbed[name]}, known)
             for f in needed:  # parents first: each computed from its parent's pose, as Mechanics does
                 if f not in known:
                     chunk.keep_pose(keys[f], mech.pose(f))
@@ -306,20 +304,47 @@ class SubsystemResiduals:
                     out[slots[k]][:, j] += np.imag(energy) / STEP
         return out
 
-    def _pose_key(self, frame: str, perturbed: str, env: Mapping[str, Any]) -> tuple[Any, ...] | None:
+    def _plan(self, elements: Sequence[_Element]) -> list[tuple[int, str, list[tuple[int, _Element]], list[str]]]:
+        """Per coordinate j that moves one of ``elements``: (j, its name, the (index, element)
+        pairs that move with it, the frames their poses need, parents first); kept per list
+        of elements (keyed on the elements themselves, not their ids: a pickled evaluator
+        keeps its plans with its elements)."""
+        key = tuple(elements)
+        found = self._plans.get(key)
+        if found is None:
+            found = []
+            for j, name in enumerate(self.names):
+                moving = [(k, e) for k, e in enumerate(elements) if name in e.moves_with]
+                if moving:
+                    found.append((j, name, moving, [f for f in self.used_frames if any(f in e.chain for _, e in moving)]))
+            self._plans[key] = found
+        return found
+
+    def _pose_key(self, frame: str, perturbed: str, env: Mapping[str, Any], values: dict[str, tuple[Any, ...] | None] | None = None) -> tuple[Any, ...] | None:
         """What the pose of ``frame`` is computed from when coordinate ``perturbed`` carries its
         complex step: the frame, the perturbed coordinate if the pose moves with it, and the
         values (each with its sign: −0.0 is not 0.0) of the parameters and variables it
-        depends on. None when one is not a plain number (the pose is not kept)."""
-        values: list[Any] = [frame, perturbed if perturbed in self.frames[frame] else None]
+        depends on. None when one is not a plain number (the pose is not kept).
+        ``values``: the frames' values already read from this ``env`` (filled in)."""
+        found = values.get(frame, ()) if values is not None else ()
+        if found == ():
+            found = self._pose_values(frame, env)
+            if values is not None:
+                values[frame] = found
+        if found is None:
+            return None
+        return (frame, perturbed if perturbed in self.frames[frame] else None, *found)
+
+    def _pose_values(self, frame: str, env: Mapping[str, Any]) -> tuple[Any, ...] | None:
+        out: list[Any] = []
         for name in self._pose_names[frame]:
             if name not in env:  # a constant (pi)
                 continue
             v = env[name]
             if not isinstance(v, (float, int)):
                 return None
-            values.append((v, math.copysign(1.0, v)))
-        return tuple(values)
+            out.append((v, math.copysign(1.0, v)))
+        return tuple(out)
 
     def _element_columns(self, elements: Sequence[_Element], base: Mapping[str, float], gravity: Sequence[float], rows: slice) -> np.ndarray:
         """∂(energy)/∂q of each of ``elements`` at the configurations ``rows``, per unit
