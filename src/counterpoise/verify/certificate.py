@@ -315,10 +315,14 @@ class Certificate:
         per_part: list[list[CoordinateCheck]] = [[] for _ in self.parts]
         for group in self.groups:
             found = group.evaluate(solution)
+            # the samples along the last axis: numpy reduces a contiguous axis fast (a
+            # maximum is exact in any order, and argmax takes the first maximum either way)
+            both = np.ascontiguousarray(found.both.transpose(0, 2, 1))  # (parts, 2 n_q, samples)
+            rs, ts = both[:, : group.n_q], both[:, group.n_q :]
             with np.errstate(invalid="ignore"):
-                loads_all = np.abs(found.ts).max(axis=1)  # (parts, n_q)
-                balancers_all = np.abs(found.rs - found.ts).max(axis=1)
-                worst_all = np.argmax(np.abs(found.rs), axis=1)  # a NaN one first
+                loads_all = np.abs(ts).max(axis=2)  # (parts, n_q)
+                balancers_all = np.abs(rs - ts).max(axis=2)
+                worst_all = np.argmax(np.abs(rs), axis=2)  # a NaN one first
             for g, part in enumerate(group.parts):
                 variables, base, gravity = found.inputs[g]
                 bound, loads = found.bound[g], loads_all[g]
@@ -347,11 +351,11 @@ class Certificate:
 class _Found:
     """One group's figures for a design, each with the parts first: the residual bound
     (parts, n_q), the residual and the gravity torque at the reference samples (parts,
-    samples, n_q), and each part's (variables, base parameters, gravity)."""
+    samples, 2 n_q: the residual's columns, then the torque's), and each part's
+    (variables, base parameters, gravity)."""
 
     bound: np.ndarray
-    rs: np.ndarray
-    ts: np.ndarray
+    both: np.ndarray
     inputs: list[tuple[Any, Any, Any]]
 
 
@@ -397,7 +401,7 @@ class _Group:
             both = self.basis_real @ c.real - self.basis_imag @ c.imag
         else:
             both = self.basis_real @ c
-        return _Found(bound, both[:, :, :n_q], both[:, :, n_q:], inputs)
+        return _Found(bound, both, inputs)
 
 
 def certificate(problem: Problem) -> Certificate | None:
