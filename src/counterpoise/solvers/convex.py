@@ -322,7 +322,7 @@ class ConvexBackend:
             y, code, iterations = None, f"{INVALID_DATA}: NaN or inf in the problem's coefficients", 0
         if y is not None:
             lo, hi = np.asarray(bounds.lbz, dtype=float)[self.linear], np.asarray(bounds.ubz, dtype=float)[self.linear]
-            z[self.linear] = np.clip(y, lo, hi)
+            z[self.linear] = np.minimum(np.maximum(y, lo), hi)  # numpy's clip, without its wrapper
         return SolverOutput(
             z=z,
             status=map_status(code),
