@@ -129,6 +129,7 @@ class ConeProgram:
 
 #: the upper triangles of the objective matrices as Clarabel reads them, and Clarabel's
 #: settings, by content: a backend's Hessian and options do not change between its calls
+#: (at most _KEPT_SIZE each, then emptied)
 _KEPT_SIZE = 8
 _upper_kept: dict[tuple[tuple[int, ...], bytes], CscMatrix] = {}
 _settings_kept: dict[tuple[tuple[str, Any], ...], Any] = {}
@@ -140,7 +141,7 @@ def _upper(P: np.ndarray) -> CscMatrix:
     if found is None:
         found = CscMatrix.from_dense(np.triu(P))
         if len(_upper_kept) >= _KEPT_SIZE:
-            _upper_kept.pop(next(iter(_upper_kept)))
+            _upper_kept.clear()  # a few at most (clear: safe when threads share the dict)
         _upper_kept[key] = found
     return found
 
@@ -161,7 +162,7 @@ def _settings(options: Mapping[str, Any]) -> Any:
             setattr(found, name, value)
         if key is not None:
             if len(_settings_kept) >= _KEPT_SIZE:
-                _settings_kept.pop(next(iter(_settings_kept)))
+                _settings_kept.clear()
             _settings_kept[key] = found
     return found
 
@@ -235,7 +236,7 @@ class ConvexBackend:
         self._eye, self._zeros = np.eye(len(self.linear)), np.zeros(len(self.linear))
 
     def _layout(self, lbz: np.ndarray, ubz: np.ndarray, lbg: np.ndarray, ubg: np.ndarray) -> _Layout:
-        """The rows of the cone program for these bounds (kept for the last few bounds)."""
+        """The rows of the cone program for these bounds (kept for up to _KEPT_SIZE sets of bounds, then forgotten all at once)."""
         key = b"".join(np.ascontiguousarray(v).tobytes() for v in (lbz, ubz, lbg, ubg)) + bytes(str((lbz.size, lbg.size)), "ascii")
         found = self._layouts.get(key)
         if found is not None:
@@ -270,7 +271,7 @@ class ConvexBackend:
             (eq, fix, ge, le),
         )
         if len(self._layouts) >= _KEPT_SIZE:
-            self._layouts.pop(next(iter(self._layouts)))
+            self._layouts.clear()
         self._layouts[key] = found
         return found
 
