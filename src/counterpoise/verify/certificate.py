@@ -376,6 +376,8 @@ class _Group:
         self.prismatic = first._prismatic
         self.basis_real = np.stack([p.basis_real for p in parts])
         self.basis_imag = np.stack([p.basis_imag for p in parts])
+        for g, part in enumerate(parts):  # each part's bases become views of the stacks (kept once)
+            part.basis_real, part.basis_imag = self.basis_real[g], self.basis_imag[g]
 
     def evaluate(self, solution: "Solution") -> _Found:
         n_q, size = self.n_q, self.parts[0].size
