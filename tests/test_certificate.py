@@ -131,6 +131,43 @@ def test_bound_is_at_least_the_dense_sampled_maximum(seed):
         assert not exact.balanced  # random values do not balance
 
 
+def _part_alone(part, solution):
+    """One part's figures computed on its own, as the certificate did before it grouped the
+    parts of one grid shape: (bound, largest |torque|, largest |balancer force|, worst sample)."""
+    variables = solution.variable_values(part.scenario)
+    gravity, base = solution.scenario_parameters[part.scenario]
+    r, t = part.evaluator.evaluate(variables, base, gravity)
+    n_q = r.shape[1]
+    c = part.coefficients(np.concatenate([r, t], axis=1)).reshape(-1, 2 * n_q)
+    bound = np.abs(c[:, :n_q]).sum(axis=0)
+    both = part.basis_real @ c.real - part.basis_imag @ c.imag if np.iscomplexobj(c) else part.basis_real @ c
+    rs, ts = both[:, :n_q], both[:, n_q:]
+    with np.errstate(invalid="ignore"):
+        return bound, np.abs(ts).max(axis=0), np.abs(rs - ts).max(axis=0), np.argmax(np.abs(rs), axis=0)
+
+
+def test_grouped_parts_give_each_part_s_own_figures_bit_for_bit():
+    """The parts of one grid shape are transformed and multiplied in one call each
+    (numpy transforms line by line and multiplies a stack matrix by matrix): every figure
+    equals the part's own computation exactly, with two scenarios (two parts per grid
+    shape), a slider (Chebyshev axis) and random, unbalanced design values."""
+    text = _random_mechanism(4).replace("[subsystems.slide]", '[scenarios.a]\n[scenarios.b]\ngravity = { acceleration = "9.81 m/s^2", direction = [1, 0, 0] }\n[subsystems.slide]')
+    problem = load_problem_text(text, "random_two_scenarios.toml")
+    found = certificate(problem)
+    assert found is not None and len(found.parts) == 4 and any(len(g.parts) == 2 for g in found.groups)
+    solution = build_method(problem).solve()
+    rng = np.random.default_rng(4)
+    for design in (solution, _with_values(solution, rng), _with_values(solution, rng)):
+        checks = iter(found.verify(design).checks)
+        for part in found.parts:
+            bound, loads, balancers, worst = _part_alone(part, design)
+            for j, name in enumerate(part.evaluator.names):
+                c = next(checks)
+                assert (c.scenario, c.subsystem, c.coordinate) == (part.scenario, part.subsystem, name)
+                assert c.max_residual == bound[j] and c.max_gravity_torque == loads[j] and c.max_balancer_force == balancers[j]
+                assert c.worst_configuration == tuple(part.samples[worst[j]])
+
+
 @pytest.fixture(scope="module")
 def hybrid():
     problem = load_problem(PROBLEMS / "yasir2019_hybrid.toml")

@@ -337,7 +337,7 @@ class Designer:
         gj = self.residual_jacobian()
 
         def evaluate(z: np.ndarray) -> Evaluation:
-            g, jac, signs = (np.array(v) for v in gj(z, p))
+            g, jac, signs = gj(z, p)  # new arrays on every call
             return g.reshape(-1), jac, _admissible(signs)
 
         return evaluate
@@ -361,9 +361,12 @@ class Designer:
         band = BOUND_TOLERANCE * (hi - lo)
         at_lo = (z - lo <= band) & (hi > lo)
         z = self._snap(z, p, bounds, at_lo, (hi - z <= band) & (hi > lo) & ~at_lo, iterations, None)
-        near = SNAP_BAND * (hi - lo)
-        tries = [(min(z[i] - lo[i], hi[i] - z[i]) / (hi[i] - lo[i]), i) for i in range(len(z)) if hi[i] > lo[i] and lo[i] < z[i] < hi[i]]
-        for _, i in sorted(t for t in tries if t[0] * (hi[t[1]] - lo[t[1]]) <= near[t[1]]):
+        span = hi - lo
+        near = SNAP_BAND * span
+        with np.errstate(divide="ignore", invalid="ignore"):  # a fixed variable (span 0) is not tried
+            share = np.minimum(z - lo, hi - z) / span  # each variable's distance to its nearer bound, per span
+            tried = (hi > lo) & (lo < z) & (z < hi) & (share * span <= near)
+        for _, i in sorted((float(share[i]), int(i)) for i in np.flatnonzero(tried)):
             on_lo, on_hi = (z == lo) & (hi > lo), (z == hi) & (hi > lo)
             if z[i] - lo[i] <= hi[i] - z[i]:
                 on_lo[i] = True
@@ -580,7 +583,9 @@ class Designer:
     def _solution(self, z: np.ndarray, parameters: np.ndarray, b: Bounds, out: SolverOutput, message: str, closest: str | None = None) -> Solution:
         """``closest``: what the reported closest design of an infeasible problem is (see
         :meth:`closest_minimax`); None for a design that balances."""
-        solution = replace(build_solution(self.formulation, z, parameters, b.lbz, b.ubz, out, message, self.n_equalities, self.conditions.summary()), closest=closest)
+        solution = build_solution(self.formulation, z, parameters, b.lbz, b.ubz, out, message, self.n_equalities, self.conditions.summary())
+        if closest is not None:  # a new Solution's closest is None
+            solution = replace(solution, closest=closest)
         if self.rows is None:
             return solution
         if self.nonlinear_constraints:

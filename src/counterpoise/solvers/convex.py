@@ -127,21 +127,58 @@ class ConeProgram:
         return bool(np.isfinite(self.P).all() and np.isfinite(self.q).all() and np.isfinite(self.A).all() and np.isfinite(self.b).all())
 
 
+#: the upper triangles of the objective matrices as Clarabel reads them, and Clarabel's
+#: settings, by content: a backend's Hessian and options do not change between its calls
+#: (at most _KEPT_SIZE each, then emptied)
+_KEPT_SIZE = 8
+_upper_kept: dict[tuple[tuple[int, ...], bytes], CscMatrix] = {}
+_settings_kept: dict[tuple[tuple[str, Any], ...], Any] = {}
+
+
+def _upper(P: np.ndarray) -> CscMatrix:
+    key = (P.shape, np.ascontiguousarray(P, dtype=float).tobytes())
+    found = _upper_kept.get(key)
+    if found is None:
+        found = CscMatrix.from_dense(np.triu(P))
+        if len(_upper_kept) >= _KEPT_SIZE:
+            _upper_kept.clear()  # a few at most (clear: safe when threads share the dict)
+        _upper_kept[key] = found
+    return found
+
+
+def _settings(options: Mapping[str, Any]) -> Any:
+    """Clarabel's settings with ``options`` (a solver copies them when it is made)."""
+    import clarabel
+
+    try:
+        key: tuple[tuple[str, Any], ...] | None = tuple(options.items())
+        found = _settings_kept.get(key)  # type: ignore[arg-type]  # None is not looked up
+    except TypeError:  # an option value that cannot be a key
+        key, found = None, None
+    if found is None:
+        found = clarabel.DefaultSettings()
+        found.verbose = False
+        for name, value in options.items():
+            setattr(found, name, value)
+        if key is not None:
+            if len(_settings_kept) >= _KEPT_SIZE:
+                _settings_kept.clear()
+            _settings_kept[key] = found
+    return found
+
+
 def solve_cone_program(lp: ConeProgram, options: Mapping[str, Any], duals: list[np.ndarray] | None = None) -> tuple[np.ndarray | None, str, int]:
     """Solve with Clarabel: (y or None, Clarabel's status name, iterations). ``duals``: a
     list that receives Clarabel's dual vector z (KKT: P y + q + Aᵀz = 0)."""
     import clarabel
 
-    settings = clarabel.DefaultSettings()
-    settings.verbose = False
-    for key, value in options.items():
-        setattr(settings, key, value)
+    settings = _settings(options)
     cones = []
     if lp.n_zero:
         cones.append(clarabel.ZeroConeT(lp.n_zero))
     if lp.n_nonneg:
         cones.append(clarabel.NonnegativeConeT(lp.n_nonneg))
-    P, A = CscMatrix.from_dense(np.triu(lp.P)), CscMatrix.from_dense(lp.A)
+    P, A = _upper(lp.P), CscMatrix.from_dense(lp.A)
     try:
         solver = clarabel.DefaultSolver(P, lp.q, A, lp.b, cones, settings)
     except (TypeError, AttributeError):  # a Clarabel that insists on SciPy's own matrices
@@ -152,6 +189,24 @@ def solve_cone_program(lp: ConeProgram, options: Mapping[str, Any], duals: list[
     if duals is not None:
         duals.append(np.asarray(solution.z, dtype=float))
     return y, str(solution.status), int(solution.iterations)
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """The rows of the cone program of one set of bounds (they depend on the bounds only).
+
+    Row k of ``A`` is ``signs[k]`` × row ``rows[k]`` of [∂g/∂y; I]; entry k of ``b`` is
+    ``signs[k]`` × (entry ``bounds[k]`` of [lbg, ubg, lo, hi] − entry ``rows[k]`` of
+    [const, 0]): a sign flip and a subtraction of 0 are exact, so these are the figures of
+    the blocks written out (``lbg − const`` on equalities, ``const − lbg`` on lbg ≤ g rows,
+    ``−lo`` on lower bounds, ...)."""
+
+    fixed: np.ndarray  # variables outside the linear set
+    rows: np.ndarray
+    bounds: np.ndarray
+    signs: np.ndarray
+    n_zero: int
+    masks: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]  # eq, fix, ge, le (multipliers)
 
 
 class ConvexBackend:
@@ -177,14 +232,55 @@ class ConvexBackend:
         if scale > 0 and np.linalg.eigvalsh(self.hessian).min() < -NONCONVEX_TOLERANCE * max(1.0, scale):
             raise ValueError("the objective is not convex in the linear variables")
         self.options = {**CLARABEL_DEFAULTS, **(options or {})}
+        self._layouts: dict[bytes, _Layout] = {}
+        self._eye, self._zeros = np.eye(len(self.linear)), np.zeros(len(self.linear))
 
-    def program(self, z0: np.ndarray, p: np.ndarray, bounds: Bounds) -> tuple[ConeProgram, np.ndarray]:
-        """The cone program of one call, and the reference point (the fixed variables set)."""
-        lbz, ubz = np.asarray(bounds.lbz, dtype=float), np.asarray(bounds.ubz, dtype=float)
+    def _layout(self, lbz: np.ndarray, ubz: np.ndarray, lbg: np.ndarray, ubg: np.ndarray) -> _Layout:
+        """The rows of the cone program for these bounds (kept for up to _KEPT_SIZE sets of bounds, then forgotten all at once)."""
+        key = b"".join(np.ascontiguousarray(v).tobytes() for v in (lbz, ubz, lbg, ubg)) + bytes(str((lbz.size, lbg.size)), "ascii")
+        found = self._layouts.get(key)
+        if found is not None:
+            return found
         fixed = np.ones(self.n, dtype=bool)
         fixed[self.linear] = False
         if np.any(lbz[fixed] != ubz[fixed]):
             raise ValueError("variables outside the linear set must be fixed (lower == upper) in a convex call")
+        lo, hi = lbz[self.linear], ubz[self.linear]
+        n_g, m = lbg.size, len(self.linear)
+        # equalities: g rows with lbg == ubg, variables with lo == hi
+        eq, fix = np.isfinite(lbg) & (lbg == ubg), np.isfinite(lo) & (lo == hi)
+        # inequalities as A y ≤ b: lbg ≤ g, g ≤ ubg, lo ≤ y, y ≤ hi (finite sides only)
+        ge, le = np.isfinite(lbg) & ~eq, np.isfinite(ubg) & ~eq
+        below, above = np.isfinite(lo) & ~fix, np.isfinite(hi) & ~fix
+        g_rows, y_rows = np.arange(n_g), n_g + np.arange(m)
+        # (rows of [∂g/∂y; I], entries of [lbg, ubg, lo, hi], sign) block by block
+        blocks = [
+            (g_rows[eq], g_rows[eq], 1.0),
+            (y_rows[fix], 2 * n_g + np.flatnonzero(fix), 1.0),
+            (g_rows[ge], g_rows[ge], -1.0),
+            (g_rows[le], n_g + g_rows[le], 1.0),
+            (y_rows[below], 2 * n_g + np.flatnonzero(below), -1.0),
+            (y_rows[above], 2 * n_g + m + np.flatnonzero(above), 1.0),
+        ]
+        found = _Layout(
+            fixed,
+            np.concatenate([r for r, _, _ in blocks]).astype(np.intp),
+            np.concatenate([e for _, e, _ in blocks]).astype(np.intp),
+            np.concatenate([np.full(r.size, sign) for r, _, sign in blocks]),
+            int(eq.sum() + fix.sum()),
+            (eq, fix, ge, le),
+        )
+        if len(self._layouts) >= _KEPT_SIZE:
+            self._layouts.clear()
+        self._layouts[key] = found
+        return found
+
+    def program(self, z0: np.ndarray, p: np.ndarray, bounds: Bounds) -> tuple[ConeProgram, np.ndarray]:
+        """The cone program of one call, and the reference point (the fixed variables set)."""
+        lbz, ubz = np.asarray(bounds.lbz, dtype=float), np.asarray(bounds.ubz, dtype=float)
+        lbg, ubg = np.asarray(bounds.lbg, dtype=float), np.asarray(bounds.ubg, dtype=float)
+        layout = self._layout(lbz, ubz, lbg, ubg)
+        fixed = layout.fixed
         zref = np.clip(np.asarray(z0, dtype=float).reshape(-1), lbz, ubz)
         zref[fixed] = lbz[fixed]
         _, grad, g0, jac = (np.array(v, dtype=float) for v in self._data(zref, p))
@@ -193,19 +289,12 @@ class ConvexBackend:
         jac = jac.reshape(g0.size, m)
         y0 = zref[self.linear]
         const = g0 - jac @ y0  # g(y) = const + jac @ y exactly (g is affine in y)
-        lbg, ubg = np.asarray(bounds.lbg, dtype=float), np.asarray(bounds.ubg, dtype=float)
-        lo, hi = lbz[self.linear], ubz[self.linear]
-        eye = np.eye(m)
-        # equalities: g rows with lbg == ubg, variables with lo == hi
-        eq, fix = np.isfinite(lbg) & (lbg == ubg), np.isfinite(lo) & (lo == hi)
-        # inequalities as A y ≤ b: lbg ≤ g, g ≤ ubg, lo ≤ y, y ≤ hi (finite sides only)
-        ge, le = np.isfinite(lbg) & ~eq, np.isfinite(ubg) & ~eq
-        below, above = np.isfinite(lo) & ~fix, np.isfinite(hi) & ~fix
-        A = np.vstack([jac[eq], eye[fix], -jac[ge], jac[le], -eye[below], eye[above]])
-        b = np.concatenate([lbg[eq] - const[eq], lo[fix], const[ge] - lbg[ge], ubg[le] - const[le], -lo[below], hi[above]])
+        signs = layout.signs
+        A = np.concatenate([jac, self._eye])[layout.rows] * signs[:, None]
+        b = signs * (np.concatenate([lbg, ubg, lbz[self.linear], ubz[self.linear]])[layout.bounds] - np.concatenate([const, self._zeros])[layout.rows])
         # f(y) = f0 + grad·(y - y0) + ½ (y - y0)ᵀ H (y - y0): linear term grad - H y0
-        program = ConeProgram(self.hessian, grad - self.hessian @ y0, A, b, int(eq.sum() + fix.sum()), int(b.size - eq.sum() - fix.sum()))
-        self._rows = (eq, fix, ge, le)
+        program = ConeProgram(self.hessian, grad - self.hessian @ y0, A, b, layout.n_zero, int(b.size - layout.n_zero))
+        self._rows = layout.masks
         return program, zref
 
     def multipliers(self, z: np.ndarray) -> np.ndarray | None:
@@ -234,7 +323,7 @@ class ConvexBackend:
             y, code, iterations = None, f"{INVALID_DATA}: NaN or inf in the problem's coefficients", 0
         if y is not None:
             lo, hi = np.asarray(bounds.lbz, dtype=float)[self.linear], np.asarray(bounds.ubz, dtype=float)[self.linear]
-            z[self.linear] = np.clip(y, lo, hi)
+            z[self.linear] = np.minimum(np.maximum(y, lo), hi)  # numpy's clip, without its wrapper
         return SolverOutput(
             z=z,
             status=map_status(code),

@@ -92,7 +92,7 @@ def gauss_newton(
             break
         step, *_ = np.linalg.lstsq(np.asarray(jac, dtype=float)[:, mask], -r, rcond=rcond)
         candidate = best.copy()
-        candidate[mask] = np.clip(candidate[mask] + step, lo, hi)
+        candidate[mask] = np.minimum(np.maximum(candidate[mask] + step, lo), hi)  # numpy's clip, without its wrapper
         r_new, jac_new, admissible = evaluate(candidate)
         r_new = np.asarray(r_new, dtype=float).reshape(-1)
         new_worst = worst(r_new)

@@ -257,6 +257,11 @@ class SubsystemCertificate:
         c = values.reshape(*self.shape, values.shape[1])
         if self._revolute:
             c = np.fft.fftn(c, axes=self._revolute) / self._scale
+        return self.chebyshev(c)
+
+    def chebyshev(self, c: np.ndarray) -> np.ndarray:
+        """``c`` (grid shape, columns) with the values along each prismatic axis mapped to
+        Chebyshev coefficients."""
         for j in self._prismatic:
             c = np.moveaxis(np.tensordot(self.axes[j].inverse, c, axes=([1], [j])), 0, j)  # type: ignore[arg-type]  # a prismatic axis has its inverse
         return c
@@ -299,55 +304,106 @@ class Certificate:
                 raise NotCertifiable(f"subsystem {sub.name!r} needs {size} grid configurations (more than {MAX_GRID})")
             for scenario in problem.scenarios:
                 self.parts.append(SubsystemCertificate(problem, scenario.name, sub.name, found, rng))
-
-    def bounds(self, solution: "Solution") -> list[tuple[SubsystemCertificate, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
-        """Per part: (part, residual bound per coordinate, the residual, gravity torque and
-        balancer force at the reference samples)."""
-        out = []
-        for part in self.parts:
-            variables = solution.variable_values(part.scenario)
-            gravity, base = solution.scenario_parameters[part.scenario]
-            r, t = part.evaluator.evaluate(variables, base, gravity)
-            n_q = r.shape[1]
-            c = part.coefficients(np.concatenate([r, t], axis=1)).reshape(-1, 2 * n_q)
-            bound = np.abs(c[:, :n_q]).sum(axis=0)
-            if np.iscomplexobj(c):
-                both = part.basis_real @ c.real - part.basis_imag @ c.imag
-            else:
-                both = part.basis_real @ c
-            rs, ts = both[:, :n_q], both[:, n_q:]
-            out.append((part, bound, rs, ts, rs - ts))
-        return out
+        kinds: dict[tuple[Any, ...], list[int]] = {}
+        for k, part in enumerate(self.parts):
+            kinds.setdefault((part.shape, tuple(part.kinds), part._revolute, part._prismatic), []).append(k)
+        self.groups = [_Group([self.parts[k] for k in index], index) for index in kinds.values()]
 
     def verify(self, solution: "Solution") -> ExactVerification:
         """The certified verification of ``solution`` (whether or not it is balanced)."""
         problem = self.problem
-        checks = []
-        for part, bound, rs, ts, bs in self.bounds(solution):
-            n_q = rs.shape[1]
+        per_part: list[list[CoordinateCheck]] = [[] for _ in self.parts]
+        for group in self.groups:
+            found = group.evaluate(solution)
+            # the samples along the last axis: numpy reduces a contiguous axis fast (a
+            # maximum is exact in any order, and argmax takes the first maximum either way)
+            both = np.ascontiguousarray(found.both.transpose(0, 2, 1))  # (parts, 2 n_q, samples)
+            rs, ts = both[:, : group.n_q], both[:, group.n_q :]
             with np.errstate(invalid="ignore"):
-                top = np.abs(np.concatenate([ts, bs], axis=1)).max(axis=0)
-                loads, balancers = top[:n_q], top[n_q:]
-                worst = np.argmax(np.abs(rs), axis=0)  # a NaN one first
-            variables = solution.variable_values(part.scenario)
-            gravity, base = solution.scenario_parameters[part.scenario]
-            scale = energy_scale_if_needed(problem, part.subsystem, part.samples, bound, loads, variables, base, gravity)
-            for j, name in enumerate(part.evaluator.names):
-                checks.append(
+                loads_all = np.abs(ts).max(axis=2)  # (parts, n_q)
+                balancers_all = np.abs(rs - ts).max(axis=2)
+                worst_all = np.argmax(np.abs(rs), axis=2)  # a NaN one first
+            for g, part in enumerate(group.parts):
+                variables, base, gravity = found.inputs[g]
+                bound, loads = found.bound[g], loads_all[g]
+                scale = energy_scale_if_needed(problem, part.subsystem, part.samples, bound, loads, variables, base, gravity)
+                residuals, torques, forces = bound.tolist(), loads.tolist(), balancers_all[g].tolist()
+                worst = worst_all[g].tolist()
+                per_part[group.index[g]] = [
                     CoordinateCheck(
                         subsystem=part.subsystem,
                         scenario=part.scenario,
                         coordinate=name,
                         kind=part.kinds[j],
-                        max_residual=float(bound[j]),
-                        max_gravity_torque=float(loads[j]),
-                        max_balancer_force=float(balancers[j]),
+                        max_residual=residuals[j],
+                        max_gravity_torque=torques[j],
+                        max_balancer_force=forces[j],
                         energy_scale=scale,
                         configurations=part.size,
-                        worst_configuration=tuple(float(v) for v in part.samples[worst[j]]),
+                        worst_configuration=tuple(part.samples[worst[j]].tolist()),
                     )
-                )
-        return ExactVerification(tuple(checks), problem.settings.verify_tolerance)
+                    for j, name in enumerate(part.evaluator.names)
+                ]
+        return ExactVerification(tuple(c for checks in per_part for c in checks), problem.settings.verify_tolerance)
+
+
+@dataclass(frozen=True)
+class _Found:
+    """One group's figures for a design, each with the parts first: the residual bound
+    (parts, n_q), the residual and the gravity torque at the reference samples (parts,
+    samples, 2 n_q: the residual's columns, then the torque's), and each part's
+    (variables, base parameters, gravity)."""
+
+    bound: np.ndarray
+    both: np.ndarray
+    inputs: list[tuple[Any, Any, Any]]
+
+
+class _Group:
+    """The parts of one problem whose grids have the same shape and kinds of axes: their
+    transforms and reference products are done in one call each (numpy transforms each
+    line and multiplies each matrix of a stack on its own, so every figure is the one the
+    part alone gives, bit for bit)."""
+
+    def __init__(self, parts: list[SubsystemCertificate], index: list[int]) -> None:
+        first = parts[0]
+        self.parts, self.index = parts, index
+        self.n_q = len(first.kinds)
+        self.shape = first.shape
+        # numpy's fftn transforms the last of its axes first: the same 1-D transforms, in that order
+        self.fft_axes = tuple(1 + j for j in reversed(first._revolute))
+        self.scale = first._scale
+        self.prismatic = first._prismatic
+        self.basis_real = np.stack([p.basis_real for p in parts])
+        self.basis_imag = np.stack([p.basis_imag for p in parts])
+        for g, part in enumerate(parts):  # each part's bases become views of the stacks (kept once)
+            part.basis_real, part.basis_imag = self.basis_real[g], self.basis_imag[g]
+
+    def evaluate(self, solution: "Solution") -> _Found:
+        n_q, size = self.n_q, self.parts[0].size
+        values = np.empty((len(self.parts), size, 2 * n_q))
+        inputs = []
+        for g, part in enumerate(self.parts):
+            variables = solution.variable_values(part.scenario)
+            gravity, base = solution.scenario_parameters[part.scenario]
+            r, t = part.evaluator.evaluate(variables, base, gravity)
+            values[g, :, :n_q] = r
+            values[g, :, n_q:] = t
+            inputs.append((variables, base, gravity))
+        c: np.ndarray = values.reshape(len(self.parts), *self.shape, 2 * n_q)
+        if self.fft_axes:
+            for axis in self.fft_axes:
+                c = np.fft.fft(c, axis=axis)
+            c = c / self.scale
+        if self.prismatic:
+            c = np.stack([part.chebyshev(c[g]) for g, part in enumerate(self.parts)])
+        c = c.reshape(len(self.parts), size, 2 * n_q)
+        bound = np.abs(c[:, :, :n_q]).sum(axis=1)
+        if np.iscomplexobj(c):
+            both = self.basis_real @ c.real - self.basis_imag @ c.imag
+        else:
+            both = self.basis_real @ c
+        return _Found(bound, both, inputs)
 
 
 def certificate(problem: Problem) -> Certificate | None:
