@@ -183,8 +183,9 @@ def test_a_kept_designer_is_the_built_one(which, cache_on, monkeypatch):
 
 
 def test_designers_are_not_kept_outside_solve(tmp_path, monkeypatch):
-    """Only ``counterpoise solve`` keeps designers: with the cache on for problems alone
-    (``validate``, ``study``, the other commands) nothing is written under ``built``."""
+    """Only ``counterpoise solve`` (and ``study``, before its pool forks: the next test)
+    keeps designers: with the cache on for problems alone (``validate``, the other
+    commands) nothing is written under ``built``."""
     from builders import pendulum
     from counterpoise.designer.designer import Designer
     from counterpoise.io import cache
@@ -273,6 +274,37 @@ def test_solve_twice_through_the_kept_designer_and_evaluators_writes_the_same_fi
     for name in ("design.csv", "springs.csv", "build.csv", "verification.csv"):
         first = (tmp_path / "first" / "yasir2019_hybrid" / name).read_bytes()
         assert (tmp_path / "second" / "yasir2019_hybrid" / name).read_bytes() == first, name
+
+
+def test_a_study_keeps_the_designer_it_builds_before_its_pool_forks(tmp_path, cache_on, capsys, monkeypatch):
+    """``counterpoise study --jobs 2`` builds its design method once, before the pool forks
+    (the workers inherit it): under the console script that designer is kept, and the
+    same study run again takes it from the disk (building would fail) and gives the same
+    ``study.csv`` cells. Nothing is kept after the fork: the designer is the only entry,
+    and the process keeps no more built objects once the points start."""
+    import csv
+
+    from counterpoise.cli import main
+    from counterpoise.designer import designer
+    from counterpoise.io import cache
+
+    def no_build(*args, **kwargs):
+        raise AssertionError("built again")
+
+    file = PROBLEMS / "yasir2019_hybrid.toml"
+    found = []
+    for run in ("first", "second"):
+        monkeypatch.setattr(cache, "_built", True)  # as the console script enables it
+        if run == "second":
+            monkeypatch.setattr(designer, "Formulation", no_build)
+        with pytest.raises(SystemExit) as stop:
+            main(["study", str(file), "--vary", "m_endo=400g:1000g:4", "--jobs", "2", "--no-plot", "--out", str(tmp_path / run)])
+        assert stop.value.code == 0, capsys.readouterr().err
+        assert cache._built is False
+        with (tmp_path / run / "yasir2019_hybrid-study" / "study.csv").open(newline="") as handle:
+            found.append([{k: v for k, v in row.items() if k != "solve_time_s"} for row in csv.DictReader(handle)])
+    assert [p.name.split(".")[0] for p in (cache_on / "built").glob("*.pickle")] == ["designer"]
+    assert found[0] == found[1] and len(found[0]) == 4
 
 
 def test_a_solve_of_several_files_keeps_no_built_objects(tmp_path, cache_on, capsys):

@@ -49,10 +49,10 @@ def main(argv: list[str] | None = None) -> None:
     limit_blas_environment()  # before numpy and CasADi load their BLAS (see counterpoise.threads)
     os.environ.setdefault("PYDANTIC_DISABLE_PLUGINS", "__all__")
     fast = argv is None and bool(FAST_EXIT & set(args[:1]))
-    if argv is None:  # the console script: loaded problems (and solve's designers) are kept on disk (counterpoise.io.cache)
+    if argv is None:  # the console script: loaded problems (and the designers of solve and study) are kept on disk (counterpoise.io.cache)
         from ..io import cache
 
-        cache.enable(built=args[:1] == ["solve"])
+        cache.enable(built=args[:1] in (["solve"], ["study"]))
         where = cache.folder()
         if where is not None:  # dataclasses' methods compiled once (counterpoise.io.compiled)
             from ..io import compiled

@@ -383,6 +383,8 @@ def run_study(
     ``said``; the exit status (2 bad input, 1 the study cannot be written, 130/143
     interrupted by Ctrl-C/SIGTERM with the finished points kept, else 0 whatever the
     points' statuses). ``loaded`` is called once the file has loaded."""
+    import numpy  # noqa: F401 - both processes need it: imported once, before the fork
+
     from ..plotter import PlotProcess
 
     plotter = PlotProcess.fork_if_useful(plot, jobs, scheduler)  # draws the plot; imports matplotlib while this process loads

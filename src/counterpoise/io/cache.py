@@ -5,7 +5,7 @@ the schema's validator, then the resolution (~0.3 s of a 0.5–0.9 s ``counterpo
 The console script keeps each problem it loaded as a pickle in a cache folder, with the
 warnings its checks found at load (:func:`load_checked`), and a later run on the same
 content unpickles both instead (~5 ms, importing neither pint nor pydantic).
-``counterpoise solve`` also keeps what it built from a problem (:func:`fetch_built` /
+``counterpoise solve`` (and ``study``, for its designer) also keeps what it built from a problem (:func:`fetch_built` /
 :func:`keep_built`): the designer (its CasADi functions and the sampled balance
 conditions) and the dense check's evaluators after their first check (the configurations,
 their complex-step arrays, the box maximum's functions), which a later solve of the same
@@ -95,7 +95,8 @@ Check = Callable[["Problem"], Warnings]
 
 def enable(built: bool = False) -> None:
     """Let :func:`load` use the cache in this process (the console script's); ``built``:
-    :func:`fetch_built` and :func:`keep_built` too (``counterpoise solve``)."""
+    :func:`fetch_built` and :func:`keep_built` too (``counterpoise solve``, and ``study``
+    until its pool forks: :func:`keep_no_built`)."""
     global _enabled, _built
     _enabled = True
     _built = built
@@ -105,7 +106,7 @@ def keep_no_built() -> None:
     """Stop :func:`fetch_built` and :func:`keep_built` in this process (a ``solve`` of several
     files: the built objects are kept for the repeated solve of one file, the edit-and-solve
     loop; a batch such as ``make demo`` would fill the folder with each problem's evaluators,
-    ~6 MB each, and pay their writing on every file)."""
+    ~6 MB each, and pay their writing on every file; a study once its pool forks)."""
     global _built
     _built = False
 

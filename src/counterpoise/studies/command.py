@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..errors import ProblemFileError
+from ..io.cache import keep_no_built
 from ..model.problem import Problem
 from .runners import PointResult, ProcessRunner, Runner, SerialRunner, StudyTask
 from .spec import StudyPlan, plan_study
@@ -174,6 +175,7 @@ def run_study_command(problem: Problem, options: StudyOptions, console: Any, plo
         plotter = None  # the preload ends it
         try:
             build_before_fork(task, plan, runner)
+            keep_no_built()  # the designer built before the fork is kept (under the console script); none built later
             try:
                 with terminate_as_interrupt():
                     outcome = _run(problem, plan, options, runner, task, console, preload)
