@@ -78,9 +78,12 @@ def test_the_picture_is_the_whole_drawing_of_the_finished_figure(tmp_path, monke
     for j, (key, unit) in enumerate(vary):  # each column spans every point, optimal or not, with 5 % margins
         x = [v[j] for v in values]
         span = max(x) - min(x)
+        # the column shares its x axis: labelled under its last row only
+        assert [ax.get_xlabel() for ax in figure.axes[:, j]] == [""] * (len(figure.axes) - 1) + [f"{key} [{unit}]"]
         for ax in figure.axes[:, j]:
-            assert ax.get_xlabel() == f"{key} [{unit}]"
             assert ax.get_xlim() == pytest.approx((min(x) - 0.05 * span, max(x) + 0.05 * span))
+    for row in figure.axes:  # a row (one variable) shares its y axis: labelled left of its first column only
+        assert all(ax.get_ylabel() == "" for ax in row[1:]) and row[0].get_ylabel()
     if failed:
         assert figure.axes[1, 0].get_yscale() == "log"
         assert figure.title.get_text().endswith(f"{len(values)} points ({method}), {len(values) - len(failed)} optimal")

@@ -33,12 +33,16 @@ FIXED = {"point", "status", "objective_kg", "added_mass_kg", "added_inertia_kg_m
          "solver", "message"}
 TEXT = ("status", "certificate", "solver", "message")
 
-#: the fixed layout of ``study.png``, in inches: room left of each column of axes for its
-#: tick labels and y label, right of the last one, above the first row for the two-line
-#: title (which starts TITLE_TOP below the top edge), below each row for its tick labels
-#: and x label. A layout computed from the drawn text (``tight_layout``, ``bbox_inches=
-#: "tight"``) draws the figure once more each; this one is set before the only drawing.
+#: the fixed layout of ``study.png``, in inches: room left of the first column of axes for
+#: its tick labels and y label, right of the last one, above the first row for the two-line
+#: title (which starts TITLE_TOP below the top edge), below the last row for its tick
+#: labels and x label; the axes of a column share their x axis and those of a row their y
+#: axis (one variable per row), so only the outer ones are labelled, GAP_X and GAP_Y apart;
+#: each axes is AXES_HEIGHT high. A layout computed from the drawn text (``tight_layout``,
+#: ``bbox_inches="tight"``) draws the figure once more each; this one is set before the
+#: only drawing.
 LEFT, RIGHT, TOP, BOTTOM, TITLE_TOP = 1.0, 0.3, 0.8, 0.55, 0.1
+GAP_X, GAP_Y, AXES_HEIGHT = 0.25, 0.15, 1.75
 
 #: y tick objects made with each axes before its results are known (matplotlib makes them on
 #: demand, ~1 ms each, when the axis is drawn): a y axis of a study plot needs 5 to 8
@@ -92,15 +96,14 @@ class StudyFigure:
         self.layout = layout
         self.used = False
         nrows, ncols = len(layout.ys), len(layout.varied)
-        width, height = max(7.0, 5.0 * ncols + 1), 2.3 * nrows + 1.2
-        axes_width = (width - LEFT - RIGHT - (ncols - 1) * LEFT) / ncols
-        axes_height = (height - TOP - BOTTOM - (nrows - 1) * BOTTOM) / nrows
+        width, height = max(7.0, 5.0 * ncols + 1), TOP + BOTTOM + nrows * AXES_HEIGHT + (nrows - 1) * GAP_Y
+        axes_width = (width - LEFT - RIGHT - (ncols - 1) * GAP_X) / ncols
         fig = Figure(figsize=(width, height), dpi=DPI)
         self.canvas = FigureCanvasAgg(fig)
         self.fig = fig
-        self.axes = fig.subplots(nrows, ncols, squeeze=False, gridspec_kw={
+        self.axes = fig.subplots(nrows, ncols, squeeze=False, sharex="col", sharey="row", gridspec_kw={
             "left": LEFT / width, "right": 1 - RIGHT / width, "bottom": BOTTOM / height, "top": 1 - TOP / height,
-            "wspace": LEFT / axes_width, "hspace": BOTTOM / axes_height})
+            "wspace": GAP_X / axes_width, "hspace": GAP_Y / AXES_HEIGHT})
         self.title = fig.suptitle("", fontsize=11, y=1 - TITLE_TOP / height, va="top")
         for j, (x_name, xrange) in enumerate(zip(layout.varied, layout.xranges)):
             for i, y_name in enumerate(layout.ys):
@@ -113,6 +116,7 @@ class StudyFigure:
                     margin = (hi - lo) * ax.margins()[0]
                     ax.set_xlim(lo - margin, hi + margin)
                 ax.set_autoscalex_on(False)  # the x axis is drawn now: the curves must not move it
+                ax.label_outer()  # tick labels and axis labels on the outer axes only (shared axes)
         # what the results decide is drawn by finish(): hidden from the first drawing
         self._later = [self.title] + [a for ax in self.axes.flat for a in (ax.yaxis, *ax.spines.values())]
         for artist in self._later:
