@@ -168,7 +168,7 @@ def uninstall() -> None:
     import dataclasses
 
     if getattr(dataclasses, "exec", None) is _exec:
-        del dataclasses.exec  # type: ignore[attr-defined]
+        del dataclasses.exec  # type: ignore[attr-defined]  # the name install() set, unknown to the stubs
     _folder = None
     compiles = 0
     _codes.clear()
