@@ -72,7 +72,7 @@ def _in_view_class() -> Any:
     """The class of :func:`in_view`'s locators (matplotlib imported on first use)."""
     from matplotlib.ticker import Locator
 
-    class InView(Locator):  # type: ignore[misc]
+    class InView(Locator):
         def __init__(self, base: Any) -> None:
             self.base = base
 
@@ -82,6 +82,8 @@ def _in_view_class() -> Any:
 
         def __call__(self) -> Any:
             locs = np.asarray(self.base())
+            if self.axis is None:  # not on an axis: no view
+                return locs
             lo, hi = sorted(self.axis.get_view_interval())
             slack = (hi - lo) * 1e-6
             kept = locs[(locs >= lo - slack) & (locs <= hi + slack)]
