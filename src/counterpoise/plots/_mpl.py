@@ -70,7 +70,7 @@ def _write(path: Any, write: Callable[[str], object]) -> None:
     import tempfile
     from pathlib import Path
 
-    from ..report.files import respect_umask
+    from ..filemodes import respect_umask
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
