@@ -281,3 +281,26 @@ def test_a_file_that_does_not_load_ends_the_helper_forked_before_it(tmp_path, ca
     err = capsys.readouterr().err
     assert exit_.value.code == 2 and len(err.strip().splitlines()) == 1 and "missing.toml" in err
     assert not (tmp_path / "out").exists() and multiprocessing.active_children() == []
+
+
+def test_markers_of_a_line_draw_the_pixels_of_a_scatter_of_the_same_size():
+    """study.png draws the points of its rows below the objective (no legend there) as a
+    Line2D of markers, a quarter of a scatter's cost to make: the same pixels as the
+    scatter of size 8 pt² (marker size √8 pt, edge 1 pt, edge colour the face's) it
+    replaces, here 200 points of a 4 × 3 in figure."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    x, y = np.random.default_rng(0).uniform(0, 1, (2, 200))
+    drawn = []
+    for scatter in (True, False):
+        fig = Figure(figsize=(4, 3), dpi=study_plot.DPI)
+        FigureCanvasAgg(fig)
+        ax = fig.add_subplot()
+        if scatter:
+            ax.scatter(x, y, s=8, color="tab:blue", zorder=2)
+        else:
+            ax.plot(x, y, linestyle="none", marker="o", markersize=np.sqrt(8), markeredgewidth=1.0, color="tab:blue", zorder=2)
+        fig.canvas.draw()
+        drawn.append(np.asarray(fig.canvas.buffer_rgba()).copy())
+    assert (drawn[0] == drawn[1]).all()
