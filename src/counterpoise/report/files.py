@@ -17,6 +17,7 @@ from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 
 from .. import unfinished
+from ..filemodes import respect_umask
 from ..pipeline import DesignResult
 from . import parts
 from .rows import (
@@ -51,20 +52,6 @@ def csv_text(rows: Iterable[Row], columns: Sequence[str], float_format: str = FL
     for row in rows:
         writer.writerow([_cell(row.get(c), float_format) for c in columns])
     return buffer.getvalue()
-
-
-def umask() -> int:
-    """The process's file-creation mask (read without changing it for long)."""
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
-
-
-def respect_umask(path: str | Path, directory: bool = False) -> None:
-    """Give a file made by :func:`tempfile.mkstemp` (0600) or a folder made by
-    :func:`tempfile.mkdtemp` (0700) the mode an ordinary
-    ``open``/``mkdir`` would give it."""
-    os.chmod(path, (0o777 if directory else 0o666) & ~umask())
 
 
 def atomic_write_text(path: Path, text: str) -> None:
