@@ -110,3 +110,12 @@ def test_the_mutations_reach_every_stage():
     # test's time (9.9 s against 0.3 s CPU) and checks nothing more
     for wanted in ("toml", "schema", "resolve", "loads"):
         find(mutated(), lambda t: stage(t) == wanted, settings=settings(max_examples=500, database=None, derandomize=True, phases=[Phase.generate]))
+
+
+def test_a_long_key_is_clipped_in_the_message_too():
+    """The fuzz found it: a key built from input (a repeated frame's name made of 600
+    brackets) was clipped in ``exc.key`` but printed whole in the message's line."""
+    from counterpoise.errors import KEY_LIMIT, ProblemFileError
+
+    exc = ProblemFileError("fuzz.toml", "frames.leg" + "[" * 600 + "i_2", "defined twice")
+    assert str(exc) == f"fuzz.toml: {exc.key}: defined twice" and len(exc.key) <= KEY_LIMIT + 1

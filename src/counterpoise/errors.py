@@ -46,7 +46,7 @@ class ProblemFileError(CounterpoiseError):
         # always one line, and bounded: input echoed in a message is clipped
         self.key = clip(" ".join(str(key).split()), KEY_LIMIT)
         self.message = clip(clip_quoted(" ".join(str(message).split())), MESSAGE_LIMIT)
-        super().__init__(f"{file}: {key}: {self.message}")
+        super().__init__(f"{file}: {self.key}: {self.message}")
 
 
 class InputError(CounterpoiseError):
