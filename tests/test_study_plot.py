@@ -304,3 +304,18 @@ def test_markers_of_a_line_draw_the_pixels_of_a_scatter_of_the_same_size():
         fig.canvas.draw()
         drawn.append(np.asarray(fig.canvas.buffer_rgba()).copy())
     assert (drawn[0] == drawn[1]).all()
+
+
+def test_the_layout_sent_to_the_helper_does_not_grow_with_the_points():
+    """plot_inputs sends each varied key's least and greatest value (what the layout reads
+    of them), not every point's: a 10,000-point study's message to the plot helper is the
+    size of a 2-point one's (a large one blocked the study until the helper, still
+    importing matplotlib, read it)."""
+    from conftest import PROBLEMS
+    from counterpoise.io.loader import load_problem
+    from counterpoise.studies.command import plot_inputs
+    from counterpoise.studies.spec import plan_study
+
+    problem = load_problem(PROBLEMS / "yasir2019_hybrid.toml")
+    _, xs = plot_inputs(problem, plan_study(problem, ["m_endo=400 g:1000 g:10000"], "f"))
+    assert xs == [[400.0, 1000.0]]

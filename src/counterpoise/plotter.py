@@ -25,6 +25,11 @@ from threading import active_count
 from typing import Any
 
 
+#: how long the study waits for the helper's plots once its points are done (a 1000-point
+#: study's take ~0.3 s); beyond it the helper is ended and the study draws them itself
+PLOT_SECONDS = 120.0
+
+
 class PlotProcess:
     """The plot helper, forked on construction (see the module)."""
 
@@ -61,7 +66,8 @@ class PlotProcess:
         reply = None
         if self._send(("plot", str(folder))):
             try:
-                reply = self._conn.recv()
+                if self._conn.poll(PLOT_SECONDS):  # a helper that hangs is ended, and the study draws the plot
+                    reply = self._conn.recv()
             except (OSError, EOFError):  # the helper ended without an answer
                 reply = None
         self.close()
@@ -88,7 +94,7 @@ def _serve(conn: Any, parent_end: Any) -> None:
     """The helper: import matplotlib, prepare the figure it is sent, plot the folder it is sent."""
     parent_end.close()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.signal(signal.SIGTERM, _ended)  # ended by the study: a PNG being written is removed (plots/_mpl)
     devnull = os.open(os.devnull, os.O_WRONLY)  # a failure is redone, and reported, by the study's process
     os.dup2(devnull, 1)
     os.dup2(devnull, 2)
@@ -106,3 +112,9 @@ def _serve(conn: Any, parent_end: Any) -> None:
         else:
             conn.send([str(p) for p in study_plots(message[1], figure)])
             return
+
+
+def _ended(signum: int, frame: Any) -> None:
+    """SIGTERM in the helper (the study ends it): leave through ``SystemExit``, so a PNG's
+    temporary file is removed by its writer's clean-up (the default action would leave it)."""
+    raise SystemExit(128 + signum)

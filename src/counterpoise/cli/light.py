@@ -392,10 +392,13 @@ def run_study(
 
     from ..errors import ProblemFileError
     from ..studies.command import StudyOptions, run_study_command
-    found = _load([file], set_, out, err, loaded)
-    if found is None:
-        if plotter is not None:
+    found = None
+    try:
+        found = _load([file], set_, out, err, loaded)
+    finally:  # run_study_command ends the helper from here on
+        if plotter is not None and found is None:
             plotter.close()
+    if found is None:
         return 2
     (problem,), sets = found
     options = StudyOptions(tuple(vary), samples, method, seed, out, jobs, scheduler, scheduler_timeout, resume, time_limit, batch_size, plot,

@@ -217,15 +217,21 @@ def plot_preload(options: StudyOptions, runner: Runner, problem: Problem, plan: 
 def plot_inputs(problem: Problem, plan: StudyPlan) -> tuple[dict[str, Any], list[list[float]]]:
     """What ``study.png`` is laid out from before the points are solved
     (:func:`counterpoise.plots.study.prepare`): the study's ``study.json`` content that the
-    plot reads (problem, plan, columns), and every point's varied values as ``study.csv``
-    will hold them (display unit, the file's number format)."""
+    plot reads (problem, plan, columns), and each varied key's least and greatest finite
+    value over the points as ``study.csv`` will hold them (display unit, the file's number
+    format): all the layout reads of them, and a message of the same size to the plot
+    helper however many points the study has."""
     import json
+    import math
 
     from ..report.files import FLOAT_FORMAT
     from .study import columns
 
     meta = {"problem": problem.name, "plan": json.loads(json.dumps(plan.identity())), "columns": columns(problem, plan)}
-    xs = [[float(FLOAT_FORMAT % v.unit.from_si(point[v.key])) for point in plan.points] for v in plan.varies]
+    xs = []
+    for v in plan.varies:
+        finite = [x for point in plan.points if math.isfinite(x := float(FLOAT_FORMAT % v.unit.from_si(point[v.key])))]
+        xs.append([min(finite), max(finite)] if finite else [])
     return meta, xs
 
 
