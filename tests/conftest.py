@@ -166,6 +166,32 @@ def fresh_python(code: str, cwd: "Path | None" = None, **env: str) -> str:
     return run.stdout
 
 
+def console_solve_twice(tmp_path: "Path", file: "Path", report: str) -> "list[list[str]]":
+    """``counterpoise solve FILE --out tmp_path/<run>`` as the console script runs it (a real
+    process: :func:`counterpoise.cli.main` without arguments, the cache in
+    ``tmp_path/cache``), twice: a ``first`` and a ``second`` run. ``report``: Python lines
+    run as the process ends, with ``status`` (its exit status) and ``sys`` at hand, that
+    print what the test reads; the lines each run printed."""
+    body = "".join(f"    {line}\n" for line in report.strip().splitlines())
+    environ = {"COUNTERPOISE_CACHE": str(tmp_path / "cache")}
+    runs = []
+    for run in ("first", "second"):
+        code = (
+            "import os, sys\n"
+            f"sys.argv = ['counterpoise', 'solve', {str(file)!r}, '--out', {str(tmp_path / run)!r}]\n"
+            "end = os._exit\n"
+            "def report(status):\n"
+            f"{body}"
+            "    sys.stdout.flush()\n"
+            "    end(status)\n"
+            "os._exit = report\n"
+            "from counterpoise.cli import main\n"
+            "main()\n"
+        )
+        runs.append(fresh_python(code, cwd=ROOT, **environ).strip().splitlines())
+    return runs
+
+
 #: the test files that take the most CPU (measured with two pytest-xdist workers,
 #: benchmarks/README.md#the-test-suite-on-two-workers), heaviest first. With ``--dist loadfile`` a file runs
 #: on one worker, so a heavy file handed out last would keep one worker busy while the other

@@ -12,7 +12,7 @@ import types
 
 import pytest
 
-from conftest import PROBLEMS, ROOT, fresh_python
+from conftest import PROBLEMS, ROOT, console_solve_twice, fresh_python
 
 #: a module of frozen and plain dataclasses, with postponed annotations (the generated
 #: methods must not inherit that flag: their annotations are the objects, as without the cache)
@@ -135,24 +135,12 @@ def test_console_script_compiles_no_dataclass_method_on_its_second_run(tmp_path)
     """The console script (a real process) installs the kept codes: its first run compiles
     every dataclass method it creates and keeps them, its second compiles none, and both
     write the same reports; in-process calls do not install it."""
-    code = (
-        "import os, sys, dataclasses\n"
-        "sys.argv = ['counterpoise', 'solve', {file!r}, '--out', {out!r}]\n"
-        "end = os._exit\n"
-        "def report(status):\n"
-        "    from counterpoise.io import compiled\n"
-        "    print(status, compiled.compiles > 0, getattr(dataclasses, 'exec', None) is compiled._exec, flush=True)\n"
-        "    end(status)\n"
-        "os._exit = report\n"
-        "from counterpoise.cli import main\n"
-        "main()\n"
-    )
-    environ = {"COUNTERPOISE_CACHE": str(tmp_path / "cache")}
-    file = str(PROBLEMS / "yasir2019_counter_mass.toml")
-    outs = []
-    for run in ("first", "second"):
-        lines = fresh_python(code.format(file=file, out=str(tmp_path / run)), cwd=ROOT, **environ).strip().splitlines()
-        outs.append(lines[-1])
+    runs = console_solve_twice(tmp_path, PROBLEMS / "yasir2019_counter_mass.toml", """
+import dataclasses
+from counterpoise.io import compiled
+print(status, compiled.compiles > 0, getattr(dataclasses, 'exec', None) is compiled._exec)
+""")
+    outs = [lines[-1] for lines in runs]
     assert outs == ["0 True True", "0 False True"]
     assert list((tmp_path / "cache").glob("dataclass-code.*.counterpoise.marshal"))
     for f in ("design.csv", "status.txt", "build.csv"):

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import PROBLEMS, ROOT, fresh_python
+from conftest import PROBLEMS, ROOT, console_solve_twice, fresh_python
 
 URDFS = sorted((PROBLEMS / "robots").glob("*.urdf")) + sorted((ROOT / "tests" / "bad_problems" / "robots").glob("*.urdf"))
 
@@ -188,25 +188,12 @@ def test_console_script_keeps_the_problem_and_then_imports_neither_pint_nor_pyda
     run imports neither hashlib (BLAKE2 from ``_blake2``, without OpenSSL) nor difflib
     (only for messages), nor
     the closed loops' ``mechanics.closure`` (this chain is open)."""
-    code = (
-        "import os, sys\n"
-        "sys.argv = ['counterpoise', 'solve', {file!r}, '--out', {out!r}]\n"
-        "end = os._exit\n"
-        "def report(status):\n"
-        "    print(sorted(m for m in ('hashlib', 'difflib', 'counterpoise.mechanics.closure') if m in sys.modules), flush=True)\n"
-        "    print(status, sorted(m for m in ('pint', 'pydantic', 'counterpoise.io.loader') if m in sys.modules), flush=True)\n"
-        "    end(status)\n"
-        "os._exit = report\n"
-        "from counterpoise.cli import main\n"
-        "main()\n"
-    )
-    environ = {"COUNTERPOISE_CACHE": str(tmp_path / "cache")}
-    file = str(PROBLEMS / "yasir2019_counter_mass.toml")
-    outs = []
-    for run in ("first", "second"):
-        out = tmp_path / run
-        lines = fresh_python(code.format(file=file, out=str(out)), cwd=ROOT, **environ).strip().splitlines()
-        outs.append(lines[-1])
+    runs = console_solve_twice(tmp_path, PROBLEMS / "yasir2019_counter_mass.toml", """
+print(sorted(m for m in ('hashlib', 'difflib', 'counterpoise.mechanics.closure') if m in sys.modules))
+print(status, sorted(m for m in ('pint', 'pydantic', 'counterpoise.io.loader') if m in sys.modules))
+""")
+    outs = [lines[-1] for lines in runs]
+    lines = runs[-1]
     assert outs == ["0 ['counterpoise.io.loader', 'pint', 'pydantic']", "0 []"]
     # nor, on the repeated run, the standard library's modules the reports and keys do without
     assert lines[-2] == "[]"

@@ -45,7 +45,7 @@ def test_the_plot_warm_up_draws_without_pyplot_and_writes_nothing(tmp_path, monk
 
     monkeypatch.chdir(tmp_path)
     had_pyplot = "matplotlib.pyplot" in sys.modules  # another test may have imported it
-    prepare()
+    prepare({"problem": "p", "plan": {"method": "grid", "vary": [{"key": "x", "unit": ""}]}, "columns": ["point", "x [1]", "objective_kg"]}, [[0.0, 1.0]])
     assert "matplotlib.figure" in sys.modules and list(tmp_path.iterdir()) == []
     assert had_pyplot or "matplotlib.pyplot" not in sys.modules
 

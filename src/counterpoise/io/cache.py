@@ -54,10 +54,7 @@ from functools import lru_cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-try:  # CPython's own BLAKE2, which hashlib.blake2b is; importing hashlib also loads OpenSSL (~4 ms)
-    from _blake2 import blake2b
-except ImportError:  # pragma: no cover - a Python without it
-    from hashlib import blake2b
+from ..hashing import blake2b
 
 if TYPE_CHECKING:
     from ..model.problem import Problem

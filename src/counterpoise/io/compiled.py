@@ -42,7 +42,7 @@ from pathlib import Path
 from types import CodeType
 from typing import Any
 
-from .cache import blake2b
+from ..hashing import blake2b
 
 #: codes kept in one package's file at most (counterpoise's dataclasses need ~400)
 MAX_CODES = 2048
@@ -158,10 +158,6 @@ def save() -> None:
     _added.clear()
 
 
-def _dump(value: Any, handle: Any) -> None:
-    marshal.dump(value, handle)
-
-
 def uninstall() -> None:
     """Give :mod:`dataclasses` the built-in :func:`exec` back and forget the codes (tests)."""
     global _folder, compiles
@@ -173,3 +169,8 @@ def uninstall() -> None:
     compiles = 0
     _codes.clear()
     _added.clear()
+
+
+def _dump(value: Any, handle: Any) -> None:
+    """:func:`marshal.dump` with the signature the cache's writer takes."""
+    marshal.dump(value, handle)

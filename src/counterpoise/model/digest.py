@@ -17,12 +17,9 @@ import dataclasses
 from collections.abc import Mapping
 from typing import Any
 
-try:  # CPython's own BLAKE2, which hashlib.blake2b is; importing hashlib also loads OpenSSL (~4 ms)
-    from _blake2 import blake2b
-except ImportError:  # pragma: no cover - a Python without it
-    from hashlib import blake2b
-
 import numpy as np
+
+from ..hashing import blake2b
 
 #: attribute under which a problem keeps its key (not a dataclass field: repr, eq and
 #: dataclasses.replace ignore it)

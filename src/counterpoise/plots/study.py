@@ -240,17 +240,15 @@ def load() -> None:
     from PIL import PngImagePlugin  # noqa: F401
 
 
-def prepare(meta: Mapping[str, Any] | None = None, xs: Sequence[Sequence[float]] = ()) -> StudyFigure:
+def prepare(meta: Mapping[str, Any], xs: Sequence[Sequence[float]]) -> StudyFigure:
     """The :class:`StudyFigure` of a study whose points all end optimal (the usual
     case: :func:`study_plots` makes another when they do not), drawn up to the results;
     its drawing imports matplotlib and fills its caches (the font...). ``meta``:
-    ``study.json``'s content, ``xs``: the varied values of every point (:func:`layout`).
-    Without ``meta``: a one-axes figure, to warm matplotlib up. For a thread or another
-    process of a study's while its points are solved
-    (:class:`counterpoise.studies.command.PlotPreload`, :mod:`counterpoise.plotter`)."""
+    ``study.json``'s content, ``xs``: each varied key's values, of which the layout reads
+    the least and the greatest (:func:`layout`). For a thread or another process of a
+    study's while its points are solved (:class:`counterpoise.studies.command.PlotPreload`,
+    :mod:`counterpoise.plotter`)."""
     load()
-    if meta is None:
-        return StudyFigure(Layout(("x [1]",), ("objective_kg",), ((0.0, 1.0),)))
     return StudyFigure(layout(meta, xs))
 
 

@@ -317,7 +317,8 @@ class PlotPreload:
         try:
             from ..plots.study import prepare
 
-            self.figure = prepare(self.meta, self.xs)
+            if self.meta is not None:
+                self.figure = prepare(self.meta, self.xs)
         except ImportError:  # pragma: no cover - the plot itself reports it
             pass
 
