@@ -194,12 +194,12 @@ def core_method(problem: Problem, starts: int = 1, backend: str = "auto", design
     the designer (IPOPT or LP); wrapped in :class:`MultiStart` when ``starts`` > 1.
     ``designer``: a prebuilt designer of ``problem`` to use (it must be of the right kind)."""
     from .designer import Designer
-    from .minimax import MinimaxDesigner, has_direct_springs
+    from .minimax import MinimaxDesigner, needs_minimax
 
     inner: Plain | Minimax
-    if has_direct_springs(problem):
+    if needs_minimax(problem):
         if backend not in ("auto", "ipopt"):
-            raise ValueError(f"backend {backend!r}: directly attached springs are designed by IPOPT (minimax)")
+            raise ValueError(f"backend {backend!r}: real springs (directly attached, or over pulleys of radius > 0) are designed by IPOPT (minimax)")
         inner = Minimax(designer if designer is not None and not isinstance(designer, Designer) else MinimaxDesigner(problem))
     else:
         # an object with the designer's solve() is used as given (a study may wrap one)

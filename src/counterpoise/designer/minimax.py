@@ -50,7 +50,24 @@ INITIAL_RATIO = 10.0
 
 
 def has_direct_springs(problem: Problem) -> bool:
+    """Some spring is attached directly (its part's free length and initial tension count)."""
     return any(s.direct is not None for s in problem.springs)
+
+
+def needs_minimax(problem: Problem) -> bool:
+    """Some spring's energy is not ½ k |a − b|² (attached directly, or behind a pulley of
+    radius > 0 without a pin): no exact balance conditions, the minimax designer designs it."""
+    return any(not s.exact for s in problem.springs)
+
+
+def _why(problem: Problem) -> str:
+    """Why a problem has no exact balance: its real springs, by kind."""
+    kinds = []
+    if has_direct_springs(problem):
+        kinds.append("directly attached springs")
+    if any(s.direct is None and not s.exact for s in problem.springs):
+        kinds.append("cables over pulleys of radius > 0")
+    return " and ".join(kinds) or "real springs"
 
 
 def _along(values: Any, tangent: tuple[np.ndarray, np.ndarray, np.ndarray] | None) -> Any:
@@ -168,7 +185,7 @@ class MinimaxDesigner:
                 mech = Mechanics(problem, base, variables, {n: coords_sym[i] for i, n in enumerate(names)}, gravity, functions)
                 d = sub(mech.position(spring.ends[0]), mech.position(spring.ends[1]))
                 length = ca.sqrt(dot(d, d)) - mech.value(m.cable)
-                checks = [length - mech.value(m.free_length)]
+                checks = [length - mech.value(m.free_length) - spring.slack_margin]
                 if m.max_length is not None:
                     checks.append(mech.value(m.max_length) - length)
                 fun = ca.Function("spring_length", [coords_sym, f.z, f.p], [ca.vertcat(*checks)])
@@ -216,7 +233,7 @@ class MinimaxDesigner:
         t = float(out.z[-1])
         ok = out.status is Status.OPTIMAL
         message = (
-            f"smallest worst-case residual ratio on the sampled configurations: {t:.6g} (directly attached springs: exact balance is generally impossible)"
+            f"smallest worst-case residual ratio on the sampled configurations: {t:.6g} ({_why(self.problem)}: exact balance is generally impossible)"
             if ok
             else f"minimax design: {out.solver.upper()} {out.solver_status}"
         )

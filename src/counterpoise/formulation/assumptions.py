@@ -123,6 +123,13 @@ def check_exact_conditions(problem: Problem) -> None:
                 "a directly attached spring (free length, initial tension) has no exact balance conditions: "
                 "design it with the minimax designer (counterpoise.designer.minimax), as design() does",
             )
+        if not spring.exact:
+            raise ProblemFileError(
+                problem.path,
+                f"springs.{spring.name}.pulley.radius",
+                "a cable to a point over a pulley of radius > 0 has no exact balance conditions: design it with the "
+                "minimax designer (counterpoise.designer.minimax), as design() does, or wrap the cable onto a pin (pin = true)",
+            )
     for frame in problem.frames:
         for i, t in enumerate(frame.transforms):
             key = frame.key(i)

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from ..mechanics import Mechanics, casadi_functions
+from ..mechanics.cable import LENGTH_FLOOR, spring_quantities  # noqa: F401 - LENGTH_FLOOR re-exported
 from ..mechanics.kinematics import dot, sub
 from ..mechanics.sampling import configurations
 from ..model import expr as ex
@@ -44,23 +45,18 @@ ACTIVE_TOLERANCE = 1e-6
 VIOLATION_TOLERANCE = 1e-7
 #: verification rounds: add the violating configurations and solve again, at most this often
 MAX_ROUNDS = 4
-#: a spring's length is sqrt(d·d + LENGTH_FLOOR²) (m): differentiable where its ends meet
-LENGTH_FLOOR = 1e-12
 
 Extra = Mapping[tuple[str, str], np.ndarray]  # (spring, scenario) -> configurations (N, n_q)
 
 
 def spring_force_length(mech: Mechanics, spring: ZeroFreeLengthSpring) -> tuple[Any, Any]:
-    """(pull, distance between the ends) of ``spring``: k·d through a pulley (zero free
-    length), F0 + k·(d − cable − L0) attached directly."""
-    d = sub(mech.position(spring.ends[0]), mech.position(spring.ends[1]))
-    # + LENGTH_FLOOR²: a finite derivative where the ends meet (a length error ≤ 1e-12 m)
-    length = mech.functions["sqrt"](dot(d, d) + LENGTH_FLOOR**2)
-    k = mech.value(spring.stiffness)
-    if spring.direct is None:
-        return k * length, length
-    m = spring.direct
-    return mech.value(m.initial_tension) + k * (length - mech.value(m.cable) - mech.value(m.free_length)), length
+    """(pull, distance between the ends) of ``spring`` (:func:`spring_quantities`)."""
+    q = spring_quantities(mech, spring)
+    return q["force"], q["length"]
+
+
+#: the order of a spring's quantities in the rows' mapped functions
+QUANTITIES = ("force", "length", "wrap")
 
 
 def functions(mech: Mechanics, extreme: Any = None) -> dict[str, Any]:
@@ -216,12 +212,12 @@ def build_rows(formulation: Any, extra: Extra | None = None) -> ConstraintRows:
                 names = [k.name for k in problem.subsystem_coordinates(spring.subsystem)] if spring.subsystem else []
                 qs = ca.SX.sym("q", len(names))
                 moving = Mechanics(problem, base, variables, {**home, **{n: qs[i] for i, n in enumerate(names)}}, gravity, cas)
-                force, length = spring_force_length(moving, spring)
-                fun = ca.Function("spring_extremes", [qs, f.z, f.p], [ca.vertcat(force, length)])
-                mapped[key] = fun.map(q.shape[0])(ca.DM(q.T), f.z, f.p)  # (2, N)
+                state = spring_quantities(moving, spring)
+                fun = ca.Function("spring_extremes", [qs, f.z, f.p], [ca.vertcat(*(state[name] for name in QUANTITIES))])
+                mapped[key] = fun.map(q.shape[0])(ca.DM(q.T), f.z, f.p)  # (3, N)
             q = samples[key]
             quantity = SPRING_EXTREMES[call.func][0]
-            values = mapped[key][0 if quantity == "force" else 1, :].T  # (N, 1)
+            values = mapped[key][QUANTITIES.index(quantity), :].T  # (N, 1)
             offset = ca.substitute(ca.SX(value), e, ca.SX(0))
             slope = ca.jacobian(ca.SX(value), e)
             rows.append((offset + slope * values) / s)
@@ -263,8 +259,7 @@ def _extreme(problem: Problem, spring: ZeroFreeLengthSpring, quantity: str, side
     names = [k.name for k in problem.subsystem_coordinates(spring.subsystem)] if spring.subsystem else []
     coords = {**home, **{n: q[:, i] for i, n in enumerate(names)}}
     mech = Mechanics(problem, base, variables, coords, gravity, NUMPY_FUNCTIONS)
-    force, length = spring_force_length(mech, spring)
-    values = np.broadcast_to(np.asarray(force if quantity == "force" else length, dtype=float), (q.shape[0],))
+    values = np.broadcast_to(np.asarray(spring_quantities(mech, spring)[quantity], dtype=float), (q.shape[0],))
     i = int(np.nanargmax(values) if side == "max" else np.nanargmin(values))
     return float(values[i]), i, values
 

@@ -185,6 +185,19 @@ class PointSpec(_Table):
     point: Vec3
 
 
+class PulleySpec(_Table):
+    """A pulley mount's pulley (docs/build.md#pulleys): radius, clearance, axis and wrap."""
+
+    radius: Value | None = None  # a length; default 0 (a point pulley)
+    clearance: Value | None = None  # a length; default PULLEY_CLEARANCE
+    axis: Vec3 | None = None  # in the from frame; default [0, 0, 1]
+    wrap: Literal["ccw", "cw"] = "ccw"
+    pin: bool = False
+    lead: Vec3 | None = None  # from frame: where the spring lies behind the pulley
+    fixing: Vec3 | None = None  # to frame: where the cable's end is fixed on the pin
+    description: str = ""
+
+
 class SpringSpec(_Table):
     stiffness: Value | None = None  # or a slot: the rate of the catalogue part chosen for it
     slot: Name | None = None
@@ -194,6 +207,8 @@ class SpringSpec(_Table):
     max_length: Value | None = None
     cable: Value | None = None
     max_force: Value | None = None  # the spring's largest force (a limit of the design)
+    pulley: PulleySpec | None = None  # mount = "pulley": its radius, clearance, axis, wrap
+    slack_margin: Value | None = None  # the extension kept beyond the free length (a length)
     # free-stiffness springs: the designed helical spring (docs/springs.md)
     material: str | None = None  # a key of counterpoise/data/spring_materials.csv
     max_outer_diameter: Value | None = None
@@ -294,6 +309,11 @@ class SettingsSpec(_Table):
     seed: Annotated[int, Field(ge=0, lt=2**63)] = 20190101
     max_iterations: Annotated[int, Field(ge=1, le=1_000_000)] = 500
     schedule_points: Annotated[int, Field(ge=50, le=100_000)] = 51
+    #: the springs are ideal (a paper's idealised design): the status refers to the ideal model
+    ideal_springs: bool = False
+    #: a minimax design (real springs: directly attached, or behind a pulley of radius > 0)
+    #: whose worst residual ratio exceeds this is "not balanced"
+    minimax_tolerance: Annotated[FiniteFloat, Field(gt=0, lt=1)] = 0.05
 
 
 class CatalogueSpec(_Table):

@@ -168,15 +168,42 @@ class Mechanics:
         return mul(-1.0, mul(mass, dot(gravity, world)))
 
     def spring_energy(self, s: ZeroFreeLengthSpring, stiffness: Scalar | None = None) -> Scalar:
-        """A spring's energy: ½ k |a − b|² (zero free length), or for a real spring through a
-        cable F0·x + ½ k x² with x = |a − b| − cable − L0. ``stiffness`` replaces k."""
+        """A spring's energy. ``stiffness`` replaces k.
+
+        - behind a pulley that pulls k·d (a point pulley, or a pin of the same radius):
+          ½ k |a − b|² (zero free length);
+        - behind a pulley of radius r > 0 without a pin: ½ k (ℓ − ℓ*)², ℓ the cable's path
+          over the pulley (:mod:`.cable`), ℓ* the spring's ``zero_length`` variable;
+        - a real spring through a cable (direct mount): F0·x + ½ k x², x = |a − b| − cable − L0;
+        - as built (:attr:`~counterpoise.model.elements.ZeroFreeLengthSpring.built`): F0·x + ½ k x²
+          while x = path + offset > 0, else 0 (the coils close, the cable goes slack)."""
         k = self.value(s.stiffness) if stiffness is None else stiffness
+        if s.built is not None:
+            b = s.built
+            x = add(self.spring_path(s), self.value(b.offset))
+            value = add(mul(self.value(b.initial_tension), x), mul(0.5, mul(k, mul(x, x))))
+            return self.functions["where_positive"](x, value)
         d = sub(self.position(s.ends[0]), self.position(s.ends[1]))
         if s.direct is None:
-            return mul(0.5, mul(k, dot(d, d)))
+            p = s.pulley
+            if p is None or p.exact or p.zero_length is None:
+                return mul(0.5, mul(k, dot(d, d)))
+            x = add(self.spring_path(s), mul(-1.0, self.env[p.zero_length]))
+            return mul(0.5, mul(k, mul(x, x)))
         m = s.direct
         x = self.functions["sqrt"](dot(d, d)) - self.value(m.cable) - self.value(m.free_length)
         return add(mul(self.value(m.initial_tension), x), mul(0.5, mul(k, mul(x, x))))
+
+    def spring_path(self, s: ZeroFreeLengthSpring) -> Scalar:
+        """The length a spring's extension follows: the cable's path over its pulley (and
+        pin) for a pulley of radius > 0 (:func:`.cable.cable`), else the distance |a − b|."""
+        p = s.pulley
+        if s.direct is None and p is not None and p.radius > 0.0:
+            from .cable import cable
+
+            return cable(self, s).path
+        d = sub(self.position(s.ends[0]), self.position(s.ends[1]))
+        return self.functions["sqrt"](dot(d, d))
 
     def energy_terms(self, subsystem: str | None = None) -> tuple[Scalar, Scalar]:
         """(energy of the given bodies, energy of the balancers) of ``subsystem`` (all if None).

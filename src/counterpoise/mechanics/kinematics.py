@@ -101,6 +101,11 @@ def sub(a: Vec, b: Vec) -> Vec:
     return [add(x, mul(-1.0, y)) for x, y in zip(a, b)]
 
 
+def cross(a: Vec, b: Vec) -> Vec:
+    """a × b."""
+    return [add(mul(a[1], b[2]), mul(-1.0, mul(a[2], b[1]))), add(mul(a[2], b[0]), mul(-1.0, mul(a[0], b[2]))), add(mul(a[0], b[1]), mul(-1.0, mul(a[1], b[0])))]
+
+
 IDENTITY: Mat = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
 
 

@@ -12,8 +12,10 @@ Named quantities (their arguments are names, not values):
 - ``force_home(s)``, ``length_home(s)``: spring ``s``'s pull and the distance between its
   ends (``from`` to ``to``) at the home configuration; exact.
 - ``force_max(s)``, ``force_min(s)``, ``length_max(s)``, ``length_min(s)``: their extremes
-  over the workspace (every configuration of the spring's subsystem). They enter on sampled
-  configurations and at the extremes the verification finds (see docs/constraints.md).
+  over the workspace (every configuration of the spring's subsystem); ``wrap_max(s)``,
+  ``wrap_min(s)``: those of the arc its cable wraps on a pulley of radius > 0 (rad). They
+  enter on sampled configurations and at the extremes the verification finds (see
+  docs/constraints.md).
 - ``x_home(c)``, ``y_home(c)``, ``z_home(c)``: a counter-mass's world position at home.
 - ``added_mass()``, ``added_inertia()``: the objective's Σ M_j and Σ M_j d_j².
 - ``total_mass(subsystem)``, ``com_distance(subsystem[, frame])``: as in report quantities.
@@ -34,6 +36,8 @@ SPRING_EXTREMES = {
     "force_min": ("force", "min"),
     "length_max": ("length", "max"),
     "length_min": ("length", "min"),
+    "wrap_max": ("wrap", "max"),
+    "wrap_min": ("wrap", "min"),
 }
 #: a counter-mass's world coordinates at home: name -> axis index
 COUNTER_MASS_HOME = {"x_home": 0, "y_home": 1, "z_home": 2}
@@ -45,6 +49,7 @@ CONSTRAINT_FUNCTIONS = frozenset(SPRING_HOME | set(SPRING_EXTREMES) | set(COUNTE
 #: kinds of constraints
 FILE = "constraint"  # [constraints.<name>]
 FORCE_LIMIT = "force_limit"  # a spring's largest force
+REALISATION = "realisation"  # a limit of the spring as built (docs/build.md#realisation-limits)
 
 
 @dataclass(frozen=True)

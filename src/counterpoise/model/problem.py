@@ -154,6 +154,11 @@ class Settings:
     seed: int = 20190101  # random sampling is reproducible
     max_iterations: int = 500
     schedule_points: int = 51  # payload problems: at least this many schedule rows
+    #: the springs are ideal (a paper's idealised design): no realisation limits, and the
+    #: status refers to the ideal model (the as-built figure is reported beside it)
+    ideal_springs: bool = False
+    #: a minimax design whose worst residual ratio exceeds this is "not balanced"
+    minimax_tolerance: float = 0.05
 
 
 @dataclass(frozen=True)

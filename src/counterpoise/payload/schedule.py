@@ -122,7 +122,7 @@ class AdjustmentSolver:
         """``parameters``: base parameters (SI) that differ from the file's (a study point,
         the chosen catalogue parts); ``bounds``: narrower bounds of adjustments (SI);
         ``adjusters``: where the method is kept across designs (None: built for this one)."""
-        from ..designer.minimax import has_direct_springs
+        from ..designer.minimax import needs_minimax
 
         self.source = problem
         self.payload = payload_of(problem)
@@ -130,7 +130,7 @@ class AdjustmentSolver:
         #: the adjustments' design method: the plain designer, or the minimax one when a
         #: spring is attached directly (then "feasible" means its minimax solve converged)
         frozen = {v.name: float(shared[v.name]) for v in problem.variables if not v.adjustable}
-        if adjusters is None or has_direct_springs(problem):
+        if adjusters is None or needs_minimax(problem):
             self.method = core_method(self.problem)
             frozen = {}  # the method was built on these values
         else:

@@ -83,11 +83,11 @@ class StudyTask:
         Where the innermost solve is the :class:`~counterpoise.designer.designer.Designer`
         of the problem itself (no payload range, no directly attached spring), it is
         :meth:`designer`'s, so the solver options and the time limit apply to it."""
-        from ..designer.minimax import has_direct_springs
+        from ..designer.minimax import needs_minimax
         from ..pipeline import build_method
 
         problem = problem or self.problem
-        inner = None if problem.payloads or has_direct_springs(problem) else self.designer(problem)
+        inner = None if problem.payloads or needs_minimax(problem) else self.designer(problem)
         return build_method(problem, backend=self.backend, designer=inner)
 
     @cached_property

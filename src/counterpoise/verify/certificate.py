@@ -179,6 +179,8 @@ def degrees(problem: Problem, subsystem: str) -> dict[str, int]:
             continue
         if s.direct is not None:
             raise NotCertifiable(f"spring {s.name!r} is attached directly")
+        if not s.exact:
+            raise NotCertifiable(f"spring {s.name!r} runs over a pulley of radius > 0 without a pin")
         if ex.names(s.stiffness) & names:
             raise NotCertifiable(f"the stiffness of {s.name!r} depends on a coordinate")
         a, b = point(s.ends[0], s.name), point(s.ends[1], s.name)

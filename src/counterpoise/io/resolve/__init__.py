@@ -10,7 +10,7 @@ from __future__ import annotations
 from ...errors import ProblemFileError, raise_errors
 from ...model.problem import Problem, Settings
 from ..schema import ProblemFile
-from . import constraints, loops, mechanism, parts, payloads, quantities, report, robot, robust, substitution
+from . import constraints, loops, mechanism, parts, payloads, pulleys, quantities, report, robot, robust, substitution
 from .context import REPORT_FUNCTIONS, RESERVED, Context
 
 __all__ = ["REPORT_FUNCTIONS", "RESERVED", "resolve"]
@@ -33,7 +33,8 @@ def resolve(spec: ProblemFile, label: str) -> Problem:
         ctx.check()  # a failure that follows from an error already found
         raise
     ctx.check()
-    return loops.assembled_homes(problem)  # closed loops: the homes the closure assembles (docs/loops.md#the-home)
+    problem = loops.assembled_homes(problem)  # closed loops: the homes the closure assembles (docs/loops.md#the-home)
+    return pulleys.finish(ctx, problem)  # pulleys of radius > 0: pins checked, zero-force lengths as variables
 
 
 def _resolve(ctx: Context) -> Problem:

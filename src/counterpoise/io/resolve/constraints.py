@@ -32,7 +32,7 @@ from .context import REPORT_FUNCTIONS, Context, evaluate_checked, numpy_function
 from .report import report_call
 
 #: representative values of the named quantities for dimension checks (SI, with units)
-_UNITS = {"force": "N", "length": "m"}
+_UNITS = {"force": "N", "length": "m", "wrap": "rad"}
 
 
 def designed_spring_force_limit(spring: ZeroFreeLengthSpring) -> tuple[float, str] | None:

@@ -8,7 +8,7 @@ from typing import Any
 
 
 from ...model import expr as ex
-from ...model.elements import CounterMass, DirectMount, SpringDesignOptions, ZeroFreeLengthSpring
+from ...model.elements import PULLEY_CLEARANCE, SLACK_MARGIN, CounterMass, DirectMount, Pulley, SpringDesignOptions, ZeroFreeLengthSpring
 from ...model.mechanism import GROUND, Body, Coordinate, Frame, Rotation, Subsystem, Transform, Translation
 from ...model.units import (
     DIMENSIONLESS,
@@ -264,8 +264,53 @@ def springs(ctx: Context, frames: Mapping[str, Frame]) -> tuple[ZeroFreeLengthSp
         if len(subs) > 1:
             raise ctx.fail(key, f"connects subsystems {' and '.join(sorted(subs))}; subsystems must move independently")
         options = design_options(ctx, s, key)
-        out.append(ZeroFreeLengthSpring(name, k, (a, b), next(iter(subs), None), s.description, s.slot, direct_mount(ctx, s, key), options))
+        direct = direct_mount(ctx, s, key)
+        margin = SLACK_MARGIN if s.slack_margin is None else length(ctx, s.slack_margin, f"{key}.slack_margin")
+        out.append(ZeroFreeLengthSpring(name, k, (a, b), next(iter(subs), None), s.description, s.slot, direct, options, pulley(ctx, s, key), margin))
     return tuple(out)
+
+
+def length(ctx: Context, value: Any, key: str) -> float:
+    """A literal length ≥ 0 (SI)."""
+    q = ctx.literal(value, key)
+    with ctx.at(key):
+        check_dimension(q.dimension, LENGTH, f"'{value}'")
+    if not (math.isfinite(q.si) and q.si >= 0):
+        raise ctx.fail(key, f"must be a length ≥ 0, got '{value}'")
+    return q.si
+
+
+def direction(ctx: Context, value: Any, key: str) -> tuple[float, float, float]:
+    """A literal direction (three plain numbers, not all 0), normalised."""
+    if isinstance(value, str) or len(value) != 3 or not all(isinstance(c, (int, float)) and not isinstance(c, bool) and math.isfinite(c) for c in value):
+        raise ctx.fail(key, f"expected a direction of three plain numbers such as [0, -1, 0], got {value!r}")
+    norm = math.sqrt(sum(float(c) ** 2 for c in value))
+    if norm == 0:
+        raise ctx.fail(key, "the direction must not be the zero vector")
+    x, y, z = (float(c) / norm for c in value)
+    return (x, y, z)
+
+
+def pulley(ctx: Context, s: Any, key: str) -> Pulley | None:
+    """A pulley mount's pulley (docs/build.md#pulleys); None for a direct mount."""
+    spec = s.pulley
+    if s.mount == "direct":
+        if spec is not None:
+            raise ctx.fail(f"{key}.pulley", 'a directly attached spring (mount = "direct") has no pulley')
+        return None
+    if spec is None:
+        return Pulley()
+    pkey = f"{key}.pulley"
+    radius = 0.0 if spec.radius is None else length(ctx, spec.radius, f"{pkey}.radius")
+    clearance = PULLEY_CLEARANCE if spec.clearance is None else length(ctx, spec.clearance, f"{pkey}.clearance")
+    axis = (0.0, 0.0, 1.0) if spec.axis is None else direction(ctx, spec.axis, f"{pkey}.axis")
+    lead = None if spec.lead is None else direction(ctx, spec.lead, f"{pkey}.lead")
+    if lead is not None and abs(sum(a * b for a, b in zip(axis, lead))) > 1 - 1e-6:
+        raise ctx.fail(f"{pkey}.lead", "the lead direction runs along the pulley's axis: it must lie in the pulley's plane")
+    fixing = None if spec.fixing is None else direction(ctx, spec.fixing, f"{pkey}.fixing")
+    if fixing is not None and not spec.pin:
+        raise ctx.fail(f"{pkey}.fixing", "only a cable wrapped onto a pin (pin = true) has a fixing point")
+    return Pulley(radius, clearance, axis, 1 if spec.wrap == "ccw" else -1, spec.pin, lead, fixing)
 
 
 #: the keys of a free-stiffness spring's design (:class:`SpringDesignOptions`)
