@@ -3,6 +3,7 @@
 :func:`build_method` builds a problem's design method once, nested by the problem's
 content (:mod:`counterpoise.designer.methods`)::
 
+    RealisationMethod      springs: realisation limits, wound rates      (realisation.method)
     PartsMethod            spring slots: a catalogue part per slot      (selection.method)
       PayloadMethod        a payload range: samples, then a schedule     (payload.method)
         MultiStart         starts > 1: seeded random geometries          (designer.methods)
@@ -37,6 +38,7 @@ if TYPE_CHECKING:
     from .designer.minimax import MinimaxDesigner
     from .payload import OperatorSettings, PayloadDesign
     from .selection.parts import PartsReport
+    from .realisation.method import RealisationReport
     from .springs.workspace import DesignedSpring
 
 #: the options :func:`design` passes on to a method's ``solve``
@@ -56,6 +58,8 @@ class DesignResult:
     quantities: tuple[QuantityValue, ...] = ()
     #: free-stiffness springs: the helical spring designed for each (:mod:`counterpoise.springs`)
     springs: "tuple[DesignedSpring, ...]" = ()
+    #: the realisation limits of the springs (:mod:`counterpoise.realisation`; None: no springs)
+    realisation: "RealisationReport | None" = None
 
     @property
     def problem(self) -> Problem:
@@ -94,6 +98,16 @@ def build_method(problem: Problem, starts: int = 1, backend: str = "auto", desig
     """
     if starts < 1:
         raise ValueError("starts must be at least 1")
+    inner = _method(problem, starts, backend, designer)
+    if not problem.springs or problem.settings.ideal_springs:
+        return inner
+    from .realisation.method import RealisationMethod
+
+    return RealisationMethod(problem, lambda augmented: _method(augmented, starts, backend), inner)
+
+
+def _method(problem: Problem, starts: int, backend: str, designer: "Designer | MinimaxDesigner | None" = None) -> DesignMethod:
+    """Every layer of :func:`build_method` but the realisation layer."""
     direct = has_direct_springs(problem)
     method: DesignMethod
     if problem.payloads:
@@ -140,12 +154,13 @@ def run(
             verification = check_design(solution, check)
     final = verdict(solution, verification)
     values = evaluate_quantities(solution) if quantities else ()
-    springs: tuple[DesignedSpring, ...] = ()
-    if quantities and any(s.slot is None for s in solution.problem.springs):
-        from .springs.workspace import designed_springs
+    from .realisation.method import RealisationReport, report_of
 
-        springs = designed_springs(solution)
-    return DesignResult(solution, verification, final, values, springs)
+    realised = solution.extra(RealisationReport)
+    if realised is None and quantities and solution.problem.springs:
+        realised = report_of(solution, ideal=solution.problem.settings.ideal_springs)
+    springs: tuple[DesignedSpring, ...] = realised.springs if realised is not None and quantities else ()
+    return DesignResult(solution, verification, final, values, springs, realised)
 
 
 def design(problem: Problem, designer: "Designer | MinimaxDesigner | None" = None, starts: int = 1, check: str = "dense", **solve_options: Any) -> DesignResult:

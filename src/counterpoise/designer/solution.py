@@ -16,7 +16,7 @@ stack :attr:`Solution.verdicts` keeps what every layer said, innermost first, an
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 
@@ -35,7 +35,10 @@ if TYPE_CHECKING:
 
 #: who gives a design its verdict (:attr:`Verdict.source`): the dense check (the rule for
 #: every design no layer judged), or a layer
-VERDICT_SOURCES = ("check", "constraints", "minimax", "robust", "payload", "parts")
+VERDICT_SOURCES = ("check", "constraints", "minimax", "robust", "payload", "parts", "realisation")
+
+#: the type of an extra (:meth:`Solution.extra`)
+E = TypeVar("E")
 
 
 @dataclass(frozen=True)
@@ -100,6 +103,16 @@ class Solution:
     #: infeasible balance: what the reported closest design is (the smallest worst residual
     #: on sampled configurations, or least squares on the compressed conditions); None otherwise
     closest: str | None = None
+    #: typed results of outer layers, one per type, reachable by type (:meth:`extra`)
+    extras: tuple[object, ...] = ()
+
+    def extra(self, kind: type[E]) -> E | None:
+        """The outer layer's result of type ``kind`` attached to this design, or None."""
+        return next((e for e in self.extras if isinstance(e, kind)), None)
+
+    def with_extra(self, value: object) -> Solution:
+        """A new solution with ``value`` among its extras (replacing one of the same type)."""
+        return replace(self, extras=(*(e for e in self.extras if type(e) is not type(value)), value))
 
     @property
     def verdict(self) -> Verdict | None:

@@ -100,7 +100,10 @@ class PayloadDesign:
             mass = sampled.setting_mass[scenario.setting or ""]
             gravity, base = first[i % n_modes]
             scenario_parameters[scenario.name] = (gravity, {**base, self.payload.name: mass})
-            for name, v in by_mass[mass].values.items():
+            row = by_mass.get(mass)
+            if row is None:  # no feasible schedule row: the design's own samples (their settings)
+                continue
+            for name, v in row.values.items():
                 values[Slot(name, scenario.setting)] = v
         return replace(self.solution, problem=sampled.problem, values=values, scenario_parameters=scenario_parameters)
 

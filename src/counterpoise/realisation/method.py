@@ -1,0 +1,215 @@
+"""The realisation layer: a design whose springs can be built as specified and balance as built.
+
+:class:`RealisationMethod` wraps a problem's design method (every other layer inside it)
+and, after each solve:
+
+1. designs the helical spring of every free-stiffness spring (:mod:`counterpoise.springs`)
+   and measures every realisation limit over the workspace (:mod:`.limits`: clearance,
+   slack, wrap, plane, the spring itself);
+2. where a limit the design can move is violated, adds it as a design constraint (kind
+   ``realisation``, tightened to what the spring needs) and solves again: at most
+   :data:`ROUNDS` rounds, each started from the last design;
+3. re-solves the design for the rate each designed spring is wound to (its rounded coils
+   and diameter), the stiffness held there, so that the points on the build sheet balance
+   the spring that will be made (:func:`wound`);
+4. judges: a limit still violated, or a spring that cannot be made, is ``infeasible``
+   (source ``realisation``), naming the spring, the limit and where; the last design is the
+   closest buildable one the rounds reached, and is reported as for any infeasible problem.
+
+A problem whose springs are declared ideal (``[settings] ideal_springs = true``: a paper's
+idealised design) is not wrapped: its limits are only reported (:func:`report_of`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+from ..designer.methods import BoundsOverride, DesignMethod, Initial, Parameters
+from ..designer.solution import Solution
+from ..model import expr as ex
+from ..model.problem import Problem
+from ..solvers.base import Status
+from .limits import Limit, constraints, evaluate
+
+#: rounds of added realisation constraints, at most
+ROUNDS = 4
+#: a wound rate counts as the design rate within this share (no re-solve)
+SAME_RATE = 1e-12
+
+
+@dataclass(frozen=True)
+class RealisationReport:
+    """What the realisation layer found of a design (an extra of its :class:`Solution`)."""
+
+    limits: tuple[Limit, ...]
+    #: the designed springs (:class:`~counterpoise.springs.workspace.DesignedSpring`)
+    springs: tuple[Any, ...] = ()
+    #: realisation constraints added to the problem before this design
+    added: tuple[str, ...] = ()
+    rounds: int = 0
+    #: per designed spring whose stiffness was re-solved: (design rate, wound rate) in N/m
+    wound: Mapping[str, tuple[float, float]] = field(default_factory=dict)
+    #: the springs are declared ideal: the limits are reported, not enforced
+    ideal: bool = False
+    notes: tuple[str, ...] = ()
+
+    @property
+    def violated(self) -> tuple[Limit, ...]:
+        return tuple(lim for lim in self.limits if not lim.met)
+
+
+def designed_of(solution: Solution) -> tuple[Any, ...]:
+    """The designed springs of ``solution`` (free-stiffness springs; empty when none)."""
+    if not any(s.slot is None for s in solution.problem.springs):
+        return ()
+    from ..springs.workspace import designed_springs
+
+    return designed_springs(solution)
+
+
+def report_of(solution: Solution, ideal: bool = False) -> RealisationReport:
+    """The realisation limits of ``solution`` as they stand (no rounds, no verdict)."""
+    springs = designed_of(solution)
+    return RealisationReport(evaluate(solution, springs, solution.parts), springs, ideal=ideal)
+
+
+class RealisationMethod:
+    """Design ``problem`` with the method ``build(problem)`` makes, within the realisation
+    limits of its springs (see the module docstring). ``build`` is called again for the
+    problem with realisation constraints added, once per round that needs one."""
+
+    phase = "designing"
+
+    def __init__(self, problem: Problem, build: Callable[[Problem], DesignMethod], inner: DesignMethod | None = None) -> None:
+        self._problem = problem
+        self._build = build
+        self.inner = inner if inner is not None else build(problem)
+        self.phase = getattr(self.inner, "phase", "designing")
+        #: methods of the problems with realisation constraints, by their constraints' content
+        self._methods: dict[tuple[Any, ...], DesignMethod] = {}
+
+    @property
+    def problem(self) -> Problem:
+        return self._problem
+
+    def _method(self, problem: Problem) -> DesignMethod:
+        if problem is self._problem:
+            return self.inner
+        key = tuple((c.name, c.lower, c.upper) for c in problem.constraints)
+        if key not in self._methods:
+            self._methods[key] = self._build(problem)
+        return self._methods[key]
+
+    def solve(self, parameters: Parameters | None = None, bounds: BoundsOverride | None = None, initial: Initial | None = None, *, certify: bool = True) -> Solution:
+        problem = self._problem
+        solution = self.inner.solve(parameters, bounds, initial, certify=certify)
+        if not problem.springs:
+            return solution
+        added: list[str] = []
+        rounds = 0
+        forced: tuple[Limit, ...] = ()  # the violated limits of the last optimal design
+        while True:
+            springs = designed_of(solution)
+            limits = evaluate(solution, springs, solution.parts)
+            if solution.status is not Status.OPTIMAL:
+                if forced:  # the realisation constraints made it infeasible: say which limits
+                    return _unbuildable(solution, forced, rounds)
+                break
+            if rounds >= ROUNDS:
+                break
+            new = constraints(problem, limits)
+            if not new:
+                break
+            forced = tuple(lim for lim in limits if not lim.met)
+            names = {c.name for c in new}
+            problem = replace(problem, constraints=tuple(c for c in problem.constraints if c.name not in names) + new)
+            added += [n for n in sorted(names) if n not in added]
+            rounds += 1
+            solution = self._method(problem).solve(parameters, bounds, dict(solution.values), certify=certify)
+        wound: dict[str, tuple[float, float]] = {}
+        if solution.status is Status.OPTIMAL and springs:
+            solution, springs, limits, wound = self._wound(problem, solution, springs, limits, parameters, bounds, certify)
+        report = RealisationReport(limits, springs, tuple(added), rounds, wound)
+        solution = solution.with_extra(report)
+        return _judged(solution, report)
+
+    def _wound(
+        self, problem: Problem, solution: Solution, springs: Sequence[Any], limits: tuple[Limit, ...],
+        parameters: Parameters | None, bounds: BoundsOverride | None, certify: bool,
+    ) -> tuple[Solution, tuple[Any, ...], tuple[Limit, ...], dict[str, tuple[float, float]]]:
+        """The design re-solved for the wound rates (see :func:`wound_rates`), with its
+        springs' designs checked again for the new working range; as it was when no rate
+        moves, or when the re-solve is not optimal (its limits then say so)."""
+        fixed, changed = wound_rates(problem, springs)
+        if not changed:
+            return solution, tuple(springs), limits, {}
+        over: dict[Any, tuple[float, float]] = {**(bounds or {}), **{name: (k, k) for name, k in fixed.items()}}
+        again = self._method(problem).solve(parameters, over, dict(solution.values), certify=certify)
+        if again.status is not Status.OPTIMAL:
+            note = "; ".join(f"{n}: designed for {a / 1e3:.6g} N/mm, wound to {b / 1e3:.6g} N/mm" for n, (a, b) in changed.items())
+            limit = Limit(next(iter(changed)), "spring", math.nan, math.nan, "lower", "", "", None,
+                          f"no design balances the springs as wound ({note}): free a point of the spring or a tune variable so the geometry can follow its rate")
+            return solution, tuple(springs), (*limits, limit), changed
+        springs2 = designed_of(again)
+        return again, springs2, evaluate(again, springs2, again.parts), changed
+
+
+def wound_rates(problem: Problem, springs: Sequence[Any]) -> tuple[dict[str, float], dict[str, tuple[float, float]]]:
+    """(variables to hold, per spring (design rate, wound rate)) for the designed springs
+    whose wound rate differs from the rate they were designed for. A spring's stiffness
+    that is a design variable (not adjustable) is held at the wound rate; a variable shared
+    by springs wound to different rates, or a stiffness that is not a variable, is left
+    (the realisation limits of the design then name the spring)."""
+    by_spring = {s.name: s for s in problem.springs}
+    out: dict[str, float] = {}
+    changed: dict[str, tuple[float, float]] = {}
+    for d in springs:
+        if d.scenario not in ("all", problem.scenarios[0].name) or not d.ok:
+            continue
+        if len(problem.scenarios) > 1 and d.scenario != "all":
+            continue
+        made = d.design
+        design_rate, wound_rate = float(made.requirement.rate), float(made.rate)
+        if abs(wound_rate / design_rate - 1.0) <= SAME_RATE:
+            continue
+        s = by_spring[d.spring]
+        changed[s.name] = (design_rate, wound_rate)
+        if isinstance(s.stiffness, ex.Name) and s.stiffness.id in problem.variable and not problem.variable[s.stiffness.id].adjustable:
+            name = s.stiffness.id
+            if name in out and abs(out[name] / wound_rate - 1.0) > SAME_RATE:
+                out.pop(name)
+                continue
+            out[name] = wound_rate
+    return out, changed
+
+
+def _unbuildable(solution: Solution, forced: Sequence[Limit], rounds: int) -> Solution:
+    """The design of a round whose realisation constraints no balanced design keeps: judged
+    infeasible, naming the limits the round added and what the solver's word was."""
+    problem = solution.problem
+    text = "; ".join(lim.text(problem) for lim in forced[:3])
+    more = f" (and {len(forced) - 3} more)" if len(forced) > 3 else ""
+    message = (
+        f"infeasible as built: {text}{more}; no balanced design within the bounds keeps "
+        f"{'this limit' if len(forced) == 1 else 'these limits'} (free the spring's points or its rate, or declare "
+        f"the springs ideal); {solution.message}"
+    )
+    report = RealisationReport(tuple(forced), designed_of(solution), tuple(c.name for c in problem.constraints if c.kind == "realisation"), rounds)
+    return replace(solution, status=Status.INFEASIBLE, message=message).with_extra(report).judged(Status.INFEASIBLE, message, "realisation")
+
+
+def _judged(solution: Solution, report: RealisationReport) -> Solution:
+    """``solution`` judged infeasible when a realisation limit is violated (the layer's own
+    verdict), else as it is."""
+    violated = report.violated
+    if not violated or solution.status is not Status.OPTIMAL:
+        return solution
+    problem = solution.problem
+    text = "; ".join(lim.text(problem) for lim in violated[:3])
+    more = f" (and {len(violated) - 3} more)" if len(violated) > 3 else ""
+    rounds = f" after {report.rounds} round{'s' if report.rounds != 1 else ''} of realisation constraints" if report.rounds else ""
+    message = f"infeasible as built{rounds}: {text}{more}"
+    return replace(solution, status=Status.INFEASIBLE, message=message).judged(Status.INFEASIBLE, message, "realisation")
