@@ -18,8 +18,9 @@ Each layer is present only when the problem needs it, and each takes the same op
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 from .designer.designer import Designer
@@ -38,6 +39,7 @@ if TYPE_CHECKING:
     from .designer.minimax import MinimaxDesigner
     from .payload import OperatorSettings, PayloadDesign
     from .selection.parts import PartsReport
+    from .realisation.asbuilt import AsBuilt
     from .realisation.method import RealisationReport
     from .springs.workspace import DesignedSpring
 
@@ -60,6 +62,10 @@ class DesignResult:
     springs: "tuple[DesignedSpring, ...]" = ()
     #: the realisation limits of the springs (:mod:`counterpoise.realisation`; None: no springs)
     realisation: "RealisationReport | None" = None
+    #: the build sheet's rows (``build.csv``, :mod:`counterpoise.realisation.sheet`; empty: nothing to build)
+    sheet: tuple[dict[str, Any], ...] = ()
+    #: the balancer rebuilt from the sheet with real springs (:mod:`counterpoise.realisation.asbuilt`)
+    as_built: "AsBuilt | None" = None
 
     @property
     def problem(self) -> Problem:
@@ -160,7 +166,39 @@ def run(
     if realised is None and quantities and solution.problem.springs:
         realised = report_of(solution, ideal=solution.problem.settings.ideal_springs)
     springs: tuple[DesignedSpring, ...] = realised.springs if realised is not None and quantities else ()
-    return DesignResult(solution, verification, final, values, springs, realised)
+    sheet: tuple[dict[str, Any], ...] = ()
+    as_built = None
+    if quantities and (solution.problem.springs or solution.problem.counter_masses):
+        from .realisation.asbuilt import check as check_as_built
+        from .realisation.sheet import sheet_rows
+
+        with progress.phase(f"{solution.problem.name}: checking the balancer as built"):
+            sheet = tuple(sheet_rows(solution, springs, solution.parts))
+            as_built = check_as_built(sheet)
+        final = judge_as_built(solution, final, as_built)
+    return DesignResult(solution, verification, final, values, springs, realised, sheet, as_built)
+
+
+def judge_as_built(solution: Solution, final: Verdict, as_built: "AsBuilt") -> Verdict:
+    """The final verdict with the as-built check: an optimal design whose balancer, rebuilt
+    from its build sheet with real springs, misses its tolerance (the verification
+    tolerance; a minimax design's ``minimax_tolerance``) is "not balanced" as built. A
+    problem whose springs are declared ideal keeps the ideal model's verdict, the as-built
+    figure beside it."""
+    problem = solution.problem
+    ratio = as_built.residual_ratio
+    if problem.settings.ideal_springs:
+        figure = f"{ratio:.3g}" if math.isfinite(ratio) else "not known (" + "; ".join(as_built.notes) + ")"
+        return replace(final, message=f"{final.message}; IDEAL SPRINGS (a paper's idealised design): as built, the residual ratio is {figure}")
+    if final.status is not Status.OPTIMAL:
+        return final
+    tolerance = problem.settings.minimax_tolerance if solution.sampled_ratio is not None else problem.settings.verify_tolerance
+    if math.isfinite(ratio) and ratio <= tolerance:
+        return final
+    why = "; ".join(as_built.notes) if as_built.notes else f"residual ratio {ratio:.3g} > {tolerance:.3g}"
+    slack = ", ".join(f"{name} slack on {100 * share:.3g} % of the workspace" for name, share in as_built.slack.items() if share > 0)
+    message = f"not balanced as built (rebuilt from build.csv with real springs): {why}" + (f"; {slack}" if slack else "")
+    return Verdict(Status.NOT_BALANCED, message, "realisation")
 
 
 def design(problem: Problem, designer: "Designer | MinimaxDesigner | None" = None, starts: int = 1, check: str = "dense", **solve_options: Any) -> DesignResult:

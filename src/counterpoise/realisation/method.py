@@ -38,6 +38,9 @@ from .limits import Limit, constraints, evaluate
 ROUNDS = 4
 #: a wound rate counts as the design rate within this share (no re-solve)
 SAME_RATE = 1e-12
+#: re-solves for the wound rates, at most (a spring designed for the new working range may
+#: be wound to another rate: solved again for that one)
+WOUND_ROUNDS = 3
 
 
 @dataclass(frozen=True)
@@ -146,15 +149,38 @@ class RealisationMethod:
         fixed, changed = wound_rates(problem, springs)
         if not changed:
             return solution, tuple(springs), limits, {}
-        over: dict[Any, tuple[float, float]] = {**(bounds or {}), **{name: (k, k) for name, k in fixed.items()}}
-        again = self._method(problem).solve(parameters, over, dict(solution.values), certify=certify)
-        if again.status is not Status.OPTIMAL:
-            note = "; ".join(f"{n}: designed for {a / 1e3:.6g} N/mm, wound to {b / 1e3:.6g} N/mm" for n, (a, b) in changed.items())
-            limit = Limit(next(iter(changed)), "spring", math.nan, math.nan, "lower", "", "", None,
-                          f"no design balances the springs as wound ({note}): free a point of the spring or a tune variable so the geometry can follow its rate")
-            return solution, tuple(springs), (*limits, limit), changed
-        springs2 = designed_of(again)
-        return again, springs2, evaluate(again, springs2, again.parts), changed
+        first = dict(changed)
+        for _ in range(WOUND_ROUNDS):
+            over: dict[Any, tuple[float, float]] = {**(bounds or {}), **{name: (k, k) for name, k in fixed.items()}}
+            again = self._method(problem).solve(parameters, over, dict(solution.values), certify=certify)
+            if again.status is not Status.OPTIMAL:
+                note = "; ".join(f"{n}: designed for {a / 1e3:.6g} N/mm, wound to {b / 1e3:.6g} N/mm" for n, (a, b) in first.items())
+                limit = Limit(next(iter(first)), "spring", math.nan, math.nan, "lower", "", "", None,
+                              f"no design balances the springs as wound ({note}): free a point of the spring or a tune variable so the geometry can follow its rate")
+                return solution, tuple(springs), (*limits, limit), first
+            solution, springs = again, _same_springs(springs, designed_of(again))
+            fixed, changed = wound_rates(problem, springs)
+            if not changed:
+                break
+        return solution, tuple(springs), evaluate(solution, springs, solution.parts), first
+
+
+def _same_springs(before: Sequence[Any], after: Sequence[Any]) -> tuple[Any, ...]:
+    """The springs ``after`` a re-solve for their wound rates, each the very spring wound
+    ``before`` (same wire, diameter and coils) checked against its new working range: the
+    design was solved for that spring's rate, a newly chosen one would have another."""
+    from ..springs.design import redesign_at
+
+    made = {(d.spring, d.scenario): d for d in before}
+    out = []
+    for d in after:
+        old = made.get((d.spring, d.scenario)) or made.get((d.spring, "all"))
+        if old is None or not old.ok:
+            out.append(d)
+            continue
+        same = redesign_at(old.design, d.design.requirement)
+        out.append(replace(d, design=same) if same.ok else d)  # no longer strong enough: the new choice, solved for in turn
+    return tuple(out)
 
 
 def wound_rates(problem: Problem, springs: Sequence[Any]) -> tuple[dict[str, float], dict[str, tuple[float, float]]]:

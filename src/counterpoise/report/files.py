@@ -158,11 +158,36 @@ def report_texts(result: DesignResult, warnings: Sequence[str] | None = None) ->
         texts["springs.csv"] = csv_text(parts.springs_rows(result), parts.SPRINGS_COLUMNS)
     if result.parts is not None:
         texts["tolerance.csv"] = csv_text(parts.tolerance_rows(result), parts.TOLERANCE_COLUMNS)
-    if result.problem.springs or result.problem.counter_masses:
-        from .build import BUILD_COLUMNS, BUILD_FLOAT_FORMAT, build_rows
+    if result.sheet:
+        from ..realisation.sheet import COLUMNS, FLOAT_FORMAT
 
-        texts["build.csv"] = csv_text(build_rows(result), BUILD_COLUMNS, BUILD_FLOAT_FORMAT)
+        texts["build.csv"] = csv_text(list(result.sheet), COLUMNS, FLOAT_FORMAT)
+    texts["status.txt"] += realisation_status(result)
     return texts
+
+
+def realisation_status(result: DesignResult) -> str:
+    """status.txt's lines on the springs as built: the as-built residual ratio, every
+    realisation limit that is not met, the realisation constraints added and the wound rates."""
+    lines = []
+    as_built = result.as_built
+    if as_built is not None:
+        ratio = as_built.residual_ratio
+        lines.append(f"as built (rebuilt from build.csv with real springs): residual ratio {ratio:.3g}" if ratio == ratio else "as built: " + "; ".join(as_built.notes))
+        for name, share in as_built.slack.items():
+            if share > 0:
+                lines.append(f"as built: spring {name} is slack on {100 * share:.3g} % of the checked configurations")
+    report = result.realisation
+    if report is not None:
+        if report.ideal:
+            lines.append("springs: IDEAL (settings.ideal_springs): the status refers to the ideal model; realisation limits are reported, not enforced")
+        for lim in report.violated:
+            lines.append(f"realisation limit: {lim.text(result.problem)}")
+        if report.added:
+            lines.append(f"realisation constraints added ({report.rounds} round{'s' if report.rounds != 1 else ''}): {', '.join(report.added)}")
+        for name, (design, wound) in report.wound.items():
+            lines.append(f"spring {name}: designed for {design / 1e3:.6g} N/mm, wound to {wound / 1e3:.6g} N/mm; the design was solved again for the wound rate")
+    return "".join(f"{line}\n" for line in lines)
 
 
 def write_reports(

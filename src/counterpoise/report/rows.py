@@ -27,6 +27,8 @@ SUMMARY_COLUMNS = [
     "max_residual_N_m",
     "max_gravity_torque_N_m",
     "residual_ratio",
+    "residual_ratio_as_built",  # the balancer rebuilt from build.csv with real springs (realisation/asbuilt.py)
+    "spring_model",  # real, or ideal: a paper's idealised design ([settings] ideal_springs), the status refers to it
     "checked_configurations",
     "iterations",
     "solve_time_s",
@@ -182,6 +184,8 @@ def summary_row(result: DesignResult) -> Row:
         "max_residual_N_m": v.max_residual(REVOLUTE),
         "max_gravity_torque_N_m": v.max_gravity_torque(REVOLUTE),
         "residual_ratio": v.residual_ratio,
+        "residual_ratio_as_built": result.as_built.residual_ratio if result.as_built is not None else None,
+        "spring_model": "ideal" if result.problem.settings.ideal_springs else "real",
         "certificate": certificate_of(v),
         "checked_configurations": v.configurations,
         "iterations": s.iterations,

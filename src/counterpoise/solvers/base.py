@@ -21,6 +21,9 @@ class Status(str, Enum):
     OPTIMAL = "optimal"
     INFEASIBLE = "infeasible"
     FAILED = "failed"
+    #: a design that can be built but misses its tolerance: a minimax design whose worst
+    #: residual ratio exceeds ``minimax_tolerance``, or a balancer that misses balance as built
+    NOT_BALANCED = "not_balanced"
 
 
 @dataclass(frozen=True)

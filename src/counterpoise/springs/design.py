@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -389,4 +389,28 @@ def force_limit(options: object) -> float:
         getattr(options, "max_outer_diameter", None),
         getattr(options, "max_body_length", None),
         getattr(options, "min_safety_factor", 1.0),
+    )
+
+
+def redesign_at(made: SpringDesign, requirement: Requirement) -> SpringDesign:
+    """The same wound spring as ``made`` (wire, diameter, coils, initial tension, free
+    length) against a new ``requirement`` (its working forces after the geometry was solved
+    again for its wound rate): its lengths and stresses at the new forces, with a reason
+    when its strength no longer covers them."""
+    if not made.ok:
+        return made
+    f0, k = made.initial_tension, made.rate
+    f_hi = requirement.force_max
+    reasons: tuple[str, ...] = ()
+    if made.max_force < f_hi:
+        reasons = (f"its largest force {f_hi:.4g} N is more than the wound spring carries within the allowable stresses ({made.max_force:.4g} N)",)
+    return replace(
+        made,
+        requirement=requirement,
+        reasons=reasons,
+        length_min=made.free_length + max(requirement.force_min - f0, 0.0) / k,
+        length_max=made.free_length + (f_hi - f0) / k,
+        body_stress=float(ph.shear_stress(f_hi, made.wire_diameter, made.mean_diameter)),
+        hook_bending_stress=float(ph.hook_bending_stress(f_hi, made.wire_diameter, made.mean_diameter)),
+        hook_torsion_stress=float(ph.hook_torsion_stress(f_hi, made.wire_diameter, made.mean_diameter)),
     )

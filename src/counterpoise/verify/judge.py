@@ -51,12 +51,19 @@ def judge(solution: "Solution", verification: Verification) -> tuple[Status, str
 
 
 def judge_minimax(solution: "Solution", verification: Verification) -> tuple[Status, str]:
-    """A minimax design is optimal when IPOPT converged; its dense ratio is reported as is."""
+    """A minimax design is optimal when IPOPT converged and its dense ratio is within
+    ``settings.minimax_tolerance``; beyond it, "not balanced"."""
     if solution.status is not Status.OPTIMAL:
         return Status.FAILED, solution.message
     dense = verification.residual_ratio
     if dense != dense:
         return Status.FAILED, "verification failed: the residual could not be evaluated (NaN)"
+    tolerance = solution.problem.settings.minimax_tolerance
+    if dense > tolerance:
+        return Status.NOT_BALANCED, (
+            f"not balanced: the best design of these real springs leaves a worst residual ratio of {dense:.4g} on the dense check, "
+            f"more than minimax_tolerance {tolerance:.4g} ({solution.message})"
+        )
     return Status.OPTIMAL, f"{solution.message}; dense check: worst residual ratio {dense:.6g}"
 
 
