@@ -114,13 +114,15 @@ class RealisationMethod:
         added: list[str] = []
         rounds = 0
         forced: tuple[Limit, ...] = ()  # the violated limits of the last optimal design
+        springs: tuple[Any, ...] = ()
+        limits: tuple[Limit, ...] = ()
         while True:
-            springs = designed_of(solution)
-            limits = evaluate(solution, springs, solution.parts)
             if solution.status is not Status.OPTIMAL:
                 if forced:  # the realisation constraints made it infeasible: say which limits
-                    return _unbuildable(solution, forced, rounds)
-                break
+                    return _unbuildable(solution, forced, springs, rounds)
+                return solution  # not balanced in the ideal model already: its own verdict stands
+            springs = designed_of(solution)
+            limits = evaluate(solution, springs, solution.parts)
             if rounds >= ROUNDS:
                 break
             new = constraints(problem, limits)
@@ -212,7 +214,7 @@ def wound_rates(problem: Problem, springs: Sequence[Any]) -> tuple[dict[str, flo
     return out, changed
 
 
-def _unbuildable(solution: Solution, forced: Sequence[Limit], rounds: int) -> Solution:
+def _unbuildable(solution: Solution, forced: Sequence[Limit], springs: Sequence[Any], rounds: int) -> Solution:
     """The design of a round whose realisation constraints no balanced design keeps: judged
     infeasible, naming the limits the round added and what the solver's word was."""
     problem = solution.problem
@@ -223,7 +225,7 @@ def _unbuildable(solution: Solution, forced: Sequence[Limit], rounds: int) -> So
         f"{'this limit' if len(forced) == 1 else 'these limits'} (free the spring's points or its rate, or declare "
         f"the springs ideal); {solution.message}"
     )
-    report = RealisationReport(tuple(forced), designed_of(solution), tuple(c.name for c in problem.constraints if c.kind == "realisation"), rounds)
+    report = RealisationReport(tuple(forced), tuple(springs), tuple(c.name for c in problem.constraints if c.kind == "realisation"), rounds)
     return replace(solution, status=Status.INFEASIBLE, message=message).with_extra(report).judged(Status.INFEASIBLE, message, "realisation")
 
 
