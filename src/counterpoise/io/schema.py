@@ -191,7 +191,7 @@ class SpringSpec(_Table):
     mount: Literal["pulley", "direct"] = "pulley"  # direct: a real spring through a cable
     free_length: Value | None = None  # direct mount only (from the part with a slot)
     initial_tension: Value | None = None
-    max_length: Value | None = None
+    max_length: Value | None = None  # direct: the part's limit; pulley, free stiffness: the designed spring's envelope
     cable: Value | None = None
     max_force: Value | None = None  # the spring's largest force (a limit of the design)
     # free-stiffness springs: the designed helical spring (docs/springs.md)
@@ -200,6 +200,7 @@ class SpringSpec(_Table):
     max_body_length: Value | None = None
     rate_tolerance: Value | None = None  # of the spring maker's spec: 0.1 or "10 %"
     min_safety_factor: Annotated[FiniteFloat, Field(ge=1, le=100)] | None = None
+    slack_margin: Value | None = None  # behind a pulley: F0 ≤ k (d_min − slack_margin)
     from_: PointSpec = Field(alias="from")
     to: PointSpec
     description: str = ""
