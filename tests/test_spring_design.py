@@ -360,6 +360,106 @@ def test_directly_attached_free_stiffness_spring_is_designed_with_the_files_tens
     assert s.max_force >= u.force_max
 
 
+SPRING_ARM = """
+[problem]
+name = "spring_arm"
+
+[gravity]
+acceleration = "9.81 m/s^2"
+direction = [0, -1, 0]
+
+[parameters]
+m = "1 kg"
+r = "0.3 m"
+h = "0.4 m"
+b = "0.3 m"
+
+[variables.k]
+lower = "0 N/m"
+upper = "1000 N/m"
+initial = "10 N/m"
+
+[subsystems.arm]
+coordinates.phi = {{ range = ["-45 deg", "55 deg"], home = "0 deg" }}
+
+[frames.link]
+transforms = [{{ rotate = "z", angle = "phi" }}]
+
+[bodies.link]
+frame = "link"
+mass = "m"
+com = ["r", 0, 0]
+
+[springs.s]
+stiffness = "k"
+from = {{ frame = "ground", point = [0, "h", 0] }}
+to = {{ frame = "link", point = ["b", 0, 0] }}
+{extra}
+"""
+
+
+def spring_arm(tmp_path, extra=""):
+    """A 1R arm (1 kg at r = 0.3 m) balanced by a spring from h = 0.4 m above the pivot to
+    b = 0.3 m along the link: k = m g r/(h b) = 24.525 N/m; d = √(h² + b² − 2hb sin φ)
+    over φ −45°..55°: 231.1-647.8 mm. Solved, with the spring designed after the solve."""
+    from counterpoise.io.loader import load_problem
+    from counterpoise.pipeline import design as solve
+
+    path = tmp_path / "spring_arm.toml"
+    path.write_text(SPRING_ARM.format(extra=extra), encoding="utf-8")
+    result = solve(load_problem(path))
+    (u,) = result.springs
+    return result, u
+
+
+def test_mechanism_size_and_the_default_envelope(tmp_path):
+    """At home (φ = 0) the arm's points are the pivot (0, 0), the centre of mass (0.3, 0),
+    and the spring's ends (0, 0.4) and (0.3, 0): its size is their largest distance,
+    √(0.3² + 0.4²) = 0.5 m, so the default envelope is a working length ≤ 1 m and an outer
+    diameter ≤ 50 mm, and the spring designed within it keeps every rule."""
+    from counterpoise.mechanics import Mechanics
+    from counterpoise.springs.workspace import mechanism_size
+
+    result, u = spring_arm(tmp_path)
+    problem = result.problem
+    mech = Mechanics(problem, {p.name: p.value for p in problem.parameters if p.is_base}, {"k": 24.525}, {"phi": 0.0}, [0.0, -9.81, 0.0])
+    assert mechanism_size(problem, mech) == pytest.approx(0.5, rel=1e-12)
+    s = u.design
+    assert s.envelope == Envelope(max_outer_diameter=0.05, max_body_length=None, max_length=1.0)
+    assert s.ok and s.outer_diameter <= 0.05 and s.length_max <= 1.0
+    assert s.design_rate == pytest.approx(9.81 * 0.3 / (0.4 * 0.3))
+    assert u.distance_min == pytest.approx(math.sqrt(0.25 - 0.24 * math.sin(math.radians(55))), rel=1e-6)
+    assert u.margin_slack >= 0.003 * (1 - 1e-9) and s.safety_factor_upper >= 1.2
+
+
+def test_the_files_envelope_slack_margin_and_safety_factor_reach_the_design(tmp_path):
+    """``max_length`` behind a pulley (the stroke alone is 647.8 − 231.1 = 417 mm, so no
+    spring works within 400 mm), ``slack_margin`` (240 mm: more than d_min, no initial
+    tension keeps the spring extended) and ``min_safety_factor`` from [springs.<name>]."""
+    _, short = spring_arm(tmp_path, 'max_length = "400 mm"')
+    assert not short.ok and "envelope (outer diameter ≤ 50 mm, working length ≤ 400 mm)" in short.design.reasons[0]
+    _, margin = spring_arm(tmp_path, 'slack_margin = "240 mm"')
+    assert not margin.ok and "closer than the slack margin 240 mm" in margin.design.reasons[0]
+    assert margin.design.needed_distance > 0.24 and margin.design.requirement.slack_margin == 0.24
+    _, safe = spring_arm(tmp_path, "min_safety_factor = 2")
+    assert safe.ok and safe.design.safety_factor_upper >= 2 and safe.design.min_safety_factor == 2
+
+
+def test_the_lamps_springs_keep_every_rule_in_the_default_envelope():
+    """problems/lamp_robust.toml: both designed springs keep every rule within the default
+    envelope of the lamp's size (working length ≤ 2 s, outer diameter ≤ 0.1 s)."""
+    from conftest import solved
+
+    result = solved("lamp_robust")
+    for u in result.springs:
+        s = u.design
+        assert s.ok, (u.spring, s.reasons)
+        size = s.envelope.max_length / 2.0
+        assert s.envelope.max_outer_diameter == pytest.approx(0.1 * size) and 0.3 < size < 1.5  # a desk lamp
+        assert s.length_max <= 2.0 * size and s.outer_diameter <= 0.1 * size
+        assert s.safety_factor_upper >= 1.2 and u.margin_slack >= 0.003 * (1 - 1e-9)
+
+
 def test_largest_force_is_monotone_in_the_envelope_and_cheap():
     """A bigger envelope carries more; the no-envelope value for music wire is the
     capacity of its thickest standard wire (6.5 mm) at index 4."""
