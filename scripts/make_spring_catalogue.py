@@ -101,7 +101,7 @@ def _rows_for(mat: Material, d: np.ndarray, C: np.ndarray, Nb: np.ndarray) -> tu
     D = C * d  # mean coil diameter, m
 
     # Active coils: body coils plus the hook contribution G/E, and the rate.
-    Na = ph.active_coils(mat, Nb)
+    Na = ph.active_coils(mat, d, Nb)
     k = ph.rate(mat, d, D, Na)
 
     # Maximum load from the allowable body shear stress (K_B corrected).

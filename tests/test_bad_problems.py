@@ -166,6 +166,10 @@ MANIFEST: dict[str, Expect] = {
     "spring_design_unknown_material.toml": Expect("springs.s_a.material", "unknown spring material 'unobtainium'"),
     "spring_design_outer_diameter_not_a_length.toml": Expect("springs.s_a.max_outer_diameter", "expected a length"),
     "spring_design_safety_factor_below_one.toml": Expect("springs.s_a.min_safety_factor", "greater than or equal to 1"),
+    "spring_design_slack_margin_negative.toml": Expect("springs.s_a.slack_margin", "must be a length ≥ 0, got '-2 mm'"),
+    "spring_design_slack_margin_not_a_length.toml": Expect("springs.s_a.slack_margin", "expected a length"),
+    "spring_design_max_length_not_a_length.toml": Expect("springs.s_a.max_length", "expected a length"),
+    "spring_design_max_length_zero.toml": Expect("springs.s_a.max_length", "must be a positive length, got '0 mm'"),
     "slot_count_min_above_max.toml": Expect("slots.s.count", "min 3 is greater than max 2"),
     "slot_tolerance_above_100_percent.toml": Expect("slots.s.rate_tolerance", "a tolerance must be between 0 and 100 %, got '150 %'"),
     "catalogue_units_si_on_n_mm.toml": Expect(

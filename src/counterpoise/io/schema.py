@@ -204,7 +204,7 @@ class SpringSpec(_Table):
     mount: Literal["pulley", "direct"] = "pulley"  # direct: a real spring through a cable
     free_length: Value | None = None  # direct mount only (from the part with a slot)
     initial_tension: Value | None = None
-    max_length: Value | None = None
+    max_length: Value | None = None  # direct: the part's limit; pulley, free stiffness: the designed spring's envelope
     cable: Value | None = None
     max_force: Value | None = None  # the spring's largest force (a limit of the design)
     pulley: PulleySpec | None = None  # mount = "pulley": its radius, clearance, axis, wrap

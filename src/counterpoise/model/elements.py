@@ -107,13 +107,18 @@ class BuiltSpring:
 @dataclass(frozen=True)
 class SpringDesignOptions:
     """How a free-stiffness spring is designed as a helical extension spring after the
-    solve (:mod:`counterpoise.springs`; docs/springs.md). Lengths in m; None: no limit."""
+    solve (:mod:`counterpoise.springs`; docs/springs.md). Lengths in m; an envelope limit
+    left None takes its default from the mechanism's size (max_length, max_outer_diameter)
+    or is no limit (max_body_length)."""
 
     material: str = "music_wire"
-    max_outer_diameter: float | None = None
+    max_outer_diameter: float | None = None  # None: the default of the mechanism's size (springs.workspace)
     max_body_length: float | None = None
+    max_length: float | None = None  # the largest working length, hooks included (pulley mount)
     rate_tolerance: float = 0.10  # ± share of the rate written into the spring's spec
-    min_safety_factor: float = 1.0  # on every allowable stress at the largest working force
+    #: on every allowable stress at the largest working force of the rate's upper tolerance
+    #: (springs.design.MIN_SAFETY_FACTOR)
+    min_safety_factor: float = 1.2
 
 
 @dataclass(frozen=True)

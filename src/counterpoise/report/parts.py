@@ -9,10 +9,13 @@ configuration, its limits and the three margins (≥ 0: the limit holds).
 
 - ``kind = spring``: a catalogue part (its part number, the catalogue's data);
 - ``kind = designed``: a free-stiffness spring, with the helical extension spring designed
-  for it (:mod:`counterpoise.springs`): the spec a spring maker quotes from (rate and its
-  tolerance, wire, coils, diameters, lengths, initial tension and its windable band,
-  stresses and allowables, safety factor, mass, material); ``note`` says why no spring
-  could be designed, or what the design cannot do;
+  for it (:mod:`counterpoise.springs`): the spec a spring maker quotes from (the wound
+  rate ``rate_N_per_mm`` = ``wound_rate_N_per_mm``, the ``design_rate_N_per_mm`` the
+  geometry was solved for, the rate tolerance, wire, coils, diameters, lengths, initial
+  tension and its windable band, stresses and allowables, the safety factor at the nominal
+  rate and at the rate's upper tolerance, mass, material); its forces and lengths are the
+  wound spring's; ``note`` says why no spring could be designed, or what the design cannot
+  do;
 - ``kind = bom``: the bill of materials of catalogue parts: per part the quantity and,
   where the catalogue gives one, the unit and total price.
 
@@ -52,6 +55,8 @@ SPRINGS_COLUMNS = [
     "unit_price",
     "price",
     "rate_N_per_mm",
+    "design_rate_N_per_mm",
+    "wound_rate_N_per_mm",
     "rate_tolerance",
     "material",
     "wire_diameter_mm",
@@ -69,7 +74,8 @@ SPRINGS_COLUMNS = [
     "allowable_body_MPa",
     "allowable_hook_bending_MPa",
     "allowable_hook_torsion_MPa",
-    "safety_factor",
+    "safety_factor_nominal_rate",
+    "safety_factor_upper_rate",
     "mass_g",
     "note",
 ]
@@ -172,6 +178,7 @@ def designed_rows(result: DesignResult) -> list[Row]:
             "max_distance_mm": u.distance_max * mm,
             "min_force_N": u.force_min,
             "max_force_N": u.force_max,
+            "design_rate_N_per_mm": s.design_rate / mm,
             "rate_tolerance": s.rate_tolerance,
             "material": s.material.name,
             "note": "; ".join(s.reasons + s.warnings) if not several or u.scenario == ALL_SCENARIOS else "",  # once per spring
@@ -188,7 +195,8 @@ def designed_rows(result: DesignResult) -> list[Row]:
                     "margin_slack_mm": u.margin_slack * mm,
                     "margin_length_mm": u.margin_length * mm,
                     "margin_load_N": u.margin_load,
-                    "rate_N_per_mm": s.rate / mm,
+                    "rate_N_per_mm": s.rate / mm,  # the wound rate
+                    "wound_rate_N_per_mm": s.rate / mm,
                     "wire_diameter_mm": s.wire_diameter * mm,
                     "mean_diameter_mm": s.mean_diameter * mm,
                     "outer_diameter_mm": s.outer_diameter * mm,
@@ -204,7 +212,8 @@ def designed_rows(result: DesignResult) -> list[Row]:
                     "allowable_body_MPa": s.allowable_body * mpa,
                     "allowable_hook_bending_MPa": s.allowable_hook_bending * mpa,
                     "allowable_hook_torsion_MPa": s.allowable_hook_torsion * mpa,
-                    "safety_factor": s.safety_factor,
+                    "safety_factor_nominal_rate": s.safety_factor,
+                    "safety_factor_upper_rate": s.safety_factor_upper,
                     "mass_g": s.mass * 1e3,
                 }
             )
@@ -227,8 +236,9 @@ def designed_status(result: DesignResult) -> str:
         lines.append(
             f"designed spring {u.spring}: {s.material.name}, wire {1e3 * s.wire_diameter:.4g} mm, outer diameter "
             f"{1e3 * s.outer_diameter:.4g} mm, {s.body_coils:g} body coils, free length {1e3 * s.free_length:.4g} mm, "
-            f"rate {s.rate / 1e3:.4g} N/mm ±{100 * s.rate_tolerance:g} %, {u.force_min:.4g}-{u.force_max:.4g} N, "
-            f"safety factor {s.safety_factor:.3g}, {1e3 * s.mass:.3g} g"
+            f"rate {s.rate / 1e3:.4g} N/mm as wound ({s.design_rate / 1e3:.4g} N/mm designed) ±{100 * s.rate_tolerance:g} %, "
+            f"initial tension {s.initial_tension:.4g} N, {u.force_min:.4g}-{u.force_max:.4g} N, safety factor "
+            f"{s.safety_factor:.3g} ({s.safety_factor_upper:.3g} at +{100 * s.rate_tolerance:g} % rate), {1e3 * s.mass:.3g} g"
         )
         lines += [f"warning: designed spring {u.spring}: {w}" for w in s.warnings]
     return "".join(f"{line}\n" for line in lines)

@@ -1,17 +1,23 @@
 """The design of a helical extension spring for a rate and a force range (docs/springs.md).
 
-:func:`design` takes a :class:`Requirement` (rate, smallest and largest working force, and
-for a directly attached spring its initial tension and free length), a material and an
-:class:`Envelope`, and returns a :class:`SpringDesign`: the lightest spring that keeps the
-winding rules, or, when none does, a design whose ``reasons`` say which rule no candidate
-met. :func:`largest_force` is the largest force any spring within the rules and the
-envelope carries (the default force limit of a designed spring).
+:func:`design` takes a :class:`Requirement` (rate, smallest and largest working force, the
+slack margin, and for a directly attached spring its initial tension and free length), a
+material and an :class:`Envelope`, and returns a :class:`SpringDesign`: the lightest spring
+that keeps the winding rules, or, when none does, a design whose ``reasons`` say which rule
+no candidate met. :func:`redesign_at` checks the same wound spring against a new
+requirement (the geometry re-solved for its wound rate). :func:`smallest_initial_tension`
+is the smallest windable initial tension of the springs that keep every other rule (what a
+spring behind a pulley needs of its smallest distance). :func:`largest_force` is the
+largest force any spring within the rules and the envelope carries (the default force
+limit of a designed spring).
 
 Candidates: every standard wire diameter of the material (:func:`.materials.wire_diameters`)
 times a grid of spring indices 4-12. For each, the body-coil count for the rate is rounded
 to a quarter coil, then the mean coil diameter is re-solved from the rate for that count and
 rounded to 0.01 mm (0.001 mm where 0.01 mm would move the rate by more than
-:data:`RATE_ROUNDING`); a candidate is kept when every rule holds on the rounded values.
+:data:`RATE_ROUNDING`); a candidate is kept when every rule holds on the rounded values,
+with the moduli of its wire's size. The rules hold for the spring as wound: its rate (the
+rate of the rounded values) pulls the forces of the requirement's geometry.
 """
 
 from __future__ import annotations
@@ -37,21 +43,36 @@ RATE_ROUNDING = 0.005
 DIAMETER_STEPS = (1e-5, 1e-6)
 #: the rate tolerance written into a designed spring's spec unless the file gives one
 RATE_TOLERANCE = 0.10
+#: the smallest allowable/stress ratio at the largest working force of the rate's upper
+#: tolerance, unless the file gives one (docs/springs.md: "Safety factor")
+MIN_SAFETY_FACTOR = 1.2
+#: behind a pulley, the spring stays this far (m) from closing at the shortest distance,
+#: unless the file gives one: F0 ≤ k (d_min − slack_margin) (docs/springs.md: "Slack margin")
+SLACK_MARGIN = 0.003
 
 
 @dataclass(frozen=True)
 class Requirement:
-    """What the spring must do (SI): its rate and the range of forces it works over.
+    """What the spring must do (SI): its rate (the design rate: the one the geometry was
+    solved for) and the range of forces it works over at that rate.
 
     ``initial_tension`` and ``free_length``: given for a directly attached spring (the
     balance depends on them); None for a spring behind a pulley, whose initial tension the
-    design chooses (at most ``force_min``, so that the cable never goes slack)."""
+    design chooses: it pulls F = k·d, so ``force_min``/``rate`` is the shortest distance
+    d_min, and the spring must stay extended there with ``slack_margin`` (m) to spare:
+    F0 ≤ k (d_min − slack_margin)."""
 
     rate: float  # N/m
     force_min: float  # N, smallest working force
     force_max: float  # N, largest working force
     initial_tension: float | None = None
     free_length: float | None = None
+    slack_margin: float = SLACK_MARGIN  # m, behind a pulley
+
+    @property
+    def pulley(self) -> bool:
+        """Behind a pulley (the design chooses F0), not attached directly."""
+        return self.initial_tension is None
 
 
 @dataclass(frozen=True)
@@ -74,23 +95,30 @@ class Envelope:
 @dataclass(frozen=True)
 class SpringDesign:
     """A designed helical extension spring with machine hooks (SI units; NaN when ``reasons``
-    says why no spring could be designed)."""
+    says why no spring could be designed).
+
+    ``rate`` is the rate of the spring as wound (its rounded coil count and diameter, with
+    the moduli of its wire's size); ``requirement.rate`` (:attr:`design_rate`) the rate
+    asked for. ``force_min``/``force_max`` are the wound spring's working forces in the
+    requirement's geometry: k_w·d behind a pulley, F0 + k_w·x attached directly."""
 
     material: Material
     requirement: Requirement
     reasons: tuple[str, ...] = ()
-    #: a spring was designed, but it does not do everything asked (the cable goes slack)
+    #: a spring was designed, but it does not do everything asked (long hooks)
     warnings: tuple[str, ...] = ()
     wire_diameter: float = math.nan
     mean_diameter: float = math.nan
     body_coils: float = math.nan
     active_coils: float = math.nan
-    rate: float = math.nan  # G d⁴ / (8 D³ N_a) of the rounded design
+    rate: float = math.nan  # G d⁴ / (8 D³ N_a) of the rounded design: the wound rate
     initial_tension: float = math.nan
     initial_tension_band: tuple[float, float] = (math.nan, math.nan)  # windable, for the index
     body_length: float = math.nan
     free_length: float = math.nan  # inside the hooks
     hook_extension: float = 0.0  # each hook longer than a machine hook by this (direct mount)
+    force_min: float = math.nan  # the wound spring's working forces
+    force_max: float = math.nan
     length_min: float = math.nan  # working lengths at force_min (not below free_length), force_max
     length_max: float = math.nan
     max_force: float = math.nan  # the force at which the first allowable stress is reached
@@ -104,11 +132,22 @@ class SpringDesign:
     allowable_hook_torsion: float = math.nan
     mass: float = math.nan
     rate_tolerance: float = RATE_TOLERANCE
+    min_safety_factor: float = MIN_SAFETY_FACTOR
+    envelope: Envelope = Envelope()
+    #: behind a pulley: the shortest distance between the ends that some spring keeping
+    #: every other rule allows, (its smallest windable F0)/k_w + slack margin (m); NaN
+    #: attached directly, or when no spring keeps the other rules
+    needed_distance: float = math.nan
     candidates: int = field(default=0, compare=False)  # how many designs met every rule
 
     @property
     def ok(self) -> bool:
         return not self.reasons
+
+    @property
+    def design_rate(self) -> float:
+        """The rate asked for (N/m): the one the requirement's geometry was solved for."""
+        return self.requirement.rate
 
     @property
     def index(self) -> float:
@@ -119,19 +158,43 @@ class SpringDesign:
         return self.mean_diameter + self.wire_diameter
 
     @property
+    def force_upper(self) -> float:
+        """The largest working force at the upper end of the rate tolerance, installed as
+        specified: F0 + (1 + tol)(F_max − F0)."""
+        return self.initial_tension + (1.0 + self.rate_tolerance) * (self.force_max - self.initial_tension)
+
+    @property
     def safety_factor(self) -> float:
         """Smallest allowable/stress over body shear, hook bending and hook torsion at the
-        largest working force (= max_force / force_max: the stresses are linear in F)."""
-        return min(
-            self.allowable_body / self.body_stress,
-            self.allowable_hook_bending / self.hook_bending_stress,
-            self.allowable_hook_torsion / self.hook_torsion_stress,
-        )
+        largest working force of the nominal (wound) rate: max_force / force_max (the
+        stresses are linear in F)."""
+        return self.max_force / self.force_max
+
+    @property
+    def safety_factor_upper(self) -> float:
+        """The same at the rate's upper tolerance: max_force / :attr:`force_upper` (the
+        design keeps it ≥ ``min_safety_factor``)."""
+        return self.max_force / self.force_upper
+
+    @property
+    def slack_distance(self) -> float:
+        """Behind a pulley: the distance between the ends below which the spring closes
+        and the cable goes slack, F0/k_w (m)."""
+        return self.initial_tension / self.rate
 
     @property
     def rate_error(self) -> float:
-        """(rate − required rate) / required rate."""
+        """(wound rate − design rate) / design rate."""
         return self.rate / self.requirement.rate - 1.0
+
+    def wound_force(self, force: float) -> float:
+        """The wound spring's force where the requirement's spring (at the design rate)
+        pulls ``force``: behind a pulley k_w·d = force·k_w/k, attached directly
+        F0 + k_w·x = F0 + (force − F0)·k_w/k."""
+        scale = self.rate / self.requirement.rate
+        if self.requirement.pulley:
+            return force * scale
+        return self.initial_tension + (force - self.initial_tension) * scale
 
 
 def _round(x: np.ndarray, step: float) -> np.ndarray:
@@ -148,54 +211,52 @@ def _frozen(**arrays: np.ndarray) -> dict[str, np.ndarray]:
 @functools.lru_cache(maxsize=4)
 def _wires(mat: Material) -> dict[str, np.ndarray]:
     """What of the candidates depends on the material alone (kept: every design of the
-    material starts from it): the (wire, index) grid as flat arrays, G·d⁴ and the
-    allowable stresses of each wire."""
+    material starts from it): the (wire, index) grid as flat arrays, G·d, G·d⁴ and G/E with
+    the moduli of each wire's size."""
     d = np.asarray(wire_diameters(mat), dtype=float)
     C0 = np.linspace(ph.C_MIN, ph.C_MAX, INDEX_STEPS)
     d, C0 = (a.ravel() for a in np.meshgrid(d, C0, indexing="ij"))
-    sut = ph.tensile_strength(mat, d)
-    return _frozen(
-        d=d,
-        Gd=mat.G * d,
-        C3=8.0 * C0**3,
-        Gd4=mat.G * d**4,
-        body=mat.body_torsion * sut,
-        bend=mat.end_bending * sut,
-        tors=mat.end_torsion * sut,
-    )
+    G, E = mat.shear_modulus(d), mat.youngs_modulus(d)
+    return _frozen(d=d, Gd=G * d, C3=8.0 * C0**3, Gd4=G * d**4, offset=G / E)
+
+
+def _springs(mat: Material, k: float, d: np.ndarray, D: np.ndarray, Nb: np.ndarray) -> dict[str, np.ndarray]:
+    """Everything of the springs (d, D, N_b) that does not depend on the forces: wound
+    rate, index, allowables and capacity (S10), windable initial-tension band (S7),
+    lengths (S6), mass (S11), and whether they keep the index, rate and coil rules for the
+    rate ``k``."""
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        Na = ph.active_coils(mat, d, Nb)
+        rate = ph.rate(mat, d, D, Na)
+        C = D / d
+        sut = ph.tensile_strength(mat, d)
+        a_body, a_bend, a_tors = mat.body_torsion * sut, mat.end_bending * sut, mat.end_torsion * sut
+        unit = (ph.shear_stress(1.0, d, D), ph.hook_bending_stress(1.0, d, D), ph.hook_torsion_stress(1.0, d, D))
+        capacity = np.minimum.reduce([a / u for a, u in zip((a_body, a_bend, a_tors), unit)])  # (S10)
+        mid, half = ph.initial_stress_mid(C), ph.initial_stress_half_band(C)
+        t_lo, t_mid, t_hi = (ph.tension_of_stress(t, d, D) for t in (mid - half, mid, mid + half))
+        index = np.isfinite(D) & (C >= ph.C_MIN - 1e-9) & (C <= ph.C_MAX + 1e-9) & (np.abs(rate / k - 1.0) <= RATE_ROUNDING)
+        return dict(
+            d=d, D=D, Nb=Nb, Na=Na, rate=rate, C=C, a_body=a_body, a_bend=a_bend, a_tors=a_tors, capacity=capacity,
+            t_lo=t_lo, t_mid=t_mid, t_hi=t_hi, L0=ph.free_length(d, D, Nb), Lb=ph.body_length(d, Nb), index=index,
+            coils=Nb >= MIN_BODY_COILS, mass=ph.mass(mat, d, D, Nb),
+        )  # fmt: skip
 
 
 @functools.lru_cache(maxsize=4)
 def _grid(mat: Material, k: float) -> dict[str, np.ndarray]:
     """Every (wire, index) candidate for rate ``k``, rounded, as flat arrays, with what of
-    them depends on the rate alone (capacity, windable initial-tension band, lengths,
-    mass). Kept for the last few rates: the springs of one problem often share a rate
-    (read-only arrays; at most ~2 MB each)."""
+    them depends on the rate alone (:func:`_springs`). Kept for the last few rates: the
+    springs of one problem often share a rate (read-only arrays; at most ~2 MB each)."""
     w = _wires(mat)
-    d = w["d"]
-    offset = mat.G / mat.E
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        Nb = _round(w["Gd"] / (w["C3"] * k) - offset, COIL_STEP)  # N_a for D = C0 d, then rounded
-        Na = ph.active_coils(mat, Nb)
+        Nb = _round(w["Gd"] / (w["C3"] * k) - w["offset"], COIL_STEP)  # N_a for D = C0 d, then rounded
+        Na = Nb + w["offset"]  # ph.active_coils
         exact = (w["Gd4"] / (8.0 * k * Na)) ** (1.0 / 3.0)
         D = _round(exact, DIAMETER_STEPS[0])
         fine = np.abs(w["Gd4"] / (8.0 * D**3 * Na) / k - 1.0) > RATE_ROUNDING  # ph.rate
         D = np.where(fine, _round(exact, DIAMETER_STEPS[1]), D)
-        rate = w["Gd4"] / (8.0 * D**3 * Na)  # ph.rate
-        C = D / d
-        a_body, a_bend, a_tors = w["body"], w["bend"], w["tors"]
-        unit = (ph.shear_stress(1.0, d, D), ph.hook_bending_stress(1.0, d, D), ph.hook_torsion_stress(1.0, d, D))
-        capacity = np.minimum.reduce([a / u for a, u in zip((a_body, a_bend, a_tors), unit)])  # (S10)
-        mid, half = ph.initial_stress_mid(C), ph.initial_stress_half_band(C)
-        t_lo, t_mid, t_hi = (ph.tension_of_stress(t, d, D) for t in (mid - half, mid, mid + half))
-        L0 = ph.free_length(d, D, Nb)
-        Lb = ph.body_length(d, Nb)
-        index = np.isfinite(D) & (C >= ph.C_MIN - 1e-9) & (C <= ph.C_MAX + 1e-9) & (np.abs(rate / k - 1.0) <= RATE_ROUNDING)
-        mass = ph.mass(mat, d, D, Nb)
-    return _frozen(
-        d=d, D=D, Nb=Nb, Na=Na, rate=rate, C=C, a_body=a_body, a_bend=a_bend, a_tors=a_tors, capacity=capacity,
-        t_lo=t_lo, t_mid=t_mid, t_hi=t_hi, L0=L0, Lb=Lb, index=index, coils=Nb >= MIN_BODY_COILS, mass=mass,
-    )  # fmt: skip
+    return _frozen(**_springs(mat, k, w["d"], D, Nb))
 
 
 def _candidates(mat: Material, k: float) -> dict[str, np.ndarray]:
@@ -204,13 +265,93 @@ def _candidates(mat: Material, k: float) -> dict[str, np.ndarray]:
     return {name: g[name] for name in ("d", "D", "Nb", "Na", "rate", "C")}
 
 
-def _capacity(mat: Material, d: np.ndarray, D: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Allowable stresses (body, hook bending, hook torsion) and the largest force (S10)."""
-    sut = ph.tensile_strength(mat, d)
-    allow = (mat.body_torsion * sut, mat.end_bending * sut, mat.end_torsion * sut)
-    unit = (ph.shear_stress(1.0, d, D), ph.hook_bending_stress(1.0, d, D), ph.hook_torsion_stress(1.0, d, D))
-    force = np.minimum.reduce([a / u for a, u in zip(allow, unit)])
-    return (*allow, force)
+@dataclass(frozen=True)
+class _Rules:
+    """What a design is asked beyond its requirement."""
+
+    envelope: Envelope
+    rate_tolerance: float
+    min_safety_factor: float
+
+
+def _forces(g: dict[str, np.ndarray], r: Requirement, F0: np.ndarray) -> dict[str, np.ndarray]:
+    """The wound springs' working forces in the requirement's geometry (k_w·d behind a
+    pulley, F0 + k_w·x attached directly), the largest one at the rate's upper tolerance
+    (F0 + (1 + tol)(F_max − F0) with tol applied later), the free length it works from and
+    its longest working length."""
+    rate = g["rate"]
+    scale = rate / r.rate
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        if r.pulley:
+            lo, hi = r.force_min * scale, r.force_max * scale
+            free = g["L0"]
+        else:
+            lo, hi = F0 + (r.force_min - F0) * scale, F0 + (r.force_max - F0) * scale
+            free = np.full_like(rate, r.free_length if r.free_length is not None else math.nan)
+        return {"lo": lo, "hi": hi, "free": free, "L_hi": free + (hi - F0) / rate}
+
+
+def _stages(g: dict[str, np.ndarray], r: Requirement, F0: np.ndarray, rules: _Rules, slack: bool = True) -> list[tuple[str, np.ndarray]]:
+    """The rules, in the order their reasons are given, each as a mask over the candidates
+    (``slack``: with the pulley's slack rule, the last)."""
+    f = _forces(g, r, F0)
+    tol, n = rules.rate_tolerance, rules.min_safety_factor
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        upper = F0 + (1.0 + tol) * (f["hi"] - F0)
+        stages = [
+            ("index", g["index"]),
+            ("coils", g["coils"]),
+            ("tension", (F0 >= g["t_lo"] * (1 - 1e-12)) & (F0 <= g["t_hi"] * (1 + 1e-12)) & (F0 < f["hi"])),
+            ("strength", g["capacity"] >= n * upper * (1 - 1e-12)),
+            ("free length", g["L0"] <= f["free"] * (1 + 1e-12) if not r.pulley else np.ones(F0.shape, dtype=bool)),
+            ("envelope", _fits(rules.envelope, g["D"] + g["d"], g["Lb"], f["L_hi"])),
+        ]
+        if slack and r.pulley:  # k_w (d_min − margin) with d_min = F_min/k: F0 ≤ F_min,w − k_w·margin
+            stages.append(("slack", F0 <= (f["lo"] - g["rate"] * r.slack_margin) * (1 + 1e-12)))
+    return stages
+
+
+def _initial_tension(g: dict[str, np.ndarray], r: Requirement) -> np.ndarray:
+    """Behind a pulley, the middle of the windable band, lowered to k_w (d_min − margin)
+    but not below the band; attached directly, the requirement's."""
+    if not r.pulley:
+        return np.full_like(g["rate"], r.initial_tension)
+    cap = _forces(g, r, g["t_lo"])["lo"] - g["rate"] * r.slack_margin
+    return np.minimum(np.maximum(cap, g["t_lo"]), g["t_mid"])
+
+
+def _smallest_tension(g: dict[str, np.ndarray], r: Requirement, rules: _Rules) -> np.ndarray:
+    """Which candidates keep every rule but the slack rule with their smallest windable
+    initial tension (the bottom of the band: the most demanding for strength and length)."""
+    keep = np.ones(g["d"].shape, dtype=bool)
+    for _, ok in _stages(g, r, np.asarray(g["t_lo"]), rules, slack=False):
+        keep &= ok
+    return keep
+
+
+def _needed(g: dict[str, np.ndarray], r: Requirement, rules: _Rules) -> float:
+    """Behind a pulley: the smallest F0/k_w + slack margin of the candidates that keep every
+    other rule (m; NaN when none does, or attached directly)."""
+    if not r.pulley:
+        return math.nan
+    keep = _smallest_tension(g, r, rules)
+    if not np.any(keep):
+        return math.nan
+    return float(np.min(np.where(keep, g["t_lo"] / g["rate"], np.inf))) + r.slack_margin
+
+
+def _invalid(r: Requirement) -> str | None:
+    """Why the requirement asks for no spring (None: it asks for one)."""
+    k, f_lo, f_hi = r.rate, r.force_min, r.force_max
+    if k == 0 or f_hi == 0:
+        return "its stiffness is 0: the balance does not use this spring (leave it out)"
+    if not (math.isfinite(k) and k > 0):
+        return f"its rate {k:.4g} N/m is not positive"
+    if not (math.isfinite(f_hi) and f_hi > 0 and math.isfinite(f_lo)):
+        return f"its working force {f_lo:.4g}-{f_hi:.4g} N is not a positive range"
+    if not (math.isfinite(r.slack_margin) and r.slack_margin >= 0):
+        return f"its slack margin {1e3 * r.slack_margin:.4g} mm is not a length ≥ 0"
+    return None
 
 
 def design(
@@ -218,89 +359,103 @@ def design(
     mat: "str | Material" = DEFAULT_MATERIAL,
     envelope: Envelope = Envelope(),
     rate_tolerance: float = RATE_TOLERANCE,
-    min_safety_factor: float = 1.0,
+    min_safety_factor: float = MIN_SAFETY_FACTOR,
 ) -> SpringDesign:
     """The lightest extension spring of ``mat`` for ``requirement`` within the winding rules
     and ``envelope``, with at least ``min_safety_factor`` on every allowable stress at the
-    largest working force; a design with ``reasons`` when there is none (never an exception
-    for a requirement no spring meets).
+    largest working force of the rate's upper tolerance; a design with ``reasons`` when
+    there is none (never an exception for a requirement no spring meets).
 
     Behind a pulley the initial tension is the middle of the windable band, lowered to
-    ``force_min`` but not below the band; when some candidates keep F0 ≤ ``force_min``, the
-    lightest of them is chosen, otherwise the one whose F0 exceeds it least, with a
-    warning (the cable goes slack near the shortest distance). Attached directly, the
-    candidates whose hooks need at most one coil diameter each beyond machine hooks to
-    make up the given free length come first (otherwise the least excess, with a warning)."""
+    k_w (d_min − slack margin) but not below the band; a spring whose band lies above that
+    is refused (the cable would go slack), and when every spring is, the reason says so and
+    ``needed_distance`` gives the shortest distance some spring would allow. Attached
+    directly, the candidates whose hooks need at most one coil diameter each beyond machine
+    hooks to make up the given free length come first (otherwise the least excess, with a
+    warning)."""
     m = material(mat)
-    r = requirement
-    k, f_lo, f_hi = r.rate, r.force_min, r.force_max
+    rules = _Rules(envelope, rate_tolerance, min_safety_factor)
+    why = _invalid(requirement)
+    if why is not None:
+        return _failed(m, requirement, rules, (why,))
+    g = _grid(m, requirement.rate)
+    return _choose(m, requirement, g, rules, _initial_tension(g, requirement))
 
-    def fail(*why: str) -> SpringDesign:
-        return SpringDesign(m, r, reasons=why, rate_tolerance=rate_tolerance)
 
-    if k == 0 or f_hi == 0:
-        return fail("its stiffness is 0: the balance does not use this spring (leave it out)")
-    if not (math.isfinite(k) and k > 0):
-        return fail(f"its rate {k:.4g} N/m is not positive")
-    if not (math.isfinite(f_hi) and f_hi > 0 and math.isfinite(f_lo)):
-        return fail(f"its working force {f_lo:.4g}-{f_hi:.4g} N is not a positive range")
-    g = _grid(m, k)
-    d, D, Nb, Na, C, rate = g["d"], g["D"], g["Nb"], g["Na"], g["C"], g["rate"]
-    a_body, a_bend, a_tors, capacity = g["a_body"], g["a_bend"], g["a_tors"], g["capacity"]
-    t_lo, t_mid, t_hi, L0, Lb = g["t_lo"], g["t_mid"], g["t_hi"], g["L0"], g["Lb"]
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        if r.initial_tension is None:  # the middle of the band, lower down to f_lo, not below the band
-            F0 = np.minimum(np.maximum(f_lo, t_lo), t_mid)
-        else:
-            F0 = np.full_like(d, r.initial_tension)
-        free = L0 if r.free_length is None else np.full_like(d, r.free_length)
-        L_hi = free + (f_hi - F0) / rate
-    stages = [
-        ("index", g["index"]),
-        ("coils", g["coils"]),
-        ("strength", capacity >= f_hi * min_safety_factor),
-        ("tension", (F0 >= t_lo * (1 - 1e-12)) & (F0 <= t_hi * (1 + 1e-12)) & (F0 < f_hi)),
-        ("free length", L0 <= free * (1 + 1e-12)),
-        ("envelope", _fits(envelope, D + d, Lb, L_hi)),
-    ]
+def redesign_at(made: SpringDesign, requirement: Requirement) -> SpringDesign:
+    """The same wound spring (wire, mean diameter, body coils) checked against
+    ``requirement``, with the material, envelope, rate tolerance and safety factor it was
+    designed with: the geometry re-solved for its wound rate moves the working forces a
+    little, and the spring must not change then. Behind a pulley it keeps its initial
+    tension when that still keeps every rule, else takes it by the rule of :func:`design`.
+    A design with ``reasons`` when the spring no longer keeps the rules (or ``made`` has
+    none)."""
+    m = made.material
+    rules = _Rules(made.envelope, made.rate_tolerance, made.min_safety_factor)
+    why = _invalid(requirement) or ("; ".join(made.reasons) if not made.ok else None)
+    if why is not None:
+        return _failed(m, requirement, rules, (why,))
+    one = np.array([made.wire_diameter]), np.array([made.mean_diameter]), np.array([made.body_coils])
+    g = _springs(m, requirement.rate, *one)
+    if requirement.pulley:
+        same = np.array([made.initial_tension])
+        if all(bool(ok[0]) for _, ok in _stages(g, requirement, same, rules)):
+            return _choose(m, requirement, g, rules, same)
+    again = _choose(m, requirement, g, rules, _initial_tension(g, requirement))
+    if again.ok:
+        return again
+    spring = f"the wound spring (wire {1e3 * made.wire_diameter:g} mm, mean diameter {1e3 * made.mean_diameter:g} mm, {made.body_coils:g} body coils)"
+    return replace(again, reasons=tuple(f"{spring}: {why}" for why in again.reasons))
+
+
+def _failed(m: Material, r: Requirement, rules: _Rules, reasons: tuple[str, ...], needed: float = math.nan) -> SpringDesign:
+    return SpringDesign(
+        m, r, reasons=reasons, rate_tolerance=rules.rate_tolerance, min_safety_factor=rules.min_safety_factor, envelope=rules.envelope, needed_distance=needed
+    )
+
+
+def _choose(m: Material, r: Requirement, g: dict[str, np.ndarray], rules: _Rules, F0: np.ndarray) -> SpringDesign:
+    """The lightest candidate of ``g`` with initial tensions ``F0`` that keeps every rule,
+    or the reason of the first rule none keeps."""
+    d, D, rate = g["d"], g["D"], g["rate"]
+    capacity = g["capacity"]
     keep = np.ones(d.shape, dtype=bool)
-    for stage, ok in stages:
+    for stage, ok in _stages(g, r, F0, rules):
         if not np.any(keep & ok):
-            return fail(_reason(stage, m, r, envelope, keep, capacity / min_safety_factor, L0, F0))
+            needed = _needed(g, r, rules)
+            return _failed(m, r, rules, (_reason(stage, m, r, g, rules, keep, F0, needed),), needed)
         keep &= ok
-    mass = g["mass"]
-    slack = np.maximum(F0 - f_lo, 0.0)  # > 0: the cable goes slack at the shortest distance
-    long_hooks = np.maximum((free - L0) / 2.0 - D, 0.0)  # direct mount: hooks longer than a coil diameter more
-    order = np.lexsort((f_hi / capacity, np.where(keep, mass, np.inf), np.where(keep, long_hooks, np.inf), np.where(keep, slack, np.inf)))
+    f = _forces(g, r, F0)
+    lo, hi, free, L_hi = f["lo"], f["hi"], f["free"], f["L_hi"]
+    mass, L0 = g["mass"], g["L0"]
+    long_hooks = np.maximum((free - L0) / 2.0 - D, 0.0) if not r.pulley else np.zeros(d.shape)
+    order = np.lexsort((hi / capacity, np.where(keep, mass, np.inf), np.where(keep, long_hooks, np.inf)))
     i = int(order[0])
     f0 = float(F0[i])
     warnings: tuple[str, ...] = ()
-    if slack[i] > 0:
-        warnings += (
-            f"its force falls to {f_lo:.4g} N, below the smallest windable initial tension {f0:.4g} N of any spring strong "
-            f"enough: the cable goes slack where the ends come closer than F0/k = {1e3 * f0 / k:.4g} mm, and the balance "
-            f"is lost there (the spring pulls nothing instead of k·d < F0)",
-        )
     if long_hooks[i] > 0:
         warnings += (
             f"its free length {1e3 * float(free[i]):.4g} mm leaves {1e3 * float(free[i] - L0[i]) / 2:.4g} mm per hook beyond "
             f"machine hooks on every spring strong enough: extended hooks (or a longer cable and a shorter free length)",
         )
+    f_hi = float(hi[i])
     return SpringDesign(
         warnings=warnings,
         material=m,
         requirement=r,
         wire_diameter=float(d[i]),
         mean_diameter=float(D[i]),
-        body_coils=float(Nb[i]),
-        active_coils=float(Na[i]),
+        body_coils=float(g["Nb"][i]),
+        active_coils=float(g["Na"][i]),
         rate=float(rate[i]),
         initial_tension=f0,
-        initial_tension_band=(float(t_lo[i]), float(t_hi[i])),
-        body_length=float(Lb[i]),
+        initial_tension_band=(float(g["t_lo"][i]), float(g["t_hi"][i])),
+        body_length=float(g["Lb"][i]),
         free_length=float(free[i]),
         hook_extension=float(free[i] - L0[i]) / 2.0,
-        length_min=float(free[i] + max(f_lo - f0, 0.0) / rate[i]),  # slack cable: the spring stays at L0
+        force_min=float(lo[i]),
+        force_max=f_hi,
+        length_min=float(free[i] + max(float(lo[i]) - f0, 0.0) / rate[i]),  # attached directly: not below L0
         length_max=float(L_hi[i]),
         max_force=float(capacity[i]),
         max_length=float(free[i] + (capacity[i] - f0) / rate[i]),
@@ -308,11 +463,14 @@ def design(
         hook_bending_stress=float(ph.hook_bending_stress(f_hi, d[i], D[i])),
         hook_torsion_stress=float(ph.hook_torsion_stress(f_hi, d[i], D[i])),
         initial_stress=float(8.0 * f0 * D[i] / (math.pi * d[i] ** 3)),
-        allowable_body=float(a_body[i]),
-        allowable_hook_bending=float(a_bend[i]),
-        allowable_hook_torsion=float(a_tors[i]),
+        allowable_body=float(g["a_body"][i]),
+        allowable_hook_bending=float(g["a_bend"][i]),
+        allowable_hook_torsion=float(g["a_tors"][i]),
         mass=float(mass[i]),
-        rate_tolerance=rate_tolerance,
+        rate_tolerance=rules.rate_tolerance,
+        min_safety_factor=rules.min_safety_factor,
+        envelope=rules.envelope,
+        needed_distance=_needed(g, r, rules),
         candidates=int(keep.sum()),
     )
 
@@ -325,32 +483,88 @@ def _fits(envelope: Envelope, outer: np.ndarray, body: np.ndarray, longest: np.n
     return ok
 
 
-def _reason(stage: str, m: Material, r: Requirement, envelope: Envelope, keep: np.ndarray, capacity: np.ndarray, L0: np.ndarray, F0: np.ndarray) -> str:
+def _reason(stage: str, m: Material, r: Requirement, g: dict[str, np.ndarray], rules: _Rules, keep: np.ndarray, F0: np.ndarray, needed: float) -> str:
     """Why no candidate passed ``stage`` (``keep``: those that passed the stages before)."""
     wires = f"{m.name} wire {1e3 * m.d_min:g}-{1e3 * m.d_max:g} mm"
+
+    def least(a: np.ndarray) -> float:
+        return float(np.min(np.where(keep, a, np.inf)))
+
+    def most(a: np.ndarray) -> float:
+        return float(np.max(np.where(keep, a, -np.inf)))
+
+    tol, n = rules.rate_tolerance, rules.min_safety_factor
     if stage == "index":
         return f"no standard {wires} winds the rate {r.rate:.4g} N/m at a spring index 4-12"
     if stage == "coils":
         return f"the rate {r.rate:.4g} N/m is too stiff for {wires}: fewer than {MIN_BODY_COILS:g} body coils at every index 4-12"
-    if stage == "strength":
+    if stage == "tension" and not r.pulley:  # direct mount: the file's initial tension
+        lo, hi = least(g["t_lo"]), most(g["t_hi"])
+        inside = keep & (F0 >= g["t_lo"] * (1 - 1e-12)) & (F0 <= g["t_hi"] * (1 + 1e-12))
+        if np.any(inside):
+            return f"its initial tension {r.initial_tension:.4g} N is not below its largest force {r.force_max:.4g} N: the spring would never extend"
         return (
-            f"its largest force {r.force_max:.4g} N is more than any spring of that rate carries within the allowable stresses "
-            f"({wires}, index 4-12: at most {float(np.max(np.where(keep, capacity, 0.0))):.4g} N)"
+            f"its initial tension {r.initial_tension:.4g} N is outside the windable band (S7) of every spring that winds the rate "
+            f"{r.rate:.4g} N/m ({wires}, index 4-12): a spring can be wound only with an initial tension inside the band of its "
+            f"own wire and index, and these bands span {lo:.4g}-{hi:.4g} N"
         )
-    if stage == "tension" and r.initial_tension is not None:  # direct mount: the file's initial tension
-        return f"its initial tension {r.initial_tension:.4g} N is outside the windable band of every spring strong enough, or not below its largest force"
     if stage == "tension":
         return (
-            f"its largest force {r.force_max:.4g} N is below the smallest windable initial tension of any spring strong enough "
-            f"({float(np.min(np.where(keep, F0, np.inf))):.4g} N): the spring would never extend"
+            f"its largest force {r.force_max:.4g} N is below the smallest windable initial tension of any spring that winds the rate "
+            f"({least(g['t_lo']):.4g} N): the spring would never extend"
+        )
+    if stage == "strength":
+        f = _forces(g, r, F0)
+        need = n * (F0 + (1.0 + tol) * (f["hi"] - F0))
+        return (
+            f"its largest force {r.force_max:.4g} N needs a spring that carries at least {least(need):.4g} N (safety factor {n:g} at the "
+            f"rate's upper tolerance +{100 * tol:g} %), more than any spring of that rate carries within the allowable stresses "
+            f"({wires}, index 4-12: at most {most(g['capacity']):.4g} N)"
         )
     if stage == "free length":
-        return f"its free length {1e3 * (r.free_length or 0.0):.4g} mm is shorter than any strong enough spring with machine hooks ({1e3 * float(np.min(np.where(keep, L0, np.inf))):.4g} mm)"
-    return f"no spring strong enough fits the envelope ({envelope.text()})"
+        return f"its free length {1e3 * (r.free_length or 0.0):.4g} mm is shorter than any strong enough spring with machine hooks ({1e3 * least(g['L0']):.4g} mm)"
+    if stage == "envelope":
+        return f"no spring strong enough fits the envelope ({rules.envelope.text()})"
+    d_min = r.force_min / r.rate
+    allowed = r.force_min - r.rate * r.slack_margin
+    limit = (
+        f"with the slack margin {1e3 * r.slack_margin:.4g} mm its initial tension must be at most {allowed:.4g} N"
+        if allowed > 0
+        else f"closer than the slack margin {1e3 * r.slack_margin:.4g} mm, where no initial tension keeps it extended"
+    )
+    others = _smallest_tension(g, r, rules)
+    i = int(np.argmin(np.where(others, g["t_lo"] / g["rate"], np.inf)))
+    return (
+        f"no windable spring strong enough keeps its cable taut: behind a pulley it pulls k·d only while d ≥ F0/k, and the ends "
+        f"come within {1e3 * d_min:.4g} mm, {limit}; the spring of the smallest F0/k that keeps every other rule needs "
+        f"F0 ≥ {float(g['t_lo'][i]):.4g} N to be windable, so the ends must stay at least {1e3 * needed:.4g} mm apart "
+        f"(F0/k + slack margin)"
+    )
+
+
+def smallest_initial_tension(
+    rate: float,
+    force_max: float,
+    mat: "str | Material" = DEFAULT_MATERIAL,
+    envelope: Envelope = Envelope(),
+    rate_tolerance: float = RATE_TOLERANCE,
+    min_safety_factor: float = MIN_SAFETY_FACTOR,
+) -> float:
+    """The smallest windable initial tension (N) of the springs of ``mat`` behind a pulley
+    that wind ``rate`` (N/m) and keep every rule but the slack rule for a largest working
+    force ``force_max`` (N) within ``envelope``: with it, such a spring stays extended
+    where the ends are at least F0/rate + slack margin apart. ``math.inf`` when no spring
+    keeps the other rules; a ``ValueError`` for a rate or force that is not positive."""
+    if not (math.isfinite(rate) and rate > 0 and math.isfinite(force_max) and force_max > 0):
+        raise ValueError(f"rate {rate!r} N/m and force_max {force_max!r} N must be positive")
+    g = _grid(material(mat), float(rate))
+    r = Requirement(rate=float(rate), force_min=float(force_max), force_max=float(force_max))
+    keep = _smallest_tension(g, r, _Rules(envelope, rate_tolerance, min_safety_factor))
+    return float(np.min(g["t_lo"][keep])) if np.any(keep) else math.inf
 
 
 @functools.lru_cache(maxsize=256)
-def _largest(key: str, max_outer_diameter: float | None, max_body_length: float | None, min_safety_factor: float) -> float:
+def _largest(key: str, max_outer_diameter: float | None, max_body_length: float | None, min_safety_factor: float, rate_tolerance: float) -> float:
     m = material(key)
     d = np.asarray(wire_diameters(m), dtype=float)
     C = np.linspace(ph.C_MIN, ph.C_MAX, INDEX_STEPS)
@@ -361,56 +575,38 @@ def _largest(key: str, max_outer_diameter: float | None, max_body_length: float 
         ok &= D + d <= max_outer_diameter * (1 + 1e-12)
     if max_body_length is not None:
         ok &= ph.body_length(d, MIN_BODY_COILS) <= max_body_length * (1 + 1e-12)
-    force = _capacity(m, d, D)[3]
-    return float(np.max(force[ok])) / min_safety_factor if np.any(ok) else 0.0
+    force = _springs(m, 1.0, d, D, np.full(d.shape, MIN_BODY_COILS))["capacity"]
+    return float(np.max(force[ok])) / (min_safety_factor * (1.0 + rate_tolerance)) if np.any(ok) else 0.0
 
 
 def largest_force(
     mat: "str | Material" = DEFAULT_MATERIAL,
     max_outer_diameter: float | None = None,
     max_body_length: float | None = None,
-    min_safety_factor: float = 1.0,
+    min_safety_factor: float = MIN_SAFETY_FACTOR,
+    rate_tolerance: float = RATE_TOLERANCE,
 ) -> float:
-    """The largest force (N) a spring of ``mat`` designable within the rules (standard
-    wire of the material, index 4-12, at least :data:`MIN_BODY_COILS` body coils) and the
-    envelope (m; None: no limit) carries within its allowable stresses divided by
-    ``min_safety_factor``. Pure and cached (some 10,000 candidates the first time, a
-    dictionary look-up after). 0.0 when no standard wire fits the envelope."""
+    """The largest working force (N) a spring of ``mat`` designable within the rules
+    (standard wire of the material, index 4-12, at least :data:`MIN_BODY_COILS` body coils)
+    and the envelope (m; None: no limit) may have: the largest capacity (force at the first
+    allowable stress) divided by ``min_safety_factor`` × (1 + ``rate_tolerance``), so that
+    the force at the rate's upper tolerance keeps the safety factor whatever the initial
+    tension (a positive one allows a little more: F0 + (1 + tol)(F − F0) < (1 + tol) F).
+    Pure and cached (some 10,000 candidates the first time, a dictionary look-up after).
+    0.0 when no standard wire fits the envelope."""
     key = material(mat).key
-    return _largest(key, max_outer_diameter, max_body_length, float(min_safety_factor))
+    return _largest(key, max_outer_diameter, max_body_length, float(min_safety_factor), float(rate_tolerance))
 
 
 def force_limit(options: object) -> float:
     """The default force limit (N) of a designed spring: :func:`largest_force` for a
     spring's design options (``ZeroFreeLengthSpring.design``: material, envelope, smallest
-    safety factor)."""
+    safety factor, rate tolerance)."""
     return largest_force(
         getattr(options, "material", DEFAULT_MATERIAL),
         getattr(options, "max_outer_diameter", None),
         getattr(options, "max_body_length", None),
-        getattr(options, "min_safety_factor", 1.0),
+        getattr(options, "min_safety_factor", MIN_SAFETY_FACTOR),
+        getattr(options, "rate_tolerance", RATE_TOLERANCE),
     )
 
-
-def redesign_at(made: SpringDesign, requirement: Requirement) -> SpringDesign:
-    """The same wound spring as ``made`` (wire, diameter, coils, initial tension, free
-    length) against a new ``requirement`` (its working forces after the geometry was solved
-    again for its wound rate): its lengths and stresses at the new forces, with a reason
-    when its strength no longer covers them."""
-    if not made.ok:
-        return made
-    f0, k = made.initial_tension, made.rate
-    f_hi = requirement.force_max
-    reasons: tuple[str, ...] = ()
-    if made.max_force < f_hi:
-        reasons = (f"its largest force {f_hi:.4g} N is more than the wound spring carries within the allowable stresses ({made.max_force:.4g} N)",)
-    return replace(
-        made,
-        requirement=requirement,
-        reasons=reasons,
-        length_min=made.free_length + max(requirement.force_min - f0, 0.0) / k,
-        length_max=made.free_length + (f_hi - f0) / k,
-        body_stress=float(ph.shear_stress(f_hi, made.wire_diameter, made.mean_diameter)),
-        hook_bending_stress=float(ph.hook_bending_stress(f_hi, made.wire_diameter, made.mean_diameter)),
-        hook_torsion_stress=float(ph.hook_torsion_stress(f_hi, made.wire_diameter, made.mean_diameter)),
-    )

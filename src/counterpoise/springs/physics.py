@@ -1,7 +1,7 @@
 """The formulas of a helical extension spring with machine hooks (SI units, numpy-vectorised).
 
 Shigley's Mechanical Engineering Design, ch. 10 (§10-2 stresses, §10-3 deflection,
-§10-4 materials, §10-11 extension springs); each function names its equation (S1)-(S11)
+§10-4 materials, §10-11 extension springs); each function names its equation (S1)-(S12)
 as numbered and derived in docs/springs.md. d wire diameter, D mean coil diameter,
 C = D/d the spring index, N_b body coils, N_a active coils, F force.
 """
@@ -43,14 +43,14 @@ def hook_torsion_factor(C2: Any) -> Any:
 HOOK_R2_PER_D = 2.0
 
 
-def active_coils(mat: Material, body_coils: Any) -> Any:
-    """N_a = N_b + G/E: the hooks add G/E of a coil (S5)."""
-    return body_coils + mat.G / mat.E
+def active_coils(mat: Material, d: Any, body_coils: Any) -> Any:
+    """N_a = N_b + G/E: the hooks add G/E of a coil (S5), G and E of the wire's size (S1)."""
+    return body_coils + mat.shear_modulus(d) / mat.youngs_modulus(d)
 
 
 def rate(mat: Material, d: Any, D: Any, Na: Any) -> Any:
-    """k = G d⁴ / (8 D³ N_a) (S4)."""
-    return mat.G * d**4 / (8.0 * D**3 * Na)
+    """k = G d⁴ / (8 D³ N_a) (S4), G of the wire's size (S1)."""
+    return mat.shear_modulus(d) * d**4 / (8.0 * D**3 * Na)
 
 
 def shear_stress(F: Any, d: Any, D: Any) -> Any:

@@ -8,11 +8,16 @@ schedule):
 
 - behind a pulley (the default mount, docs/springs.md): the cable outside the pulley is
   d = |from − to| long and the spring pulls F = k·d, so the working forces are k·d_min to
-  k·d_max; the design chooses its initial tension F0 ≤ k·d_min (the cable never goes
-  slack) and its length is L = d + L0 − F0/k;
+  k·d_max; the design chooses its initial tension F0 ≤ k (d_min − slack_margin) (the
+  cable never goes slack) and its length is L = d + L0 − F0/k;
 - directly attached (``mount = "direct"``): the spring is d − cable long, pulls
   F = F0 + k (d − cable − L0) with the file's initial tension F0 and free length L0, and
   must be wound with that F0 and fit that L0 (the hooks take up what the body leaves).
+
+Each spring's envelope is the file's (``max_length``, ``max_outer_diameter``,
+``max_body_length``; a direct mount's ``max_length``), and where the file gives none, a
+default tied to the mechanism's size (:func:`mechanism_size`, :data:`LENGTH_SHARE`,
+:data:`DIAMETER_SHARE`).
 
 :func:`designed_springs` returns one :class:`DesignedSpring` per spring and scenario, and
 one with ``scenario = "all"`` per spring when there are several scenarios (extremes over
@@ -21,6 +26,7 @@ all of them: the one spring that is made).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from typing import Any
@@ -37,6 +43,11 @@ ALL = "all"
 CHUNK = 64
 #: rates that differ by less than this share are one rate (rounding of a shared variable)
 RATE_SPREAD = 1e-9
+#: the default envelope (docs/springs.md, "Envelope"): a designed spring's working length,
+#: hooks included, at most this many times the mechanism's size (:func:`mechanism_size`)
+LENGTH_SHARE = 2.0
+#: and its outer diameter at most this share of it
+DIAMETER_SHARE = 0.1
 
 
 @dataclass(frozen=True)
@@ -58,11 +69,16 @@ class DesignedSpring:
 
     @property
     def force_min(self) -> float:
-        return self.design.requirement.force_min
+        """The smallest working force of the wound spring (of the requirement when none
+        could be designed)."""
+        return self._force(self.design.requirement.force_min)
 
     @property
     def force_max(self) -> float:
-        return self.design.requirement.force_max
+        return self._force(self.design.requirement.force_max)
+
+    def _force(self, force: float) -> float:
+        return self.design.wound_force(force) if self.design.ok else force
 
     @property
     def length_min(self) -> float:
@@ -76,7 +92,8 @@ class DesignedSpring:
     @property
     def margin_slack(self) -> float:
         """Extension at the shortest distance, (F_min − F0)/k (m; ≥ 0: the spring stays
-        extended and pulls as the balance needs; < 0: the cable goes slack)."""
+        extended and pulls as the balance needs; < 0: the cable goes slack; behind a pulley
+        a design keeps it ≥ the slack margin)."""
         return (self.force_min - self.design.initial_tension) / self.design.rate
 
     @property
@@ -205,6 +222,7 @@ def designed_springs(solution: Any) -> tuple[DesignedSpring, ...]:
         if same[sc.name] == sc.name:
             groups.setdefault(tuple(geometry_key(problem, name, base) for name in loops), []).append(sc.name)
     settings = problem.settings
+    size = 0.0  # the mechanism's size: the largest over the scenarios
     for names in groups.values():
         q = sample(problem, every[names[0]][1], settings.verify_samples, settings.seed + SEED_OFFSET)
         for start in range(0, len(names), CHUNK):  # scenarios along axis 0, configurations along axis 1
@@ -216,6 +234,7 @@ def designed_springs(solution: Any) -> tuple[DesignedSpring, ...]:
             base = {k: np.array([[b[k]] for b in bases]) for k in bases[0]}
             lengths = distances(problem, springs, q, variables, base, gravity)
             mech = Mechanics(problem, base, variables, {c.name: c.home for c in problem.coordinates}, gravity)
+            size = max(size, mechanism_size(problem, mech))
 
             def each(tree: Any) -> np.ndarray:
                 return np.broadcast_to(np.asarray(mech.value(tree), dtype=float).reshape(-1), (len(chunk),))
@@ -223,23 +242,25 @@ def designed_springs(solution: Any) -> tuple[DesignedSpring, ...]:
             for s in springs:
                 d = np.broadcast_to(lengths[s.name], (len(chunk), lengths[s.name].shape[1]))
                 columns = [each(s.stiffness), d.min(axis=1), d.max(axis=1)]
+                nan = np.full(len(chunk), np.nan)
                 if s.direct is None:
-                    columns += [np.zeros(len(chunk)), np.full(len(chunk), np.nan), np.full(len(chunk), np.nan)]
+                    columns += [np.zeros(len(chunk)), nan, nan, nan]
                 else:
-                    columns += [each(s.direct.cable), each(s.direct.initial_tension), each(s.direct.free_length)]
+                    longest = each(s.direct.max_length) if s.direct.max_length is not None else nan
+                    columns += [each(s.direct.cable), each(s.direct.initial_tension), each(s.direct.free_length), longest]
                 for j, name in enumerate(chunk):
                     found[s.name][name] = tuple(float(c[j]) for c in columns)
     out: list[DesignedSpring] = []
     for s in springs:
         rows = {sc.name: found[s.name][same[sc.name]] for sc in problem.scenarios}
-        needs = {name: _requirement(s, *values) for name, values in rows.items()}
+        needs = {name: _requirement(s, *values[:6]) for name, values in rows.items()}
         if len(rows) > 1:  # the extremes over every scenario (the file's F0 and L0 are the first's)
             first = next(iter(needs.values()))
             rows[ALL] = (first.rate, min(v[1] for v in rows.values()), max(v[2] for v in rows.values()), *next(iter(rows.values()))[3:])
             needs[ALL] = replace(first, force_min=min(r.force_min for r in needs.values()), force_max=max(r.force_max for r in needs.values()))
         rates = [r.rate for r in needs.values()]
         o = s.design
-        made = design(needs.get(ALL, first_of(needs)), o.material, Envelope(o.max_outer_diameter, o.max_body_length), o.rate_tolerance, o.min_safety_factor)
+        made = design(needs.get(ALL, first_of(needs)), o.material, envelope(o, size, next(iter(rows.values()))[6]), o.rate_tolerance, o.min_safety_factor)
         if max(rates) - min(rates) > RATE_SPREAD * max(rates):
             why = f"its rate changes between scenarios ({min(rates):.6g}-{max(rates):.6g} N/m): no one spring has them all"
             made = SpringDesign(made.material, made.requirement, reasons=(why,), rate_tolerance=made.rate_tolerance)
@@ -251,21 +272,60 @@ def first_of(needs: dict[str, Requirement]) -> Requirement:
     return next(iter(needs.values()))
 
 
+def envelope(options: Any, size: float, direct_max_length: float = math.nan) -> Envelope:
+    """A spring's envelope: the file's limits (``options``: its ``SpringDesignOptions``; a
+    direct mount's ``max_length``, m, NaN: none), and for the working length and the outer
+    diameter the file leaves open, the defaults :data:`LENGTH_SHARE` and
+    :data:`DIAMETER_SHARE` × the mechanism's ``size`` (m; none when the size is 0)."""
+    longest = options.max_length
+    if longest is None and math.isfinite(direct_max_length):
+        longest = direct_max_length
+    default = size > 0 and math.isfinite(size)
+    if longest is None and default:
+        longest = LENGTH_SHARE * size
+    outer = options.max_outer_diameter
+    if outer is None and default:
+        outer = DIAMETER_SHARE * size
+    return Envelope(max_outer_diameter=outer, max_body_length=options.max_body_length, max_length=longest)
+
+
+def mechanism_size(problem: Any, mechanics: Any) -> float:
+    """The mechanism's size (m): the largest distance between any two of its points at the
+    pose of ``mechanics`` (the home configuration): the origins of its frames, the bodies'
+    centres of mass, the springs' ends and the counter-masses. Values that are arrays
+    (several scenarios at once) give the largest over all of them. 0.0 for fewer than two
+    points."""
+    points = [mechanics.pose(f.name)[1] for f in problem.frames]
+    points += [mechanics.position(b.com) for b in problem.bodies]
+    points += [mechanics.position(end) for spring in problem.springs for end in spring.ends]
+    points += [mechanics.position(c.position) for c in problem.counter_masses]
+    if len(points) < 2:
+        return 0.0
+    columns = [np.asarray(c, dtype=float).reshape(-1) for p in points for c in p]
+    n = max(c.size for c in columns)
+    xyz = np.stack([np.broadcast_to(c, (n,)) for c in columns]).reshape(len(points), 3, n)
+    gaps = xyz[:, None, :, :] - xyz[None, :, :, :]
+    return float(np.max(np.sqrt(np.sum(gaps * gaps, axis=2))))
+
+
 def _requirement(spring: Any, k: float, d_min: float, d_max: float, cable: float, f0: float, l0: float) -> Requirement:
+    margin = spring.slack_margin
     if spring.direct is None:
-        return Requirement(rate=k, force_min=k * d_min, force_max=k * d_max)
+        return Requirement(rate=k, force_min=k * d_min, force_max=k * d_max, slack_margin=margin)
     x_min, x_max = max(d_min - cable - l0, 0.0), max(d_max - cable - l0, 0.0)  # tension only
-    return Requirement(rate=k, force_min=f0 + k * x_min, force_max=f0 + k * x_max, initial_tension=f0, free_length=l0)
+    return Requirement(rate=k, force_min=f0 + k * x_min, force_max=f0 + k * x_max, initial_tension=f0, free_length=l0, slack_margin=margin)
 
 
 def _use(spring: Any, scenario: str, values: tuple[float, ...], need: Requirement, made: SpringDesign) -> DesignedSpring:
-    """The spring ``made`` in one scenario: its working range there (forces ``need``, and
-    the lengths of the design at them)."""
+    """The spring ``made`` in one scenario: its working range there (the wound spring's
+    forces where the requirement's spring pulls ``need``, and its lengths at them)."""
     d_min, d_max, cable = values[1:4]
+    made = replace(made, requirement=need)
     f0, L0 = made.initial_tension, made.free_length
-    if spring.direct is None:  # the anchor sets the length: L = L0 + (F − F0)/k (NaN: no design)
-        lengths = (L0 + max(need.force_min - f0, 0.0) / made.rate, L0 + (need.force_max - f0) / made.rate)
+    if spring.direct is None:  # the anchor sets the length: L = L0 + (F − F0)/k_w (NaN: no design)
+        lo, hi = (made.wound_force(need.force_min), made.wound_force(need.force_max)) if made.ok else (math.nan, math.nan)
+        lengths = (L0 + max(lo - f0, 0.0) / made.rate, L0 + (hi - f0) / made.rate)
     else:  # attached directly: the geometry sets the length, d − cable, not below L0
         lengths = (max(d_min - cable, L0), max(d_max - cable, L0))
-    made = replace(made, requirement=need, length_min=lengths[0], length_max=lengths[1])
+    made = replace(made, length_min=lengths[0], length_max=lengths[1])
     return DesignedSpring(spring.name, scenario, "pulley" if spring.direct is None else "direct", d_min, d_max, cable, made)

@@ -313,13 +313,14 @@ def pulley(ctx: Context, s: Any, key: str) -> Pulley | None:
     return Pulley(radius, clearance, axis, 1 if spec.wrap == "ccw" else -1, spec.pin, lead, fixing)
 
 
-#: the keys of a free-stiffness spring's design (:class:`SpringDesignOptions`)
-DESIGN_KEYS = ("material", "max_outer_diameter", "max_body_length", "rate_tolerance", "min_safety_factor")
+#: the keys of a free-stiffness spring's design (:class:`SpringDesignOptions`); ``max_length``
+#: of a direct mount is the spring's own limit (:func:`direct_mount`), not one of them
+DESIGN_KEYS = ("material", "max_outer_diameter", "max_body_length", "max_length", "rate_tolerance", "min_safety_factor")
 
 
 def design_options(ctx: Context, s: Any, key: str) -> SpringDesignOptions:
     """How the helical spring of a free-stiffness spring is designed (docs/springs.md)."""
-    given = {k: getattr(s, k) for k in DESIGN_KEYS if getattr(s, k) is not None}
+    given = {k: getattr(s, k) for k in DESIGN_KEYS if getattr(s, k) is not None and not (k == "max_length" and s.mount == "direct")}
     if not given:
         return SpringDesignOptions()
     if s.slot is not None:
@@ -332,7 +333,7 @@ def design_options(ctx: Context, s: Any, key: str) -> SpringDesignOptions:
         if s.material not in known:
             raise ctx.fail(f"{key}.material", f"unknown spring material '{s.material}'{suggest(s.material, list(known))} (known: {', '.join(known)})")
         values["material"] = s.material
-    for field in ("max_outer_diameter", "max_body_length"):
+    for field in ("max_outer_diameter", "max_body_length", "max_length"):
         if field in given:
             q = ctx.literal(given[field], f"{key}.{field}")
             with ctx.at(f"{key}.{field}"):
@@ -351,6 +352,7 @@ def direct_mount(ctx: Context, s: Any, key: str) -> DirectMount | None:
     """The cable and the spring's own data of a directly attached spring (None: pulley)."""
     given = {k: getattr(s, k) for k in ("free_length", "initial_tension", "max_length", "cable") if getattr(s, k) is not None}
     if s.mount == "pulley":
+        given.pop("max_length", None)  # a designed spring's envelope (design_options)
         if given:
             raise ctx.fail(f"{key}.{next(iter(given))}", 'only a directly attached spring (mount = "direct") has this key')
         return None
