@@ -40,8 +40,11 @@ from ..model.elements import MIN_WRAP, ZeroFreeLengthSpring
 from ..model.problem import Problem
 from ..model.units import display_unit
 
-#: a limit counts as met when it misses its bound by less than this (SI: m, N, rad)
-TOLERANCE = 1e-9
+#: a limit counts as met when it misses its bound by less than this share of the bound's
+#: (or the value's) size, plus ABSOLUTE (SI: m, N, rad): rounding, and the same extreme
+#: found on another draw of the same sample
+TOLERANCE = 1e-7
+ABSOLUTE = 1e-12
 #: the link point counts as in the pulley's plane within this distance (m)
 PLANE_TOLERANCE = 1e-6
 #: the quantities measured per spring
@@ -78,7 +81,10 @@ class Limit:
 
     @property
     def met(self) -> bool:
-        return not self.margin < -TOLERANCE  # NaN (unknown) counts as met
+        if self.kind == "spring":  # a spring that cannot be made, or not as the design needs it
+            return False
+        size = max(abs(self.bound), abs(self.value)) if math.isfinite(self.value) else abs(self.bound)
+        return not self.margin < -(TOLERANCE * size + ABSOLUTE)  # NaN (unknown) counts as met
 
     def text(self, problem: Problem | None = None) -> str:
         """'spring lower: the spring goes slack: force margin 2.1 N below its initial tension 3 N (at q=40 deg)'."""
@@ -228,7 +234,11 @@ def _spring_limits(problem: Problem, s: ZeroFreeLengthSpring, mine: Mapping[str,
         if f0 is not None:
             f_min, scenario, at = _worst(mine, "force", "low")
             k = _rate(problem, s, solution, scenario)
-            out.append(Limit(s.name, "slack", f_min - k * margin, f0, "lower", "N", scenario, at,
+            # the spring as made: a designed spring pulls at its wound rate (the design's rate
+            # until the design is solved again for it)
+            wound = float(design.design.rate) if design is not None and design.ok else k
+            pull = f_min * wound / k if k > 0 else f_min
+            out.append(Limit(s.name, "slack", pull - wound * margin, f0, "lower", "N", scenario, at,
                              f"its least pull less k × slack_margin {margin * 1e3:.4g} mm must reach its initial tension"))
         if p.radius > 0.0:
             w_min, scenario, at = _worst(mine, "wrap", "low")

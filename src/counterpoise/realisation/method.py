@@ -101,7 +101,7 @@ class RealisationMethod:
     def _method(self, problem: Problem) -> DesignMethod:
         if problem is self._problem:
             return self.inner
-        key = tuple((c.name, c.lower, c.upper) for c in problem.constraints)
+        key = (tuple((c.name, c.lower, c.upper) for c in problem.constraints), tuple((s.name, s.stiffness) for s in problem.springs))
         if key not in self._methods:
             self._methods[key] = self._build(problem)
         return self._methods[key]
@@ -147,13 +147,16 @@ class RealisationMethod:
     ) -> tuple[Solution, tuple[Any, ...], tuple[Limit, ...], dict[str, tuple[float, float]]]:
         """The design re-solved for the wound rates (see :func:`wound_rates`), with its
         springs' designs checked again for the new working range; as it was when no rate
-        moves, or when the re-solve is not optimal (its limits then say so)."""
-        fixed, changed = wound_rates(problem, springs)
+        moves, or with a limit naming the springs when no design balances them as wound."""
+        fixed, replaced, changed = wound_rates(problem, springs)
         if not changed:
             return solution, tuple(springs), limits, {}
         first = dict(changed)
+        held: dict[str, float] = {}
         for _ in range(WOUND_ROUNDS):
-            over: dict[Any, tuple[float, float]] = {**(bounds or {}), **{name: (k, k) for name, k in fixed.items()}}
+            held.update(fixed)
+            problem = with_rates(problem, replaced)
+            over: dict[Any, tuple[float, float]] = {**(bounds or {}), **{name: (k, k) for name, k in held.items()}}
             again = self._method(problem).solve(parameters, over, dict(solution.values), certify=certify)
             if again.status is not Status.OPTIMAL:
                 note = "; ".join(f"{n}: designed for {a / 1e3:.6g} N/mm, wound to {b / 1e3:.6g} N/mm" for n, (a, b) in first.items())
@@ -161,10 +164,17 @@ class RealisationMethod:
                               f"no design balances the springs as wound ({note}): free a point of the spring or a tune variable so the geometry can follow its rate")
                 return solution, tuple(springs), (*limits, limit), first
             solution, springs = again, _same_springs(springs, designed_of(again))
-            fixed, changed = wound_rates(problem, springs)
+            fixed, replaced, changed = wound_rates(problem, springs)
             if not changed:
                 break
         return solution, tuple(springs), evaluate(solution, springs, solution.parts), first
+
+
+def with_rates(problem: Problem, rates: Mapping[str, float]) -> Problem:
+    """``problem`` with these springs' stiffness set to a number (N/m)."""
+    if not rates:
+        return problem
+    return replace(problem, springs=tuple(replace(s, stiffness=ex.Num(rates[s.name])) if s.name in rates else s for s in problem.springs))
 
 
 def _same_springs(before: Sequence[Any], after: Sequence[Any]) -> tuple[Any, ...]:
@@ -185,19 +195,19 @@ def _same_springs(before: Sequence[Any], after: Sequence[Any]) -> tuple[Any, ...
     return tuple(out)
 
 
-def wound_rates(problem: Problem, springs: Sequence[Any]) -> tuple[dict[str, float], dict[str, tuple[float, float]]]:
-    """(variables to hold, per spring (design rate, wound rate)) for the designed springs
-    whose wound rate differs from the rate they were designed for. A spring's stiffness
-    that is a design variable (not adjustable) is held at the wound rate; a variable shared
-    by springs wound to different rates, or a stiffness that is not a variable, is left
-    (the realisation limits of the design then name the spring)."""
+def wound_rates(problem: Problem, springs: Sequence[Any]) -> tuple[dict[str, float], dict[str, float], dict[str, tuple[float, float]]]:
+    """(variables to hold, springs whose stiffness to set, per spring (design rate, wound
+    rate)) for the designed springs whose wound rate differs from the rate they were
+    designed for. A stiffness that is a design variable (not adjustable) is held at the
+    wound rate, unless springs wound to different rates share it; any other stiffness (a
+    number, a parameter, an expression, a shared variable) is set to the wound rate."""
     by_spring = {s.name: s for s in problem.springs}
-    out: dict[str, float] = {}
+    fixed: dict[str, float] = {}
+    replaced: dict[str, float] = {}
     changed: dict[str, tuple[float, float]] = {}
+    shared: set[str] = set()
     for d in springs:
-        if d.scenario not in ("all", problem.scenarios[0].name) or not d.ok:
-            continue
-        if len(problem.scenarios) > 1 and d.scenario != "all":
+        if not d.ok or (len(problem.scenarios) > 1 and d.scenario != "all"):
             continue
         made = d.design
         design_rate, wound_rate = float(made.requirement.rate), float(made.rate)
@@ -205,13 +215,20 @@ def wound_rates(problem: Problem, springs: Sequence[Any]) -> tuple[dict[str, flo
             continue
         s = by_spring[d.spring]
         changed[s.name] = (design_rate, wound_rate)
-        if isinstance(s.stiffness, ex.Name) and s.stiffness.id in problem.variable and not problem.variable[s.stiffness.id].adjustable:
-            name = s.stiffness.id
-            if name in out and abs(out[name] / wound_rate - 1.0) > SAME_RATE:
-                out.pop(name)
+        k = s.stiffness
+        if isinstance(k, ex.Name) and k.id in problem.variable and not problem.variable[k.id].adjustable and k.id not in shared:
+            if k.id in fixed and abs(fixed[k.id] / wound_rate - 1.0) > SAME_RATE:
+                shared.add(k.id)
+                fixed.pop(k.id)
                 continue
-            out[name] = wound_rate
-    return out, changed
+            fixed[k.id] = wound_rate
+        else:
+            replaced[s.name] = wound_rate
+    for name, rate in changed.items():  # springs of a variable that turned out shared: each its own rate
+        k = by_spring[name].stiffness
+        if isinstance(k, ex.Name) and k.id in shared:
+            replaced[name] = rate[1]
+    return fixed, replaced, changed
 
 
 def _unbuildable(solution: Solution, forced: Sequence[Limit], springs: Sequence[Any], rounds: int) -> Solution:

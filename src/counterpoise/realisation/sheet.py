@@ -262,14 +262,15 @@ def _spring_rows(problem: Problem, mech: Mechanics, s: ZeroFreeLengthSpring, mad
         offset = -zero - f0 / k
         cable = p_hi + p.clearance
         anchor = offset + cable + l0
-        lead = [_f(c) for c in lead_local(mech, s)]
-        norm = math.sqrt(sum(c * c for c in lead))
         pulley = {key: a[key] for key in ("frame", "subsystem", "x_mm", "y_mm", "z_mm", "world_x_mm", "world_y_mm", "world_z_mm")}
         pulley.update(
             kind="pulley", name=f"{s.name}.pulley", axis_x=p.axis[0], axis_y=p.axis[1], axis_z=p.axis[2],
-            radius_mm=p.radius * MM, clearance_mm=p.clearance * MM, wrap="ccw" if p.sense > 0 else "cw", pin="true" if p.pin else "false",
-            lead_x=lead[0] / norm, lead_y=lead[1] / norm, lead_z=lead[2] / norm, cable_mm=cable * MM,
+            radius_mm=p.radius * MM, clearance_mm=p.clearance * MM, wrap="ccw" if p.sense > 0 else "cw", pin="true" if p.pin else "false", cable_mm=cable * MM,
         )  # fmt: skip
+        if p.radius > 0.0:  # where the spring lies behind the pulley (a point pulley: anywhere)
+            lead = [_f(c) for c in lead_local(mech, s)]
+            norm = math.sqrt(sum(c * c for c in lead))
+            pulley.update(lead_x=lead[0] / norm, lead_y=lead[1] / norm, lead_z=lead[2] / norm)
         if p.pin and p.radius > 0.0:
             fixing = [_f(c) for c in fixing_local(mech, s)]
             fnorm = math.sqrt(sum(c * c for c in fixing))
@@ -321,6 +322,8 @@ def sheet_rows(solution: Any, designed: Sequence[Any] = (), parts: Any = None, f
         mech = mechanics_at(solution, scenario.name)
         rows = _mechanism_rows(problem, mech, scenario)
         for s in problem.springs:
+            if not made[s.name].rate > 0.0:  # stiffness 0: the design leaves it out, nothing to build
+                continue
             extremes_of = _spring_extremes(found, s.name, scenario.name, checked)
             rows += _spring_rows(problem, mech, s, made[s.name], extremes_of)
         for c in problem.counter_masses:
