@@ -220,6 +220,8 @@ def _spring_limits(problem: Problem, s: ZeroFreeLengthSpring, mine: Mapping[str,
     out: list[Limit] = []
     p = s.pulley
     margin = s.slack_margin
+    if not _rate(problem, s, solution, next(iter(mine))) > 0.0:
+        return out  # stiffness 0: the design leaves the spring out, nothing is built
     if s.direct is not None:
         d_min, scenario, at = _worst(mine, "length", "low")
         cable_length, free = _direct_lengths(problem, s, solution, scenario)

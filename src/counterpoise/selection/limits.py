@@ -56,7 +56,8 @@ def fitting_parts(
         cat = slots[n].catalogue
         a = cat.arrays
         rows = kept[n]
-        lo = np.min([d_min[s] for s in slots[n].springs], axis=0)
+        margin = {s.name: s.slack_margin for s in relaxed.springs}
+        lo = np.min([d_min[s] - margin[s] for s in slots[n].springs], axis=0)  # the slack margin kept beyond F0/k
         hi = np.max([d_max[s] for s in slots[n].springs], axis=0)
         rate_of = np.array([fixed[n] for fixed, _ in evaluated])
         for e in range(len(evaluated)):

@@ -46,7 +46,7 @@ class SpringUse:
     max_length: float
     initial_tension: float
     max_load: float
-    margin_slack: float  # d_min − F0/k  (≥ 0: the string never goes slack)
+    margin_slack: float  # d_min − F0/k − slack_margin (≥ 0: the string never goes slack, by the margin)
     margin_length: float  # L_max − length_max
     margin_load: float  # F_max − force_max
     scenario: str = ""  # the scenario (payload sample) these extremes are taken in; "": every one
@@ -214,11 +214,11 @@ def use(slots: Mapping[str, SpringSlot], rows: dict[str, int], s: ZeroFreeLength
     cat = slots[slot].catalogue
     i = rows[slot]
     k, l0, f0, fmax, lmax = cat.rate[i], cat.free_length[i], cat.initial_tension[i], cat.max_load[i], cat.max_length[i]
-    if s.direct is None:  # behind a string: length d + L0 − F0/k, force k·d
-        m = margins(np.array(lo), np.array(hi), k, l0, f0, fmax, lmax)
+    if s.direct is None:  # behind a string: length d + L0 − F0/k, force k·d; slack: beyond F0/k by the slack margin
+        m = margins(np.array(lo - s.slack_margin), np.array(hi), k, l0, f0, fmax, lmax)
         v = (lo, hi, lo + l0 - f0 / k, hi + l0 - f0 / k, k * lo, k * hi, float(m.slack), float(m.length), float(m.load))
-    else:  # attached directly: length d − c, force F0 + k (d − c − L0)
-        v = (lo + cable, hi + cable, lo, hi, f0 + k * (lo - l0), f0 + k * (hi - l0), lo - l0, lmax - hi, fmax - (f0 + k * (hi - l0)))
+    else:  # attached directly: length d − c, force F0 + k (d − c − L0); slack: beyond L0 by the slack margin
+        v = (lo + cable, hi + cable, lo, hi, f0 + k * (lo - l0), f0 + k * (hi - l0), lo - l0 - s.slack_margin, lmax - hi, fmax - (f0 + k * (hi - l0)))
     return SpringUse(s.name, slot, cat.part_number[i], *v[:6], l0, lmax, f0, fmax, *v[6:], scenario=scenario)
 
 

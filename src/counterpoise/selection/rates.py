@@ -94,8 +94,8 @@ def screen_rates(search: Any, name: str, rates: np.ndarray, kept: np.ndarray, ot
         designs[scenario.name] = values
         gravity, base = nodes[0][1].scenario_parameters[scenario.name]
         lengths = spring_lengths(relaxed, [s.name for s in springs], q, {v: x[:, None] for v, x in values.items()}, base, gravity)
-        for s in springs:
-            d_min = np.minimum(d_min, lengths[s.name].min(axis=1))
+        for s in springs:  # the slack margin: the part must stay that much beyond F0/k
+            d_min = np.minimum(d_min, lengths[s.name].min(axis=1) - s.slack_margin)
             d_max = np.maximum(d_max, lengths[s.name].max(axis=1))
     part = {f: a[f][kept] for f in ("rate", "free_length", "initial_tension", "max_load", "max_length")}
     m = margins(d_min[at], d_max[at], **part)

@@ -48,6 +48,15 @@ def finish(ctx: Context, problem: Problem) -> Problem:
                     "workspace: a cable wrapped onto a pin pulls k·d only when the pin's frame keeps the pulley frame's orientation "
                     "(a parallelogram's coupler, a slide); attach the pin to such a frame, or set pin = false",
                 )
+    for s in springs:
+        key = f"springs.{s.name}.pulley.radius"
+        if s.pulley is not None and not s.pulley.pin:
+            if s.slot is not None:
+                raise ctx.fail(key, "not combinable: a catalogue part behind a pulley of radius > 0 needs the cable wrapped onto a pin (pin = true), "
+                               "or a point pulley (radius 0): the part search balances exactly")
+            if problem.robust is not None:
+                raise ctx.fail(key, "not combinable with [robust]: a pulley of radius > 0 without a pin has no exact worst case; "
+                               "wrap the cable onto a pin (pin = true) or use a point pulley")
     variables = list(problem.variables)
     out = []
     for s in problem.springs:
@@ -103,13 +112,19 @@ def relative_turn(problem: Problem, spring: ZeroFreeLengthSpring) -> float:
     """The largest angle (rad) by which the ``to`` frame of ``spring`` turns against its
     ``from`` frame over sampled configurations, from their relative orientation at home."""
     a, b = spring.ends
-    mech = _mechanics(problem, _workspace(problem, spring.subsystem))
-    home = _mechanics(problem, {c.name: c.home for c in problem.coordinates})
-    relative = [np.asarray(_relative(m, a.frame, b.frame), dtype=float) for m in (mech, home)]
-    moving, fixed = (np.broadcast_to(r.reshape(3, 3, -1), (3, 3, max(relative[0].reshape(3, 3, -1).shape[2], 1))) for r in relative)
-    # the angle of R_home^T R: trace = 1 + 2 cos(angle)
-    trace = np.einsum("ijn,ijn->n", fixed, moving)
-    return float(np.max(np.arccos(np.clip((trace - 1.0) / 2.0, -1.0, 1.0))))
+    coordinates = _workspace(problem, spring.subsystem)
+    n = max((np.size(v) for v in coordinates.values()), default=1)
+    moving = _stacked(_relative(_mechanics(problem, coordinates), a.frame, b.frame), n)
+    fixed = _stacked(_relative(_mechanics(problem, {c.name: c.home for c in problem.coordinates}), a.frame, b.frame), n)
+    # the angle θ between the two orientations: |R − R_home|_F = 2√2 sin(θ/2) (accurate
+    # near 0, where the arccos of the trace is not)
+    distance = np.sqrt(np.sum((moving - fixed) ** 2, axis=(0, 1)))
+    return float(np.max(2.0 * np.arcsin(np.clip(distance / (2.0 * np.sqrt(2.0)), 0.0, 1.0))))
+
+
+def _stacked(matrix: list[list[object]], n: int) -> np.ndarray:
+    """A 3×3 nested list of scalars or arrays as a (3, 3, n) array."""
+    return np.array([[np.broadcast_to(np.asarray(v, dtype=float).reshape(-1), (n,)) for v in row] for row in matrix])
 
 
 def _relative(mech: "Mechanics", frame_a: str, frame_b: str) -> list[list[object]]:
