@@ -143,6 +143,50 @@ def test_force_limit_conflicting_with_a_mass_cap_is_named():
     assert "heavy" in result.message and "s.max_force" in result.message
 
 
+def spring_and_counter_mass(**constraints: dict) -> ProblemBuilder:
+    """The pendulum with both a free counter-mass (M, b) and a free zero-free-length spring k
+    (a = h = 0.1 m, as in :func:`spring_lp`): balance is m g r = k a h + M g b."""
+    b = ProblemBuilder("conflict", gravity=f"{G} m/s^2", direction=(0, -1, 0))
+    b.subsystem("arm", phi=("-90 deg", "90 deg"))
+    b.frame("link", rotate("z", "phi"))
+    b.parameter("m", "1 kg").parameter("r", "0.2 m").parameter("a", "0.1 m").parameter("h", "0.1 m")
+    b.variable("M", "0 kg", "10 kg").variable("b", "0.05 m", "0.5 m", initial="0.2 m").variable("k", "0 N/m", "1000 N/m")
+    b.body("link", "link", "m", ("r", 0, 0))
+    b.counter_mass("cm", "link", "M", ("-b", 0, 0))
+    b.spring("s", "k", ("ground", (0, "h", 0)), ("link", ("a", 0, 0)))
+    for name, spec in constraints.items():
+        b.constraint(name, **spec)
+    return b
+
+
+def test_an_infeasible_design_is_the_elastic_design_its_message_describes():
+    """Issue 32 item 6. No counter moment (M b ≤ 0) and a spring moment k a h ≤ 0.5 N·m
+    cannot hold with the balance m g r = k a h + M g b = 1.962 N·m: the smallest relaxation
+    keeps the spring at its limit (k = 0.5/(a h) = 50 N/m) and misses counter_moment by
+    (m g r − 0.5)/g = 1.462/9.81 = 0.14903 kg·m. The design reported is that one (balanced,
+    spring_moment at its bound, M b = 0.14903), not IPOPT's last iterate (k = 80 N/m, both
+    constraints beyond their bounds)."""
+    from counterpoise.report.rows import constraint_rows
+
+    result = design(spring_and_counter_mass(
+        counter_moment={"expression": "M * b", "upper": "0 kg m"},
+        spring_moment={"expression": "k * a * h", "upper": "0.5 N m"},
+    ).build())
+    assert result.status is Status.INFEASIBLE
+    missed = (1 * G * 0.2 - 0.5) / G
+    assert "counter_moment (missed by 0.149 kg m)" in result.message and "binding: spring_moment = 0.5 N m at its upper bound" in result.message
+    values = {slot.variable: v for slot, v in result.solution.values.items()}
+    assert values["k"] == pytest.approx(0.5 / (0.1 * 0.1), rel=1e-6)
+    assert values["M"] * values["b"] == pytest.approx(missed, rel=1e-6)
+    assert result.verification.balanced
+    moment, spring = _value(result, "counter_moment"), _value(result, "spring_moment")
+    assert moment.active == "violated" and moment.value == pytest.approx(missed, rel=1e-6) and moment.relaxed == pytest.approx(missed, rel=1e-6)
+    assert spring.active == "upper" and spring.relaxed == 0.0
+    rows = {r["name"]: r for r in constraint_rows(result)}  # design.csv's constraint rows
+    assert rows["spring_moment"]["active_bound"] == "upper" and rows["spring_moment"]["value"] == pytest.approx(0.5, rel=1e-6)
+    assert "relaxed by 0.149 kg m" in rows["counter_moment"]["description"]
+
+
 def test_nonlinear_constraint_moves_an_lp_to_the_nlp():
     """M² ≤ 0.3 kg² (M ≤ 0.5477 kg) is not linear: IPOPT solves it, and says why."""
     result = design(spring_lp(square={"expression": "M**2", "upper": "0.3 kg^2"}).build())

@@ -12,12 +12,13 @@
 
 from __future__ import annotations
 
-from dataclasses import replace
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..formulation.constraints import ConstraintRows, describe, evaluate
+from ..formulation.constraints import ConstraintRows, ConstraintValue, describe, evaluate
 from ..solvers.base import Bounds, SolverOutput, Status
 from .solution import Solution
 
@@ -49,16 +50,28 @@ def attach_constraints(solution: Solution, rows: ConstraintRows | None, multipli
     return solution
 
 
-def name_conflict(designer: "Designer", z: np.ndarray, p: np.ndarray, b: Bounds) -> str:
-    """The message of an infeasible constrained design that the balance alone allows: the
-    constraints the elastic problem had to relax, by name (empty: not the constraints' fault)."""
+@dataclass(frozen=True)
+class Conflict:
+    """What the elastic problem found (see :func:`name_conflict`): the message, the elastic
+    design (balanced, scaled z: the design the message describes) and, per (constraint,
+    scenario), the amount (SI) it had to be relaxed by."""
+
+    message: str
+    z: np.ndarray
+    relaxed: dict[tuple[str, str], float]
+
+
+def name_conflict(designer: "Designer", z: np.ndarray, p: np.ndarray, b: Bounds) -> Conflict | None:
+    """An infeasible constrained design that the balance alone allows: the constraints the
+    elastic problem had to relax, by name, and the elastic design itself (None: not the
+    constraints' fault, or the elastic problem did not balance)."""
     import casadi as ca
 
     from ..solvers.ipopt import IpoptBackend
 
     rows = designer.rows
     if rows is None or rows.count == 0:
-        return ""
+        return None
     f = designer.formulation
     n_groups = len(rows.groups)
     slack = ca.SX.sym("s", n_groups)
@@ -81,23 +94,35 @@ def name_conflict(designer: "Designer", z: np.ndarray, p: np.ndarray, b: Bounds)
     out = backend.solve(np.concatenate([z, np.ones(n_groups)]), p, bounds)
     zz, s = out.z[: z.size], out.z[z.size :]
     if out.status is not Status.OPTIMAL or not designer.balances(zz, p):
-        return ""
+        return None
     missed = [(float(s[j]), g) for j, g in enumerate(rows.groups) if s[j] > SLACK_TOLERANCE]
     if not missed:
-        return ""
+        return None
     by_name: dict[str, tuple[float, list[str], Any]] = {}
+    relaxed: dict[tuple[str, str], float] = {}
     for amount, g in missed:
         c = g.constraint
         worst, scenarios, _ = by_name.get(c.name, (0.0, [], c))
         by_name[c.name] = (max(worst, amount * g.scale), [*scenarios, g.scenario], c)
+        relaxed[(c.name, g.scenario)] = amount * g.scale
     parts = []
     n_scenarios = len(designer.problem.scenarios)
     for name, (amount, scenarios, c) in sorted(by_name.items(), key=lambda t: -t[1][0] / max(abs(t[1][2].upper or 0), abs(t[1][2].lower or 0), 1e-300)):
         where = "" if n_scenarios == 1 or len(set(scenarios)) == n_scenarios else f" in scenario{'s' if len(scenarios) > 1 else ''} {', '.join(repr(x) for x in scenarios)}"
         parts.append(f"{name}{where} (missed by {c.unit.from_si(amount):.4g} {c.unit.label})".replace(" )", ")"))
-    return "infeasible: the constraints cannot all hold together with the balance: " + ", ".join(parts) + (
+    message = "infeasible: the constraints cannot all hold together with the balance: " + ", ".join(parts) + (
         " (the smallest total relaxation that balances; relax or remove these)"
     )
+    return Conflict(message, zz, relaxed)
+
+
+def conflict_message(problem: Any, conflict: Conflict, values: Sequence[ConstraintValue]) -> str:
+    """The conflict's message with the constraints that bind in the elastic design (those
+    not relaxed, at a bound), as design.csv shows them."""
+    binding = [v for v in values if v.active in ("upper", "lower") and (v.name, v.scenario) not in conflict.relaxed]
+    if not binding:
+        return conflict.message
+    return conflict.message + "; in that design, binding: " + "; ".join(describe(problem, v) for v in binding)
 
 
 def rows_multipliers(out: SolverOutput, rows: ConstraintRows | None) -> np.ndarray | None:

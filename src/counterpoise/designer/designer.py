@@ -35,7 +35,7 @@ from ..numeric import NumericFunction
 from ..threads import limit_blas_threads
 from . import convex
 from ..formulation.constraints import MAX_ROUNDS, ConstraintRows, Extra, build_rows, evaluate, merge, violations
-from .constrained import BALANCEABLE_BUT_INFEASIBLE, attach_constraints, name_conflict, rows_multipliers
+from .constrained import BALANCEABLE_BUT_INFEASIBLE, attach_constraints, conflict_message, name_conflict, rows_multipliers
 from .solution import Solution, build_solution
 
 if TYPE_CHECKING:
@@ -597,10 +597,14 @@ class Designer:
             )
         if solution.status is Status.INFEASIBLE or out.solver_status == BALANCEABLE_BUT_INFEASIBLE:
             conflict = name_conflict(self, z, parameters, b)
-            if conflict:
-                # balanced, yet infeasible: the constraints' verdict
-                solution = replace(solution, status=Status.INFEASIBLE, message=conflict).judged(Status.INFEASIBLE, conflict, "constraints")
-                return replace(solution, constraints=evaluate(self.problem, solution, self.rows, None))
+            if conflict is not None:
+                # balanced, yet infeasible: the constraints' verdict, on the design it describes
+                # (the elastic one: balanced, the named constraints relaxed by the stated amounts)
+                elastic = SolverOutput(conflict.z, Status.INFEASIBLE, out.solver_status, out.iterations, out.solve_time, out.solver)
+                solution = build_solution(self.formulation, conflict.z, parameters, b.lbz, b.ubz, elastic, conflict.message, self.n_equalities, self.conditions.summary())
+                values = tuple(replace(v, relaxed=conflict.relaxed.get((v.name, v.scenario), 0.0)) for v in evaluate(self.problem, solution, self.rows, None))
+                message = conflict_message(self.problem, conflict, values)
+                return replace(solution, message=message, constraints=values).judged(Status.INFEASIBLE, message, "constraints")
         return attach_constraints(solution, self.rows, rows_multipliers(out, self.rows))
 
 

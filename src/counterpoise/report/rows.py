@@ -153,6 +153,9 @@ def constraint_rows(result: DesignResult) -> list[Row]:
         if v.configuration:
             at = ", ".join(f"{n}={problem.coordinate[n].unit.from_si(x):.6g} {problem.coordinate[n].unit.label}".rstrip() for n, x in v.configuration.items())
             text = f"{text}; extreme at {at}" if text else f"extreme at {at}"
+        if v.relaxed > 0:
+            relaxed = f"relaxed by {u.from_si(v.relaxed):.4g} {u.label}".rstrip() + " in this design (the elastic design of the conflict)"
+            text = f"{text}; {relaxed}" if text else relaxed
         rows.append(
             {
                 "name": c.name,
