@@ -187,6 +187,63 @@ def test_an_infeasible_design_is_the_elastic_design_its_message_describes():
     assert "relaxed by 0.149 kg m" in rows["counter_moment"]["description"]
 
 
+def spring_only(max_force: str) -> ProblemBuilder:
+    """The pendulum held by a zero-free-length spring alone: k and the anchor a on the link
+    free (an NLP), h = 0.1 m. Balance k a h = m g r; the pull k|A − B| is largest at
+    φ = −90° (|A − B| = a + h), so F_max = m g r (a + h)/(a h) = m g r (1/h + 1/a), least at
+    the largest a = 0.3 m: 1.962 × (10 + 10/3) = 26.16 N."""
+    b = ProblemBuilder("spring_only", gravity=f"{G} m/s^2", direction=(0, -1, 0))
+    b.subsystem("arm", phi=("-90 deg", "90 deg"))
+    b.frame("link", rotate("z", "phi"))
+    b.parameter("m", "1 kg").parameter("r", "0.2 m").parameter("h", "0.1 m")
+    b.variable("a", "0.01 m", "0.3 m").variable("k", "0 N/m", "10000 N/m")
+    b.body("link", "link", "m", ("r", 0, 0))
+    b.spring("s", "k", ("ground", (0, "h", 0)), ("link", ("a", 0, 0)), max_force=max_force)
+    return b
+
+
+SMALLEST_LARGEST_FORCE = 1 * G * 0.2 * (1 / 0.1 + 1 / 0.3)  # N, see spring_only
+
+
+def test_a_tiny_force_limit_is_named_with_how_far_it_is_missed():
+    """Issue 32 item 14: max_force = 1e-12 N. The elastic problem's rows are divided by the
+    bound (1e-12): from a slack of 1 IPOPT's restoration got stuck and the message was only
+    'IPOPT declared a balanceable problem infeasible'. It names the limit and its miss now."""
+    result = design(spring_only("1e-12 N").build())
+    assert result.status is Status.INFEASIBLE
+    assert f"s.max_force (missed by {SMALLEST_LARGEST_FORCE:.4g} N)" in result.message, result.message
+    assert _value(result, "s.max_force").value == pytest.approx(SMALLEST_LARGEST_FORCE, rel=1e-6)
+
+
+def test_an_absurdly_small_force_limit_names_the_limit_the_design_misses():
+    """max_force = 1e-300 N: the rows (divided by the bound) are ~1e301 and no solve settles
+    it; the message still names the limit, the spring's pull at the design reported and
+    by how much it is over."""
+    result = design(spring_only("1e-300 N").build())
+    assert result.status is not Status.OPTIMAL
+    values = {slot.variable: v for slot, v in result.solution.values.items()}
+    pull = values["k"] * (values["a"] + 0.1)  # at φ = −90°
+    assert "it misses s.max_force (springs.s.max_force): spring s pulls" in result.message, result.message
+    assert f"pulls {pull:.6g} N against its max_force 1e-300 N, {pull:.4g} N over (at phi=-90 deg)" in result.message
+
+
+@pytest.mark.parametrize(
+    ("expression", "fragment"),
+    [
+        # b → 0.5 m (its upper bound) minimises M; the root's argument reaches 0 at b = 0.45 m
+        ("sqrt(0.45 - b/(1 m)) * 1 m", "= 0 m has no finite derivative"),
+        # the initial b = 0.2 m divides by zero
+        ("1 m^2/(b - 0.2 m)", "has no finite value"),
+    ],
+)
+def test_a_constraint_that_is_not_a_finite_number_is_named(expression, fragment):
+    """Issue 32 item 13: IPOPT's Invalid_Number_Detected names the constraint and its key."""
+    result = design(housing("0.5 m", root={"expression": expression, "upper": "10 m"}).build())
+    assert result.status is Status.FAILED
+    assert "Invalid_Number_Detected: root (constraints.root.expression)" in result.message, result.message
+    assert fragment in result.message and "at the solver's point (M=" in result.message
+
+
 def test_nonlinear_constraint_moves_an_lp_to_the_nlp():
     """M² ≤ 0.3 kg² (M ≤ 0.5477 kg) is not linear: IPOPT solves it, and says why."""
     result = design(spring_lp(square={"expression": "M**2", "upper": "0.3 kg^2"}).build())

@@ -35,7 +35,17 @@ from ..numeric import NumericFunction
 from ..threads import limit_blas_threads
 from . import convex
 from ..formulation.constraints import MAX_ROUNDS, ConstraintRows, Extra, build_rows, evaluate, merge, violations
-from .constrained import BALANCEABLE_BUT_INFEASIBLE, attach_constraints, conflict_message, name_conflict, rows_multipliers
+from .constrained import (
+    BALANCEABLE_BUT_INFEASIBLE,
+    INVALID_NUMBER,
+    attach_constraints,
+    between_samples,
+    conflict_message,
+    name_conflict,
+    name_invalid_numbers,
+    rows_multipliers,
+    unmet_at,
+)
 from .solution import Solution, build_solution
 
 if TYPE_CHECKING:
@@ -213,7 +223,10 @@ class Designer:
         b = self.bounds(self.n_equalities, bounds)
         z0 = np.clip(d.to_z(d.vector(initial or {})), b.lbz, b.ubz)
         solution = self._solve(z0, p, b, bounds, certify)
-        add = violations(self.problem, solution.constraints)
+        # rounds only for a design whose solver held its sampled rows (one the dense check
+        # then failed between them): re-solving a failed or conflicting one with more rows
+        # cannot help (a max_force of 1e-300 N took 5 elastic solves of 500 iterations)
+        add = violations(self.problem, solution.constraints) if solution.status is Status.OPTIMAL or between_samples(solution) else {}
         if add and self._round < MAX_ROUNDS:
             # a workspace extreme beyond its bound between the sampled configurations: add
             # the dense check's worst configurations to the rows and solve again from here
@@ -309,6 +322,10 @@ class Designer:
                 z = self.polish_settings(z, p, b)
                 elapsed += seconds
             out = _with_time(out, elapsed)
+        if out.solver_status == INVALID_NUMBER:
+            named = name_invalid_numbers(self, [z, z0], p)
+            if named:
+                message = f"{message}: {named}"
         return self._solution(z, p, b, out, message, closest_kind)
 
     def balances(self, z: np.ndarray, p: np.ndarray, tolerance: float = BALANCE_TOLERANCE) -> bool:
@@ -605,7 +622,14 @@ class Designer:
                 values = tuple(replace(v, relaxed=conflict.relaxed.get((v.name, v.scenario), 0.0)) for v in evaluate(self.problem, solution, self.rows, None))
                 message = conflict_message(self.problem, conflict, values)
                 return replace(solution, message=message, constraints=values).judged(Status.INFEASIBLE, message, "constraints")
-        return attach_constraints(solution, self.rows, rows_multipliers(out, self.rows))
+        solution = attach_constraints(solution, self.rows, rows_multipliers(out, self.rows))
+        if (out.solver_status == BALANCEABLE_BUT_INFEASIBLE or solution.status is Status.FAILED) and not between_samples(solution):
+            # the elastic problem did not settle it, or the solver failed: name the limits the
+            # design reported misses
+            unmet = unmet_at(self.problem, solution.constraints)
+            if unmet:
+                solution = replace(solution, message=f"{solution.message}; it misses {unmet}")
+        return solution
 
 
 def _admissible(signs: np.ndarray) -> bool:
