@@ -211,7 +211,7 @@ def chosen_parts(result: DesignResult) -> str:
 
 
 def _scenario_label(problem: Problem, check: CoordinateCheck) -> str:
-    """A check's scenario; on a tilting base, the working mode checked at random tilts
+    """A check's scenario; on a tilting base, the working mode checked over its whole tilt box
     ('nominal (all tilts)'), since one check covers every node of its tilt grid."""
     if not check.worst_tilt:
         return check.scenario
