@@ -316,3 +316,22 @@ def test_cli_checks_catalogues(tmp_path):
     proc = run_cli("catalogue", str(bad))
     assert proc.returncode == 2
     assert proc.stderr.strip() == f"{bad}: row 2 (line 3), column rate_N_per_m: the rate must be positive, got -5 N/m"
+
+
+@pytest.mark.parametrize(("excess", "fits"), [(1e-11, True), (1e-6, False)])
+def test_a_part_at_rounding_distance_outside_the_window_fits(tmp_path, excess, fits):
+    """Issue 32 item 17. Balance is k b h = m g r with h ≤ 0.3 m (b = 0.1 m, r = 0.2 m): with
+    m = 200 · 0.1 · 0.3/(g · 0.2) × (1 + excess) the 200 N/m part needs h = 0.3 m × (1 + excess),
+    just past its bound (the 5000 N/m part needs h = 0.012 m < 0.02 m: it never fits). At
+    1e-11 that is rounding: the part fits with h on its bound, the residual ratio about 1e-11.
+    At 1e-6 it does not, and the part is named as outside the balanceable range."""
+    rows = ["P-1,200,0.05,1,80,0.6,0.01,0.001,x", "P-2,5000,0.05,1,800,0.6,0.01,0.001,x"]
+    result = design(pendulum(tmp_path, rows, 200 * 0.1 * 0.3 / (9.81 * 0.2) * (1 + excess)))
+    if fits:
+        assert result.status is Status.OPTIMAL, result.message
+        assert result.parts.chosen == {"s": 0}
+        assert next(v for slot, v in result.solution.values.items() if slot.variable == "h") == 0.3
+        assert result.verification.residual_ratio == pytest.approx(excess, rel=1e-3)
+    else:
+        assert result.status is not Status.OPTIMAL
+        assert "P-1 (slot s): no balanced design within the bounds uses its rate" in result.message

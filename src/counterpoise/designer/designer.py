@@ -313,6 +313,12 @@ class Designer:
                 z, message = out.z, f"{out.solver.upper()}: {out.solver_status}"
                 if out.status is Status.OPTIMAL:
                     z, message = self.polish(z, p, b), "balanced design found (restarted from a balanced point)"
+                elif out.status is Status.INFEASIBLE and (within := self._within_rounding(closest.z, p, b)) is not None:
+                    # the balanced design lies beyond a bound by rounding (issue 32: a catalogue
+                    # part's rate 1e-11 outside the balanceable window)
+                    elapsed += within[1].solve_time
+                    out = within[1]
+                    z, message = within[0], f"balanced design found (a variable held on a bound that the exact balance passes by less than {BOUND_TOLERANCE:g} of its span)"
                 elif out.status is Status.INFEASIBLE:
                     code = BALANCEABLE_BUT_INFEASIBLE if self.rows is not None else out.solver_status
                     out = SolverOutput(closest.z, Status.FAILED, code, out.iterations, out.solve_time, out.solver)
@@ -327,6 +333,29 @@ class Designer:
             if named:
                 message = f"{message}: {named}"
         return self._solution(z, p, b, out, message, closest_kind)
+
+    def _within_rounding(self, z: np.ndarray, p: np.ndarray, b: Bounds) -> tuple[np.ndarray, SolverOutput] | None:
+        """A balanced design IPOPT calls infeasible from a balanced start ``z``: solved once
+        more with every variable's bounds widened by :data:`BOUND_TOLERANCE` × its span (the
+        rule that puts a value "on" a bound), the result put back within the bounds and
+        polished. Returned (design, solver output) when that balances; None otherwise, or
+        with design constraints (their conflicts are the elastic problem's to name).
+
+        Why: the balance may need a variable a rounding amount beyond its bound (a catalogue
+        part's rate within 1e-11 of its balanceable window's end: the lever 3e-12 m past its
+        upper bound). IPOPT, held to 1e-12 on the balance with that variable pinned, declares
+        it infeasible; within the stated tolerance it is a fit."""
+        if self.rows is not None:
+            return None
+        span = np.where(np.isfinite(b.ubz - b.lbz), b.ubz - b.lbz, 0.0)
+        widened = Bounds(b.lbz - BOUND_TOLERANCE * span, b.ubz + BOUND_TOLERANCE * span, b.lbg, b.ubg)
+        out = self.backend.solve(z, p, widened)
+        if out.status is not Status.OPTIMAL:
+            return None
+        candidate = self.polish(np.clip(out.z, b.lbz, b.ubz), p, b)
+        if not self.balances(candidate, p) or not _admissible(np.array(self.residual_jacobian()(candidate, p)[2]).reshape(-1)):
+            return None
+        return candidate, out
 
     def balances(self, z: np.ndarray, p: np.ndarray, tolerance: float = BALANCE_TOLERANCE) -> bool:
         """Whether the compressed balance equalities hold at ``z`` (scaled as in the NLP)."""
@@ -561,7 +590,10 @@ class Designer:
         short of :meth:`balances`; a few Newton steps on g itself finish the job when a
         balanced design is that near. Kept only while |g| decreases and signs stay ≥ 0.
         """
-        return gauss_newton(self._balance_evaluation(p), z, b.lbz, b.ubz, iterations=iterations, tolerance=EXACT_BALANCE).z
+        # a fixed variable (lower = upper: a part's rate in a part search) does not move: in
+        # the minimum-norm step it would take a share that the bounds then cut away, and the
+        # steps would stall short of balance (issue 32)
+        return gauss_newton(self._balance_evaluation(p), z, b.lbz, b.ubz, free=b.ubz > b.lbz, iterations=iterations, tolerance=EXACT_BALANCE).z
 
     def _overdetermined(self, z0: np.ndarray, p: np.ndarray, b: Bounds, bounds: BoundsOverride | None, minimax: bool = True) -> Solution:
         """More independent conditions than variables: balance only at special designs.
