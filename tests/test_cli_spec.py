@@ -118,7 +118,7 @@ def test_a_command_function_must_take_the_tables_parameters():
         cli_app.command(solve)
 
 
-@pytest.mark.parametrize("name, function", [("solve", run.run_solve), ("validate", run.run_validate), ("study", run.run_study)])
+@pytest.mark.parametrize("name, function", [("solve", run.solve_command), ("validate", run.validate_command), ("study", run.study_command)])
 def test_the_run_function_takes_every_option_of_its_command(name, function):
     """The app's command hands its parsed values to the plain function of ``cli/run.py``."""
     keywords = [k for k, p in inspect.signature(function).parameters.items() if p.kind is p.KEYWORD_ONLY]
@@ -130,7 +130,7 @@ def test_the_run_function_takes_every_option_of_its_command(name, function):
 
 @pytest.fixture
 def recorded(monkeypatch):
-    """``run_solve``, ``run_validate`` and ``run_study`` replaced by a recorder (exit 0):
+    """``solve_command``, ``validate_command`` and ``study_command`` replaced by a recorder (exit 0):
     the values the app hands them."""
     calls: list[dict] = []
 
@@ -138,7 +138,7 @@ def recorded(monkeypatch):
         calls.append(values)
         return 0
 
-    for name in ("run_solve", "run_validate", "run_study"):
+    for name in ("solve_command", "validate_command", "study_command"):
         monkeypatch.setattr(run, name, record)
     return calls
 

@@ -129,7 +129,7 @@ def _out_line(line: str) -> None:
 
 @command
 def validate(**values: Any) -> None:
-    raise typer.Exit(run.run_validate(_err_line, _out_line, **values))
+    raise typer.Exit(run.validate_command(_err_line, _out_line, **values))
 
 
 @command
@@ -162,7 +162,7 @@ def catalogue(files: list[Path], columns: str, units: str | None) -> None:
 
 @command
 def solve(**values: Any) -> None:
-    raise typer.Exit(run.run_solve(_err_line, print_summary, **values))
+    raise typer.Exit(run.solve_command(_err_line, print_summary, **values))
 
 
 #: ``schedule --payload`` beyond this multiple of the declared range's upper end is an
@@ -229,7 +229,7 @@ def schedule(file: Path, payload: str, set_: list[str] | None) -> None:
 
 @command
 def study(**values: Any) -> None:
-    raise typer.Exit(run.run_study(_err_line, _out_line, err_console, **values))
+    raise typer.Exit(run.study_command(_err_line, _out_line, err_console, **values))
 
 
 @command

@@ -263,7 +263,7 @@ def _load(
     return problems, sets
 
 
-def run_solve(
+def solve_command(
     err: Err,
     summary: Summary,
     *,
@@ -294,7 +294,7 @@ def run_solve(
     return worst
 
 
-def run_validate(err: Err, out: Err, *, files: list[Path], set_: list[str] | None) -> int:
+def validate_command(err: Err, out: Err, *, files: list[Path], set_: list[str] | None) -> int:
     """``counterpoise validate`` once its values are parsed: load and check every file, one
     ``ok`` line each on ``out``; the exit status (2: some file does not load, every error
     said on ``err``)."""
@@ -314,7 +314,7 @@ def run_validate(err: Err, out: Err, *, files: list[Path], set_: list[str] | Non
     return 0
 
 
-def run_study(
+def study_command(
     err: Err,
     said: Err,
     console: Any,
