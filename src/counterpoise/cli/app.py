@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, Optional
 
 import typer
-from rich.console import Console
+from rich.console import Console, JustifyMethod
 from rich.table import Table
 from rich.text import Text
 
@@ -290,7 +290,7 @@ def draw(file: Path, at: list[str] | None, out: Path, set_: list[str] | None, de
 #: The summary table of ``solve``: header and justification of each column. ``--wide``
 #: shows them all; by default only those marked True, so the table fits 80 columns.
 SUMMARY_TITLE = "counterpoise: designs"
-SUMMARY_COLUMNS: tuple[tuple[str, str, bool], ...] = (
+SUMMARY_COLUMNS: tuple[tuple[str, JustifyMethod, bool], ...] = (
     ("problem", "left", True),
     ("status", "left", True),
     ("added mass (kg)", "right", True),
@@ -316,7 +316,7 @@ def print_summary(rows: list[dict[str, Any]], wide: bool = False, console: Conso
     table = Table(title=SUMMARY_TITLE)
     for j in keep:
         name, justify, _ = SUMMARY_COLUMNS[j]
-        table.add_column(name, justify=justify, overflow="fold")  # type: ignore[arg-type]  # SUMMARY_COLUMNS holds rich's justify names
+        table.add_column(name, justify=justify, overflow="fold")
     for r in rows:
         cells = [
             str(r["problem"]),
