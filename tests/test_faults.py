@@ -304,7 +304,7 @@ def test_set_reads_an_array_as_toml_and_an_entry_by_its_index(capsys):
     file = PROBLEMS / "yasir2019_counter_mass.toml"
     code, lines, _ = _main(["validate", str(file), "--set", "gravity.direction=[0, 1, 0]", "--set", "subsystems.leg.coordinates.theta_a.range.0=60 deg"], capsys)
     assert code == 0, lines
-    from counterpoise.cli.light import coerce
+    from counterpoise.cli.run import coerce
 
     problem = load_problem(file, {"gravity.direction": coerce("[0, 1, 0]"), "subsystems.leg.coordinates.theta_a.range.0": "60 deg"})
     assert all(tuple(s.gravity.direction) == (0.0, 1.0, 0.0) for s in problem.scenarios)
