@@ -33,9 +33,9 @@ exclude_patterns = ["_build", "_generated", "Thumbs.db", ".DS_Store"]
 myst_heading_anchors = 4
 myst_enable_extensions = ["colon_fence"]
 
-# autodoc: the signatures keep their types, each parameter's type in the description too
-autodoc_typehints = "description"
-autodoc_typehints_description_target = "documented_params"
+# autodoc: the type hints in the signatures, one parameter a line when a signature is long
+autodoc_typehints = "signature"
+python_maximum_signature_line_length = 88
 autodoc_member_order = "bysource"
 autodoc_default_options = {"members": True, "show-inheritance": True}
 autodoc_preserve_defaults = True
