@@ -428,7 +428,7 @@ class Designer:
 
         The equalities are scaled by the largest residual sampled over the whole variable
         box; when a bound is far larger than what the design uses (a stiffness allowed up to
-        1e7 N/m that ends at 0.15 N/m), IPOPT's stop (|g| ~ 1e-16 in those units) can still be
+        1e7 N/m that ends at 0.15 N/m), IPOPT's stop (``|g| ~ 1e-16`` in those units) can still be
         1e-8 of the design's own gravity torque, which the dense check sees. Rounding stops
         the steps; a step that breaks a sign constraint is not taken."""
         lo, hi = bounds.lbz, bounds.ubz
@@ -554,7 +554,7 @@ class Designer:
         that design: it weighs the scaled conditions, not the residual ratio the dense check
         reports (issue 24: on an infeasible four-bar, a worst residual of 11.9 % where 9.39 %
         can be reached; tests/test_closest.py has such a four-bar and a closed-form case). So the epigraph NLP of :class:`~counterpoise.designer.minimax.MinimaxDesigner`
-        (min t s.t. |r_j(q_s; z)| ≤ t·T on sampled configurations, T the largest unbalanced
+        (``min t s.t. |r_j(q_s; z)| ≤ t·T`` on sampled configurations, T the largest unbalanced
         gravity force of the coordinate's kind; built on first use) is solved from ``z``
         within the bounds, design constraints left out as in the least-squares design.
         Variables within BOUND_TOLERANCE × span of a bound are put on it when that does not
@@ -586,9 +586,9 @@ class Designer:
     def refine(self, z: np.ndarray, p: np.ndarray, b: Bounds, iterations: int = 8) -> np.ndarray:
         """Gauss-Newton steps on the balance equalities from ``z``, within the bounds.
 
-        Least squares on ½|g|² stops near |g| ~ 1e-8 (squaring loses half the digits), just
+        Least squares on ``½|g|²`` stops near ``|g| ~ 1e-8`` (squaring loses half the digits), just
         short of :meth:`balances`; a few Newton steps on g itself finish the job when a
-        balanced design is that near. Kept only while |g| decreases and signs stay ≥ 0.
+        balanced design is that near. Kept only while ``|g|`` decreases and signs stay ≥ 0.
         """
         # a fixed variable (lower = upper: a part's rate in a part search) does not move: in
         # the minimum-norm step it would take a share that the bounds then cut away, and the
