@@ -147,11 +147,16 @@ def _listed_commands(top_level_help: str) -> list[str]:
     lines = top_level_help.splitlines()
     start = next(i for i, line in enumerate(lines) if re.search(r"\bCommands\b", line))
     names = []
+    indent = None
     for line in lines[start + 1 :]:
-        words = re.sub(r"[│╭╮╰╯─┃┏┓┗┛━]", " ", line).split()
+        plain = re.sub(r"[│╭╮╰╯─┃┏┓┗┛━]", " ", line)
+        words = plain.split()
         if not words:
             break
-        names.append(words[0])
+        here = len(plain) - len(plain.lstrip())
+        indent = here if indent is None else indent
+        if here == indent:  # a command's line; deeper lines continue its wrapped help
+            names.append(words[0])
     return names
 
 
