@@ -170,9 +170,9 @@ def _is_xacro(root: etree._Element) -> bool:
     return False
 
 
-def _substitutes(text: str | None) -> bool:
+def _substitutes(text: str | bytes | None) -> bool:
     """Whether a text holds a xacro substitution: ``${expression}`` or ``$(arg name)``."""
-    return text is not None and ("${" in text or "$(" in text)
+    return isinstance(text, str) and ("${" in text or "$(" in text)
 
 
 def _xacro_hint(path: Path) -> str:
