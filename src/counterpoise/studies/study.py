@@ -31,7 +31,7 @@ from pathlib import Path
 
 from ..errors import ProblemFileError
 from ..model.problem import Problem
-from ..report.files import FLOAT_FORMAT, atomic_write_text
+from ..report.files import FLOAT_FORMAT, CsvWriter, atomic_write_text
 from .runners import ERROR, TIMEOUT, PointResult, Runner, SerialRunner, StudyTask, batched
 from .spec import StudyPlan
 
@@ -227,7 +227,7 @@ class _CsvLines:
 
         self.cols = cols
         self._buffer = io.StringIO()
-        self._writer = csv.writer(self._buffer, lineterminator="\n")
+        self._writer = CsvWriter(self._buffer)
         self.header = self._format(cols)
 
     def _format(self, values: Sequence[str]) -> str:
