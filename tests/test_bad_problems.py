@@ -160,6 +160,10 @@ MANIFEST: dict[str, Expect] = {
         "catalogues.parts.file",
         "max_length_below_free_length.csv: row 3 (line 4), column max_length_m: the maximum length 0.06 m must be above the free length 0.08 m",
     ),
+    # issue 32 item 15: a column named twice was read from one of them without a word
+    "catalogue_duplicate_header.toml": Expect(
+        "catalogues.parts.file", "duplicate_header.csv: header: column 'rate_N_per_m' appears twice (columns 2, 10)"
+    ),
     "slot_unknown_catalogue.toml": Expect("slots.s.catalogue", "unknown catalogue 'shop'"),
     "spring_slot_and_stiffness.toml": Expect("springs.s.slot", "give either a stiffness or a slot"),
     # the design options of a free-stiffness spring (docs/springs.md)

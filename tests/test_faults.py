@@ -596,3 +596,25 @@ def test_a_formula_cell_gets_a_quote_and_reads_back(value, cell):
     assert spreadsheet_cell(value) == cell
     if isinstance(value, str):
         assert cell_text(cell) == value
+
+
+@pytest.mark.parametrize("where", ["row", "header"])
+def test_a_catalogue_field_over_the_csv_limit_names_its_row_and_column(tmp_path, capsys, where):
+    """Item 11: a field longer than the csv module's limit (131,072 characters) was exit 3
+    ("field larger than field limit"); now one line naming the row and the column, exit 2,
+    nothing written. The file: tests/bad_problems/catalogues/good.csv with a long material."""
+    import csv
+
+    good = (ROOT / "tests" / "bad_problems" / "catalogues" / "good.csv").read_text(encoding="utf-8").splitlines()
+    long = "x" * (csv.field_size_limit() + 10)
+    lines = [good[0] + f",{long}", *good[1:]] if where == "header" else [good[0], good[1], good[1].replace("P-1", "P-2").replace("music wire", f'"{long}"')]
+    (tmp_path / "long.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    toml = (ROOT / "tests" / "bad_problems" / "catalogue_negative_rate.toml").read_text(encoding="utf-8")
+    (tmp_path / "p.toml").write_text(toml.replace("catalogues/negative_rate.csv", "long.csv"), encoding="utf-8")
+    code, lines, _ = _main(["solve", str(tmp_path / "p.toml"), "--out", str(tmp_path / "out")], capsys)
+    expected = {
+        "row": f"row 2 (line 3), column material: a field of {len(long):,} characters",
+        "header": f"header, column 10: a field of {len(long):,} characters",
+    }[where]
+    assert code == 2 and len(lines) == 1 and lines[0].startswith(f"{tmp_path / 'p.toml'}: catalogues.parts.file: {tmp_path / 'long.csv'}: {expected}"), lines
+    assert not (tmp_path / "out").exists()

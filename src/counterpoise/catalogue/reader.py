@@ -75,10 +75,14 @@ def read_catalogue(
         raise CatalogueError(label, "file", f"cannot read: {exc.strerror or exc}") from None
     except UnicodeDecodeError:
         raise CatalogueError(label, "file", "not UTF-8 text") from None
-    rows = list(csv.reader(text.splitlines()))
+    rows = _csv_rows(label, text.splitlines())
     if not rows or not any(cell.strip() for cell in rows[0]):
         raise CatalogueError(label, "header", "the file is empty: expected a header line of column names")
     header = [h.strip() for h in rows[0]]
+    twice = sorted({h for h in header if h and header.count(h) > 1}, key=header.index)
+    if twice:
+        where = ", ".join(str(i + 1) for i, h in enumerate(header) if h == twice[0])
+        raise CatalogueError(label, "header", f"column '{twice[0]}' appears twice (columns {where}): which one holds the values is ambiguous; rename or remove one")
     index: dict[str, int] = {}
     for field, column in mapping.columns:
         if column in header:
@@ -161,6 +165,59 @@ def check_plausible(label: str, values: dict[str, list], mapping: ColumnMapping,
     fits = sorted((u for u in UNIT_SYSTEMS if u != mapping.units and not outside(u)), key=distance)
     hint = f'; the values are most plausible in {fits[0]} units: set units = "{fits[0]}"' if fits else "; check the unit system (units = ...) and the columns"
     raise CatalogueUnitsError(label, "units", f"not plausible for extension springs read in {mapping.units} units: {shown}{hint}")
+
+
+def _csv_rows(label: str, lines: list[str]) -> list[list[str]]:
+    """The CSV rows of ``lines``; a malformed line (a field longer than the csv module's
+    limit, :func:`csv.field_size_limit`) is a :class:`CatalogueError` naming its row and column."""
+    rows: list[list[str]] = []
+    reader = csv.reader(lines)
+    while True:
+        try:
+            cells = next(reader)
+        except StopIteration:
+            return rows
+        except csv.Error as exc:
+            line = reader.line_num
+            header = [h.strip() for h in rows[0]] if rows else []
+            where = "header" if line == 1 else f"row {sum(1 for r in rows[1:] if any(c.strip() for c in r)) + 1} (line {line})"
+            column = _long_field(lines[line - 1]) if 0 < line <= len(lines) else None
+            if column is not None:
+                name = header[column] if column < len(header) and header[column] else f"{column + 1}"
+                where += f", column {name}"
+                message = f"a field of {_field_length(lines[line - 1], column):,} characters; at most {csv.field_size_limit():,} are read"
+            else:
+                message = f"not valid CSV: {exc}"
+            raise CatalogueError(label, where, message) from None
+        rows.append(cells)
+
+
+def _fields(line: str) -> list[str]:
+    """The raw fields of one CSV line (quotes kept), split at commas outside quotes: enough to
+    say which one is too long where the csv module refuses the line."""
+    fields, start, quoted = [], 0, False
+    for i, char in enumerate(line):
+        if char == '"':
+            quoted = not quoted
+        elif char == "," and not quoted:
+            fields.append(line[start:i])
+            start = i + 1
+    fields.append(line[start:])
+    return fields
+
+
+def _long_field(line: str) -> int | None:
+    """The index of the first field of ``line`` longer than the csv module's limit."""
+    limit = csv.field_size_limit()
+    return next((i for i, f in enumerate(_fields(line)) if len(f) > limit), None)
+
+
+def _field_length(line: str, column: int) -> int:
+    """The length of a field of ``line`` without its quotes (``"a""b"`` is ``a"b``)."""
+    field = _fields(line)[column].strip()
+    if len(field) >= 2 and field[0] == field[-1] == '"':
+        field = field[1:-1].replace('""', '"')
+    return len(field)
 
 
 def _where(number: int, line: int, column: str) -> str:
