@@ -220,6 +220,14 @@ MANIFEST: dict[str, Expect] = {
     "constraint_unknown_name.toml": Expect("constraints.cap.expression", "unknown name 'M_q' in 'M_a + M_q'"),
     "constraint_function_not_allowed.toml": Expect("constraints.cap.expression", "function 'open' is not allowed"),
     "constraint_bound_dimension.toml": Expect("constraints.cap.upper", "'300 mm' is a length but 'M_a + M_b' is a mass"),
+    # issue 32 item 15: a bound without a unit said "expected a quantity such as '135 mm'",
+    # also where the expression is dimensionless and a plain number is right ("100" is now read)
+    "constraint_bound_plain_number_on_a_mass.toml": Expect(
+        "constraints.cap.upper", "'100' is a plain number but 'M_a + M_b' is a mass: give the bound with its unit, such as '100 kg'"
+    ),
+    "constraint_dimensionless_bound_not_a_number.toml": Expect(
+        "constraints.cap.upper", "expected a plain number such as 100 ('M_a / M_b' is dimensionless), got 'a hundred'"
+    ),
     "constraint_no_bounds.toml": Expect("constraints.cap", "give lower and/or upper"),
     "constraint_unknown_counter_mass.toml": Expect("constraints.inside.expression", "unknown counter-mass 'M_z' in 'x_home(M_z)'"),
     "constraint_spring_without_springs.toml": Expect("constraints.pull.expression", "unknown spring 'M_a' in 'force_max(M_a)' (the problem has no spring)"),
