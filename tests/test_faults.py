@@ -618,3 +618,187 @@ def test_a_catalogue_field_over_the_csv_limit_names_its_row_and_column(tmp_path,
     }[where]
     assert code == 2 and len(lines) == 1 and lines[0].startswith(f"{tmp_path / 'p.toml'}: catalogues.parts.file: {tmp_path / 'long.csv'}: {expected}"), lines
     assert not (tmp_path / "out").exists()
+
+
+def _tree(folder: Path) -> dict[str, bytes]:
+    """Every file under ``folder`` (links not followed) and its bytes: what a refused command must leave as it was."""
+    return {str(p.relative_to(folder)): (b"-> " + os.readlink(p).encode() if p.is_symlink() else p.read_bytes() if p.is_file() else b"/")
+            for p in sorted(folder.rglob("*"))}
+
+
+@pytest.mark.parametrize("change", ["set", "file", "catalogue"])
+def test_resume_refuses_a_study_of_another_problem(tmp_path, capsys, change):
+    """Item 2: --resume compared the plan and the columns only: a study of --set b_c=100 mm
+    resumed with b_c = 200 mm (or the file edited) mixed both problems' rows in one
+    study.csv. The study records its problem's content key; another problem is one line
+    saying what differs, exit 2, nothing written."""
+    import shutil
+
+    file = tmp_path / "holder.toml"
+    if change == "catalogue":
+        shutil.copy(ROOT / "tests" / "bad_problems" / "catalogues" / "good.csv", tmp_path / "parts.csv")
+        toml = (ROOT / "tests" / "bad_problems" / "catalogue_negative_rate.toml").read_text(encoding="utf-8")
+        file.write_text("# a problem with a catalogue\n" + toml.split("\n", 1)[1].replace("catalogues/negative_rate.csv", "parts.csv"), encoding="utf-8")
+    else:
+        shutil.copy(PROBLEMS / "yasir2019_counter_mass.toml", file)
+    out = tmp_path / "out"
+    args = ["study", str(file), "--vary", "m_c=300 g:400 g:2", "--jobs", "1", "--no-plot", "--out", str(out)]
+    first = ["--set", "parameters.b_c.value=100 mm"] if change == "set" else []
+    code, lines, _ = _main([*args, *first], capsys)
+    assert code == 0, lines
+    before = _tree(out)
+    if change == "set":
+        again = ["--set", "parameters.b_c.value=200 mm"]
+        what = "holds a study run with --set parameters.b_c.value=100 mm, this run has --set parameters.b_c.value=200 mm"
+    elif change == "file":
+        again = []
+        file.write_text(file.read_text(encoding="utf-8").replace('b_c = { value = "200 mm"', 'b_c = { value = "150 mm"'), encoding="utf-8")
+        what = "holds a study of another version of the problem file (it was edited since)"
+    else:
+        again = []
+        (tmp_path / "parts.csv").write_text((tmp_path / "parts.csv").read_text(encoding="utf-8").replace(",500,", ",600,"), encoding="utf-8")
+        what = "holds a study of another problem content (a file the problem reads, such as a catalogue or a robot model, changed)"
+    code, lines, _ = _main([*args, *again, "--resume"], capsys)
+    folder = out / "yasir2019_counter_mass-study"
+    assert code == 2 and lines == [
+        f"{file}: --resume: {folder} {what}: --resume continues a study of the same problem only; run without --resume to start again"
+    ], lines
+    assert _tree(out) == before
+
+
+def test_resume_of_the_same_problem_by_another_path_continues(tmp_path, capsys, monkeypatch):
+    """The key is the problem's content wherever its files lie: the same file given by a
+    relative path from its folder resumes the study (nothing to run again)."""
+    out = tmp_path / "out"
+    args = ["--vary", "m_c=300 g:400 g:2", "--jobs", "1", "--no-plot", "--out", str(out), "--set", "parameters.b_c.value=150 mm"]
+    code, lines, _ = _main(["study", str(PROBLEMS / "yasir2019_counter_mass.toml"), *args], capsys)
+    assert code == 0, lines
+    monkeypatch.chdir(PROBLEMS)
+    code, lines, _ = _main(["study", "yasir2019_counter_mass.toml", *args, "--resume"], capsys)
+    assert code == 0, lines
+
+
+def _two_studies(tmp_path):
+    """A finished study of the pendulum and a second plan for the same folder."""
+    from counterpoise.studies.spec import plan_study
+    from counterpoise.studies.study import run_study
+
+    problem = _pendulum()
+    first = run_study(problem, plan_study(problem, ["m=500 g:900 g:5"], "f"), tmp_path, batch_size=2)
+    return problem, first.folder, (first.folder / "study.csv").read_text(encoding="utf-8"), plan_study(problem, ["m=400 g:600 g:3"], "f")
+
+
+def test_a_signal_between_the_renames_of_the_final_swap_keeps_the_earlier_study(tmp_path, monkeypatch):
+    """Item 3: SIGTERM (an exception in the main thread) after the earlier study was moved
+    aside and before the new one was moved in deleted the earlier study. Now it is put back,
+    the new one stays in .partial, and --resume finishes the swap."""
+    from counterpoise.studies import study as module
+    from counterpoise.studies.command import StudyTerminated
+    from counterpoise.studies.study import read_rows, run_study
+
+    problem, folder, before, second = _two_studies(tmp_path)
+    real = os.rename
+    calls = []
+
+    def rename(src, dst):
+        calls.append((Path(src).name, Path(dst).name))
+        if Path(src).name.endswith(".partial"):
+            raise StudyTerminated()  # the signal arrives just before the new study is moved in
+        return real(src, dst)
+
+    monkeypatch.setattr(module.os, "rename", rename)
+    with pytest.raises(StudyTerminated):
+        run_study(problem, second, tmp_path, batch_size=2)
+    monkeypatch.setattr(module.os, "rename", real)
+    assert calls[0] == ("pendulum-study", ".pendulum-study.old")  # the earlier study was moved aside first
+    assert (folder / "study.csv").read_text(encoding="utf-8") == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["pendulum-study", "pendulum-study.partial"]
+    resumed = run_study(problem, second, tmp_path, resume=True, batch_size=2)
+    assert resumed.skipped == 3 and resumed.run == 0
+    assert [r["m [g]"] for r in read_rows(folder / "study.csv")] == ["400", "500", "600"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["pendulum-study"]
+
+
+@pytest.mark.parametrize("killed", ["after moving aside", "while removing"])
+def test_a_kill_during_the_final_swap_loses_no_study(tmp_path, monkeypatch, killed):
+    """Item 3, a process killed outright (no clean-up runs): between moving the earlier study
+    aside and moving the new one in, the earlier one is aside and the next study into the
+    folder puts it back; while removing the earlier one, the new one is in, and the leftover
+    is removed."""
+    from counterpoise.studies import study as module
+    from counterpoise.studies.study import read_rows, run_study
+
+    problem, folder, before, second = _two_studies(tmp_path)
+
+    class Killed(BaseException):
+        pass
+
+    real_rename, real_rmtree = os.rename, module.shutil.rmtree
+
+    def rename(src, dst):
+        if Path(src).name.endswith(".partial"):
+            raise Killed()
+        return real_rename(src, dst)
+
+    def rmtree(path, *args, **kwargs):
+        if Path(path).name.endswith(".old"):
+            raise Killed()
+        return real_rmtree(path, *args, **kwargs)
+
+    monkeypatch.setattr(module, "_recover", lambda folder: None)  # killed: no clean-up runs
+    if killed == "after moving aside":
+        monkeypatch.setattr(module.os, "rename", rename)
+    else:
+        monkeypatch.setattr(module.shutil, "rmtree", rmtree)
+    with pytest.raises(Killed):
+        run_study(problem, second, tmp_path, batch_size=2)
+    monkeypatch.undo()
+    aside = tmp_path / ".pendulum-study.old"
+    if killed == "after moving aside":
+        assert not folder.exists() and (aside / "study.csv").read_text(encoding="utf-8") == before
+        run_study(problem, second, tmp_path, resume=True, batch_size=2)  # puts it back, then swaps
+    else:
+        assert (aside / "study.csv").read_text(encoding="utf-8") == before and [r["m [g]"] for r in read_rows(folder / "study.csv")] == ["400", "500", "600"]
+        run_study(problem, second, tmp_path, resume=True, batch_size=2)
+    assert [r["m [g]"] for r in read_rows(folder / "study.csv")] == ["400", "500", "600"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["pendulum-study"]
+
+
+@pytest.mark.parametrize("planted", ["lock", "partial", "folder", "aside"])
+def test_a_planted_link_beside_a_study_is_refused(tmp_path, capsys, planted):
+    """Item 4: a symbolic link at the study's lock file had its target truncated and
+    overwritten (opened without O_NOFOLLOW); one at <problem>-study.partial made the study
+    write study.csv and study.json into its target. Any link where the study writes is now
+    one line naming it, exit 2, and the target is left as it was."""
+    file = PROBLEMS / "yasir2019_counter_mass.toml"
+    out, victim = tmp_path / "out", tmp_path / "victim"
+    victim.mkdir()
+    (victim / "precious.txt").write_text("keep me\n", encoding="utf-8")
+    args = ["study", str(file), "--vary", "m_c=300 g:400 g:2", "--jobs", "1", "--no-plot", "--out", str(out)]
+    if planted in ("partial", "aside"):  # they are used when the folder holds a study
+        code, lines, _ = _main(args, capsys)
+        assert code == 0, lines
+    name = "yasir2019_counter_mass-study"
+    link = out / {"lock": f".{name}.lock", "partial": f"{name}.partial", "folder": name, "aside": f".{name}.old"}[planted]
+    out.mkdir(exist_ok=True)
+    link.symlink_to(victim / "precious.txt" if planted == "lock" else victim)
+    before, outside = _tree(out), _tree(victim)
+    code, lines, _ = _main(args, capsys)
+    assert code == 2 and len(lines) == 1, lines
+    assert lines[0].startswith(f"{file}: --out: '{link}' is a symbolic link (to '{os.readlink(link)}')"), lines
+    assert _tree(victim) == outside and _tree(out) == before
+
+
+def test_a_planted_link_at_a_report_folder_is_refused(tmp_path, capsys):
+    """Item 4, the solve: a link at <out>/<problem> is one line naming it, exit 2; neither
+    its target nor the link is changed."""
+    file = PROBLEMS / "yasir2019_counter_mass.toml"
+    out, victim = tmp_path / "out", tmp_path / "victim"
+    victim.mkdir()
+    (victim / "precious.txt").write_text("keep me\n", encoding="utf-8")
+    out.mkdir()
+    link = out / "yasir2019_counter_mass"
+    link.symlink_to(victim)
+    code, lines, _ = _main(["solve", str(file), "--out", str(out)], capsys)
+    assert code == 2 and lines[-1].startswith(f"{file}: --out: '{link}' is a symbolic link (to '{victim}')"), lines
+    assert _tree(victim) == {"precious.txt": b"keep me\n"} and _tree(out) == {"yasir2019_counter_mass": b"-> " + str(victim).encode()}

@@ -128,10 +128,15 @@ def atomic_folder(folder: Path, fill: Callable[[Path], None]) -> Path:
     folder beside it, which then replaces ``folder`` by renames. What was there stays until
     the new folder is complete; if ``fill`` fails (a full disk), it stays as it was. Two runs
     writing the same folder at once each leave a whole folder, the last one to finish wins.
+    A symbolic link at ``folder`` is refused (:class:`~counterpoise.nofollow.LinkRefused`),
+    before anything is written.
     """
     import shutil  # here, not at import (with bz2 and lzma): only a written folder needs them
     import tempfile
 
+    from ..nofollow import refuse_link
+
+    refuse_link(folder)  # a planted link: refused (LinkRefused), as a study's folders are
     folder.parent.mkdir(parents=True, exist_ok=True)
     temp = Path(tempfile.mkdtemp(prefix=f".{folder.name}.", suffix=".new", dir=folder.parent))
     unfinished.begin(temp)  # an ended pool worker removes it (counterpoise.unfinished)

@@ -268,7 +268,7 @@ def _run(problem: Problem, plan: Any, options: StudyOptions, runner: Runner, tas
 
     try:
         outcome = run_study(problem, plan, options.out, runner, task=task, resume=options.resume, batch_size=options.batch_size,
-                            progress=progress, started=started)
+                            progress=progress, started=started, overrides=options.overrides)
         bar.update(job, completed=total)
     finally:
         if bar.live.is_started:
