@@ -237,8 +237,21 @@ def variable_columns(problem: Problem) -> list[tuple[str, str, float]]:
     return out
 
 
+def part_columns(problem: Problem) -> list[tuple[str, str, str, str]]:
+    """(slot, part header, rate header, force header) of every catalogue slot: the part each
+    point chose, its rate and its springs' largest working force, so that a jump of the
+    design between points shows which part changed."""
+    return [(s.name, f"{s.name} part", f"{s.name} rate [N/mm]", f"{s.name} max force [N]") for s in problem.slots]
+
+
+def text_columns(problem: Problem) -> list[str]:
+    """The columns of ``study.csv`` that hold text besides the fixed ones (the part numbers)."""
+    return [part for _, part, _, _ in part_columns(problem)]
+
+
 def columns(problem: Problem, plan: StudyPlan) -> list[str]:
-    return FIXED_BEFORE + [v.header for v in plan.varies] + FIXED_AFTER + [h for _, h, _ in variable_columns(problem)] + FIXED_END
+    slots = [h for _, *headers in part_columns(problem) for h in headers]
+    return FIXED_BEFORE + [v.header for v in plan.varies] + FIXED_AFTER + [h for _, h, _ in variable_columns(problem)] + slots + FIXED_END
 
 
 def _fmt(value: object) -> str:
@@ -270,6 +283,9 @@ def result_row(problem: Problem, plan: StudyPlan, index: int, r: PointResult,
     )
     for key, header, size in variable_columns(problem) if variables is None else variables:
         row[header] = _fmt(r.values[key] / size) if key in r.values else ""
+    for slot, part, rate, force in part_columns(problem):
+        number, k, f = r.parts.get(slot, ("", math.nan, math.nan))
+        row.update({part: number, rate: _fmt(k / 1e3), force: _fmt(f)})
     return row
 
 
@@ -448,6 +464,7 @@ def _run_points(
         "plan": plan.identity(),
         "points": len(plan.points),
         "columns": cols,
+        "text_columns": text_columns(problem),
         "time_limit_s": task.time_limit if task else None,
     }
     make_folder(folder)
