@@ -802,3 +802,40 @@ def test_a_planted_link_at_a_report_folder_is_refused(tmp_path, capsys):
     code, lines, _ = _main(["solve", str(file), "--out", str(out)], capsys)
     assert code == 2 and lines[-1].startswith(f"{file}: --out: '{link}' is a symbolic link (to '{victim}')"), lines
     assert _tree(victim) == {"precious.txt": b"keep me\n"} and _tree(out) == {"yasir2019_counter_mass": b"-> " + str(victim).encode()}
+
+
+def test_many_tilt_axes_are_refused_at_once(tmp_path, capsys):
+    """Item 9: tilts multiply the scenarios by 3 per axis with no cap (20 axes: 3^20 scenarios,
+    a MemoryError, exit 3; 10 axes: validate ran over 120 s). Now one line with the count
+    and what to change, exit 2, before any scenario is made."""
+    text = (PROBLEMS / "tilt_counter_mass_arm.toml").read_text(encoding="utf-8")
+    start = text.index("tilt = [")
+    end = text.index("\n]\n", start) + 3
+    axes = "".join(f'  {{ axis = [1, {i}, 0], range = ["-15 deg", "15 deg"] }},\n' for i in range(20))
+    (tmp_path / "tilts.toml").write_text(text[:start] + "tilt = [\n" + axes + "]\n" + text[end:], encoding="utf-8")
+    started = time.perf_counter()
+    code, lines, _ = _main(["validate", str(tmp_path / "tilts.toml")], capsys)
+    assert code == 2 and lines == [
+        f"{tmp_path / 'tilts.toml'}: gravity.tilt: 20 tilt ranges give 3^20 = 3,486,784,401 tilt nodes: 3,486,784,401 balance scenarios, "
+        "more than the 81 designed at once (MAX_SCENARIOS, counterpoise/model/tilt.py); use fewer tilt axes, fix a tilt at one angle "
+        "(range = ['5 deg', '5 deg']: one node)"
+    ], lines
+    assert time.perf_counter() - started < 60  # it ran out of memory before; the cap is checked before the grid is made
+
+
+def test_building_many_scenarios_says_so(monkeypatch):
+    """Item 9: three tilts on a catalogue problem ran 392 s with no output; the build of the
+    balance conditions (≈ 30 s for 27 scenarios) ran outside every progress phase. It is now
+    a phase of its own: past SLOW_PHASE_S it says so on a terminal (here a sink that asks
+    for timed notes, with the threshold at 0 s)."""
+    from counterpoise import progress
+    from counterpoise.io.loader import load_problem
+    from counterpoise.pipeline import build_method
+
+    problem = load_problem(PROBLEMS / "tilt_counter_mass_arm.toml")
+    monkeypatch.setattr(progress, "SLOW_PHASE_S", 0.0)
+    lines: list[str] = []
+    with progress.sink(lines.append, timed=True):
+        build_method(problem)
+    assert lines[0] == "tilt_counter_mass_arm: building the balance conditions of 9 scenarios ..."
+    assert lines[1].startswith("tilt_counter_mass_arm: building the balance conditions of 9 scenarios: done in ")
