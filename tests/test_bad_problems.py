@@ -192,6 +192,15 @@ MANIFEST: dict[str, Expect] = {
         "(columns rate_lbf_per_in, free_length_in): median 4.16 N/mm² (expected 5e-05 to 3 N/mm²); max load / free length² "
         '(columns max_load_lbf, free_length_in): median 3.64 N/mm² (expected 1e-04 to 3 N/mm²); the values are most plausible in inch units: set units = "inch"',
     ),
+    # issue 32 item 8: two weak springs (0.114 and 0.742 lbf/in, 1.18-8.7 in) in lbf and inch read
+    # as N-mm lie in every band (0.097 and 0.30 N/mm² of rate / free length); no steel spring of
+    # those rates and lengths carries those loads (catalogue/physics.py; tests/test_catalogue.py
+    # checks the relation on the shipped catalogue in every unit system)
+    "catalogue_inch_two_parts_read_as_n_mm.toml": Expect(
+        "catalogues.parts.units",
+        "inch_two_parts.csv: not plausible for extension springs read in N-mm units: no steel spring of these rates and free lengths "
+        "(columns rate_lbf_per_in, free_length_in) carries these max loads and initial tensions (columns max_load_lbf, initial_tension_lbf)",
+    ),
     # angles: a bare number is not taken as radians without a word (issue 14)
     "angle_bare_number.toml": Expect(
         "frames.link_a.transforms.1.angle", "a bare number used as an angle ('90' would be radians): write '90 deg' or '1.5708 rad'"

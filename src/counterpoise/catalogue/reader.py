@@ -10,6 +10,7 @@ from __future__ import annotations
 import csv
 import math
 import statistics
+from collections.abc import Callable
 from pathlib import Path
 
 from ..progress import counter
@@ -160,11 +161,55 @@ def check_plausible(label: str, values: dict[str, list], mapping: ColumnMapping,
 
     wrong = outside(mapping.units)
     if not wrong:
+        _check_springs_exist(label, values, mapping, header, index, to, lambda u: not outside(u), distance)
         return
     shown = "; ".join(show(f) for f in wrong[:2])
     fits = sorted((u for u in UNIT_SYSTEMS if u != mapping.units and not outside(u)), key=distance)
     hint = f'; the values are most plausible in {fits[0]} units: set units = "{fits[0]}"' if fits else "; check the unit system (units = ...) and the columns"
     raise CatalogueUnitsError(label, "units", f"not plausible for extension springs read in {mapping.units} units: {shown}{hint}")
+
+
+def _check_springs_exist(
+    label: str,
+    values: dict[str, list],
+    mapping: ColumnMapping,
+    header: list[str],
+    index: dict[str, int],
+    to: Callable[[str, str], float],
+    in_bands: Callable[[str], bool],
+    distance: Callable[[str], float],
+) -> None:
+    """The median part must be a possible steel extension spring in the file's units
+    (:func:`.physics.implausibility`: its rate and free length leave room for a wire that
+    carries its loads) when it is one in other units (where every band holds too): then the
+    file is refused, naming those units. Catches a file of weak springs in lbf and inch read
+    as N-mm, whose medians all lie in their bands. Parts that are springs in no unit system
+    (made up for a test, a paper's idealised rates) are left to the part limits."""
+    import numpy as np
+
+    from .physics import implausibility, sample
+
+    rows = sample(len(values["rate"]))
+
+    def median(units: str) -> float:
+        column = {f: np.array([values[f][i] for i in rows], dtype=float) * to(units, f) for f in ("rate", "free_length", "initial_tension", "max_load")}
+        return float(np.median(implausibility(column["rate"], column["free_length"], column["initial_tension"], column["max_load"])))
+
+    declared = median(mapping.units)
+    if not declared > 1:
+        return
+    fits = sorted((u for u in UNIT_SYSTEMS if u != mapping.units and in_bands(u) and median(u) <= 1), key=distance)
+    if not fits:  # no unit system makes them springs: made-up parts (a test's), not a unit mistake
+        return
+    hint = f'; the values are most plausible in {fits[0]} units: set units = "{fits[0]}"'
+    name = {f: header[index[f]] for f in ("rate", "free_length", "max_load", "initial_tension")}
+    raise CatalogueUnitsError(
+        label,
+        "units",
+        f"not plausible for extension springs read in {mapping.units} units: no steel spring of these rates and free lengths (columns "
+        f"{name['rate']}, {name['free_length']}) carries these max loads and initial tensions (columns {name['max_load']}, "
+        f"{name['initial_tension']}): the median part asks {declared:.3g} times the most it could{hint}",
+    )
 
 
 def _csv_rows(label: str, lines: list[str]) -> list[list[str]]:
