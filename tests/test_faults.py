@@ -839,3 +839,15 @@ def test_building_many_scenarios_says_so(monkeypatch):
         build_method(problem)
     assert lines[0] == "tilt_counter_mass_arm: building the balance conditions of 9 scenarios ..."
     assert lines[1].startswith("tilt_counter_mass_arm: building the balance conditions of 9 scenarios: done in ")
+
+
+def test_status_txt_ends_with_a_newline_whatever_wrote_its_last_line(monkeypatch):
+    """Printing and reading: status.txt had no final newline. Each layer adds its own lines
+    (parts, payload, robust, warnings); the file ends with one whichever wrote last, here a
+    layer whose text lacks it."""
+    from conftest import solved
+    from counterpoise.report import files, parts
+
+    monkeypatch.setattr(parts, "designed_status", lambda result: "designed spring: a line without its newline")
+    text = files.report_texts(solved("yasir2019_counter_mass"), warnings=())["status.txt"]
+    assert text.endswith("designed spring: a line without its newline\n")

@@ -216,6 +216,8 @@ def report_texts(result: DesignResult, warnings: Sequence[str] | None = None) ->
         from .build import BUILD_COLUMNS, BUILD_FLOAT_FORMAT, build_rows
 
         texts["build.csv"] = csv_text(build_rows(result), BUILD_COLUMNS, BUILD_FLOAT_FORMAT)
+    if not texts["status.txt"].endswith("\n"):  # a text file ends with a newline, whichever layer wrote its last line
+        texts["status.txt"] += "\n"
     return texts
 
 
