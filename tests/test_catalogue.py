@@ -61,6 +61,51 @@ def test_vendor_mapping_si_and_inch(tmp_path):
     assert a.price[0] == pytest.approx(2.0)  # package of 5 for 10.00
 
 
+LBF, INCH = 4.4482216152605, 0.0254
+
+
+def _inch_file(path: Path, a: dict, rows) -> Path:  # noqa: ANN001 - rows: indices of the shipped catalogue
+    """Rows of the shipped catalogue written in lbf/in, in and lbf, without diameter columns."""
+    lines = ["part_number,rate_lbf_per_in,free_length_in,initial_tension_lbf,max_load_lbf,max_length_in"]
+    for i in rows:
+        lines.append(
+            f"P{i},{a['rate'][i] * INCH / LBF:.6g},{a['free_length'][i] / INCH:.6g},{a['initial_tension'][i] / LBF:.6g},"
+            f"{a['max_load'][i] / LBF:.6g},{a['max_length'][i] / INCH:.6g}"
+        )
+    return write(path, "\n".join(lines) + "\n")
+
+
+def test_every_shipped_part_is_a_possible_spring_and_none_is_in_lbf_read_as_n_mm():
+    """Issue 32 item 8: catalogue/physics.py bounds what a steel extension spring of a rate
+    and free length can carry. A bound, not a fit: every part of the shipped catalogue (made
+    by Shigley's formulas, docs/spring-catalogue.md) is within it (≤ 1); written in lbf/in,
+    in and lbf and read as N/mm, mm and N (force per area 145 times too high), every one is
+    beyond it, while read as SI from N-mm numbers (lengths 1000 times too long) they are
+    springs again: the bound catches what shrinks a spring, the median bands the rest."""
+    from counterpoise.catalogue.physics import implausibility
+
+    a = read_catalogue("shipped").arrays
+    assert implausibility(a["rate"], a["free_length"], a["initial_tension"], a["max_load"]).max() <= 1
+    misread = implausibility(a["rate"] * INCH / LBF * 1e3, a["free_length"] / INCH * 1e-3, a["initial_tension"] / LBF, a["max_load"] / LBF)
+    assert misread.min() > 1
+
+
+def test_any_two_shipped_parts_in_lbf_declared_n_mm_are_refused_naming_inch(tmp_path):
+    """Issue 32 item 8, in general: two parts drawn at random from the shipped catalogue,
+    written in lbf and inch without diameter columns, declared N-mm: refused, the line names
+    inch; declared inch: read."""
+    a = read_catalogue("shipped").arrays
+    columns = dict(zip(("part_number", "rate", "free_length", "initial_tension", "max_load", "max_length"),
+                       ("part_number", "rate_lbf_per_in", "free_length_in", "initial_tension_lbf", "max_load_lbf", "max_length_in")))
+    rng = np.random.default_rng(32)
+    for trial in range(20):
+        path = _inch_file(tmp_path / f"two_{trial}.csv", a, rng.choice(len(a["rate"]), 2, replace=False))
+        with pytest.raises(CatalogueError) as info:
+            read_catalogue(path, mapping_from(columns, "N-mm"))
+        assert info.value.key == "units" and 'set units = "inch"' in info.value.message, info.value.message
+        assert len(read_catalogue(path, mapping_from(columns, "inch"))) == 2
+
+
 @pytest.mark.parametrize(
     "row, where, fragment",
     [

@@ -308,6 +308,14 @@ def test_bad_constraints_name_the_key(spec, key, fragment):
     assert exc.value.key == key and fragment in exc.value.message
 
 
+@pytest.mark.parametrize("bound", [0.5, "0.5", " 5e-1 "])
+def test_a_dimensionless_bound_is_a_plain_number(bound):
+    """Issue 32 item 15: the bound of a dimensionless expression is a plain number, in TOML
+    as a number or a string ("0.5" said "expected a quantity such as '135 mm'")."""
+    built = spring_lp(ratio={"expression": "M / (1 kg)", "upper": bound}).build()
+    assert next(c for c in built.constraints if c.name == "ratio").upper == 0.5
+
+
 def test_max_force_must_be_a_positive_force():
     for value, fragment in (("2 kg", "expected a force"), ("0 N", "must be positive")):
         with pytest.raises(ProblemFileError) as exc:

@@ -94,6 +94,16 @@ def build_method(problem: Problem, starts: int = 1, backend: str = "auto", desig
     """
     if starts < 1:
         raise ValueError("starts must be at least 1")
+    from . import progress
+
+    # building the balance conditions grows with the scenarios (a tilting base: 3ⁿ of
+    # them): a build still running after a few seconds says so (progress.phase)
+    scenarios = len(problem.scenarios)
+    with progress.phase(f"{problem.name}: building the balance conditions of {scenarios} scenario{'s' if scenarios != 1 else ''}", after=progress.SLOW_PHASE_S):
+        return _build_method(problem, starts, backend, designer)
+
+
+def _build_method(problem: Problem, starts: int, backend: str, designer: "Designer | MinimaxDesigner | None") -> DesignMethod:
     direct = has_direct_springs(problem)
     method: DesignMethod
     if problem.payloads:

@@ -144,6 +144,7 @@ def solve_one(
     when there is no design to report) and its exit status. ``warnings``: the problem's
     degeneracy warnings found at load (None: the report layer finds them)."""
     from ..errors import CounterpoiseError, ProblemFileError
+    from ..nofollow import LinkRefused
     from ..pipeline import design
     from ..report.files import write_reports
     from ..report.rows import summary_row
@@ -168,6 +169,9 @@ def solve_one(
                 design_mechanism_plot(result, folder)
 
         folder = write_reports(result, out, extra, html=html, warnings=warnings)
+    except LinkRefused as exc:  # a link planted at the report folder: nothing written
+        err(f"{problem.path}: --out: {exc}")
+        return None, 2
     except OSError as exc:
         err(f"{problem.path}: cannot write reports to {out}: {exc.strerror or exc}")
         return None, 1

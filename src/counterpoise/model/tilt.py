@@ -16,6 +16,12 @@ import numpy as np
 
 #: the largest tilt range about one axis (a full turn)
 FULL_TURN = 2 * math.pi
+#: the most balance scenarios a problem may have once its tilts are expanded (its scenarios
+#: times 3ⁿ tilt nodes for n tilt ranges, :func:`tilt_nodes`): building the balance
+#: conditions grows faster than linearly with them (27 scenarios of a two-link arm: ~30 s,
+#: 81: ~2 min; docs/tilt.md), and 3ⁿ explodes (10 axes: 59,049). A file beyond it is
+#: an input error saying how many it asks for and what brings it down.
+MAX_SCENARIOS = 81
 
 
 @dataclass(frozen=True)

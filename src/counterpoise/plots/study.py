@@ -73,7 +73,7 @@ def layout(meta: Mapping[str, Any], xs: Sequence[Sequence[float] | Any], residua
     have the varied values ``xs`` (one sequence per varied key, in ``meta``'s order, as
     ``study.csv`` holds them); ``residual``: a row of residual ratios (some point not optimal)."""
     varied = varied_headers(meta)
-    variables = [c for c in meta["columns"] if c not in FIXED and c not in varied]
+    variables = [c for c in meta["columns"] if c not in FIXED and c not in varied and c not in meta.get("text_columns", ())]
     ys = ["objective_kg"] + (["residual_ratio"] if residual else []) + variables
     ranges: list[tuple[float, float] | None] = []
     for x in xs:
@@ -217,7 +217,7 @@ def study_plots(folder: str | Path, prepared: StudyFigure | None = None) -> list
     columns = meta["columns"]
     varied = varied_headers(meta)
     ok = np.array([r["status"] == "optimal" for r in rows], dtype=bool)
-    data = {c: np.array([_number(r.get(c, "")) for r in rows]) for c in columns if c not in TEXT}
+    data = {c: np.array([_number(r.get(c, "")) for r in rows]) for c in columns if c not in TEXT and c not in meta.get("text_columns", ())}
     residual = bool((~ok).any()) and "residual_ratio" in data and bool(np.isfinite(data["residual_ratio"]).any())
     wanted = layout(meta, [data[x] for x in varied], residual)
     figure = prepared if prepared is not None and not prepared.used and prepared.layout == wanted else StudyFigure(wanted)

@@ -75,7 +75,7 @@ def _resolve(ctx: Context) -> Problem:
     selection = parts.selection(ctx)
     gravity = quantities.gravity(ctx, spec.gravity, "gravity")
     tilts = quantities.tilts(ctx, spec.gravity)
-    scenarios = quantities.tilted_scenarios(quantities.scenarios(ctx, gravity, parameters), tilts)
+    scenarios = quantities.tilted_scenarios(ctx, quantities.scenarios(ctx, gravity, parameters), tilts)
     objective = quantities.objective(ctx)
     reports = report.report(ctx, subsystems, by_name)
     design_constraints = constraints.constraints(ctx, subsystems, by_name, springs, counter_masses)
