@@ -113,7 +113,7 @@ def test_layers_do_not_import_upwards():
     :data:`TYPE_ONLY_UPWARD` says so."""
     # io reads a file into the model and assembles closed loops at home (their homes are
     # starting guesses, docs/loops.md), so it sits above mechanics; mechanics never reads files
-    order = ["model", "catalogue", "mechanics", "io", "formulation", "solvers", "designer", "verify", "selection", "payload", "robust", "pipeline", "report", "plots", "studies", "cli"]
+    order = ["model", "catalogue", "mechanics", "io", "formulation", "solvers", "designer", "verify", "selection", "payload", "robust", "pipeline", "report", "plots", "synthesis", "studies", "cli"]
     src = ROOT / "src" / "counterpoise"
     rank = {name: i for i, name in enumerate(order)}
     offenders = []

@@ -1,5 +1,6 @@
 """Command line: ``counterpoise validate FILE...``, ``counterpoise catalogue CSV...``,
 ``counterpoise solve FILE...``, ``counterpoise schedule FILE --payload MASS``,
+``counterpoise synthesise FILE``,
 ``counterpoise study FILE --vary ...`` and ``counterpoise plot FILE|STUDY``.
 
 A thin layer: it parses options, calls the library and prints. The commands, their
@@ -219,6 +220,13 @@ def schedule(file: Path, payload: str, set_: list[str] | None) -> None:
 @command
 def study(**values: Any) -> None:
     raise typer.Exit(light.run_study(_err_line, _out_line, **values))  # the fast path's function
+
+
+@command
+def synthesise(file: Path, out: Path, set_: list[str] | None, refine: bool, report: str) -> None:
+    from .synthesis import run_synthesise
+
+    raise typer.Exit(run_synthesise(file, out, _overrides(set_), refine, report == "html", _err_line, _out_line))
 
 
 @command
