@@ -239,6 +239,8 @@ def _topology(problem: Problem, raw: Mapping[str, Any], classes: tuple[ElementCl
             gain = result.solution.objective - refined.solution.objective
             note = f"refined: the points freed in their regions (objective {refined.solution.objective:.6g} kg, {gain:.3g} kg below the grid's)"
             chosen = (free_data, free_text, refined, FREE)
+        elif refined.status is Status.OPTIMAL:
+            note = f"the grid's design (the refinement's design is not lighter: objective {refined.solution.objective:.6g} kg)"
         else:
             note = f"the grid's design (the refinement ended {refined.status.value}: {refined.message})"
     elif refine:
