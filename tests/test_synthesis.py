@@ -98,9 +98,13 @@ def test_fourbar_two_counter_masses(fourbar):
     C2 = 0.066 kg·m and C4 = 0.15 kg·m (docs/loops.md): 0.44 + 1.0 kg."""
     assert fourbar.cost == 2 and not fourbar.conditions_exact  # a closed loop: sampled on its manifold
     assert {t.labels for t in fourbar.topologies} == {("counter-mass crank_cm", "counter-mass rocker_cm"), ("counter-mass crank_cm", "counter-mass coupler_cm")}
-    best = fourbar.topologies[0]
+    best, second = fourbar.topologies
     assert best.labels == ("counter-mass crank_cm", "counter-mass rocker_cm")
     assert best.result.solution.added_mass == pytest.approx(0.066 / 0.15 + 0.15 / 0.15, rel=1e-7)
+    # crank and coupler: lambda = -m4 p4 / c = -0.2, so the coupler needs M3 s3 = -b 0.2 - m3 p3
+    # = -0.18 kg·m (0.9 kg at its site's end, 200 mm behind A) and the crank
+    # M2 s2 = -0.2 a - m2 p2 - (m3 + M3) a = -0.246 kg·m (1.64 kg at 150 mm): 2.54 kg
+    assert second.result.solution.added_mass == pytest.approx(0.18 / 0.2 + 0.246 / 0.15, rel=1e-7)
 
 
 def test_seed_001_leg_the_papers_hybrid_is_minimal(leg):

@@ -377,6 +377,10 @@ class Program:
         mass = np.zeros(n + nz)
         mass[mags[self.is_mass]] = self.spec.max_mass
         cost = np.r_[np.zeros(n), self.costs[self.class_of]]
+        # the total scaled rate: after the least added mass, the least rates (a springs-only
+        # design is otherwise any point of its feasible set)
+        rates = np.zeros(n + nz)
+        rates[mags[~self.is_mass]] = 1.0
         return LinearMip(
             n + nz,
             np.r_[np.zeros(n, dtype=bool), np.ones(nz, dtype=bool)],
@@ -386,7 +390,7 @@ class Program:
             np.concatenate(rhs),
             lower,
             np.ones(n + nz),
-            {"cost": cost, "mass": mass},
+            {"cost": cost, "mass": mass, "rates": rates},
             n + np.arange(nz),
         )
 

@@ -36,6 +36,8 @@ from .structure import MASS
 COST_TOLERANCE = 1e-6
 #: a Pareto step asks for at least this share of the largest counter-mass less added mass
 MASS_STEP = 1e-6
+#: the objective of a topology's design: the least added mass, then the least total rate
+LIGHTEST = "lightest"
 #: progress lines: the first after this many seconds, then at most one every this many
 NOTE_AFTER_S = 2.0
 
@@ -107,9 +109,15 @@ class Search:
                 rows.append((self.exact.objectives[name], cap))
         while True:
             self.sub_solves += 1
-            solved = self.exact.solve(objective, rows, fixed, self.time_limit)
+            solved = self.exact.solve("mass" if objective == LIGHTEST else objective, rows, fixed, self.time_limit)
             if solved.status != "optimal":
                 return solved, None
+            if objective == LIGHTEST:  # then the least rates at (nearly) that mass
+                cap = solved.value + MASS_STEP * max(self.program.spec.max_mass, 1e-12)
+                self.sub_solves += 1
+                rated = self.exact.solve("rates", [*rows, (self.exact.objectives["mass"], cap)], fixed, self.time_limit)
+                if rated.status == "optimal":
+                    solved = rated
             design = self.program.design(solved)
             if design is not None:
                 return solved, design
@@ -172,7 +180,7 @@ class Search:
                 return found, False
             chosen = self.relaxation.chosen(m)
             self._say("enumerating the minimal topologies", m.value, cost)
-            solved, design = self._sub(chosen, "mass", True, None, None)
+            solved, design = self._sub(chosen, "lightest", True, None, None)
             if design is not None:
                 found.append(design)
             elif solved.status == "infeasible":
@@ -185,8 +193,8 @@ class Search:
 
     def least_mass(self, design: Design) -> Design:
         """``design``'s topology at its least added mass on the grid."""
-        solved, better = self._sub(design.classes, "mass", True, None, None)
-        return better if better is not None and better.added_mass <= design.added_mass else design
+        solved, better = self._sub(design.classes, "lightest", True, None, None)
+        return better if better is not None and better.added_mass <= design.added_mass + MASS_STEP * self.program.spec.max_mass else design
 
     def pareto(self, cost: float, mass: float) -> list[Design]:
         """The designs of the Pareto front of cost against added mass beyond the first
