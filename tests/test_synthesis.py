@@ -267,3 +267,19 @@ def test_the_conditions_are_the_energy_coefficients():
     for term, basis in (("sin(q1 + q2)", np.sin(phi)), ("cos(q2)", np.cos(q2)), ("sin(q1)", np.sin(q1))):
         i = [n.split(": ")[1] for n in cond.names].index(term)
         assert rows[i] == pytest.approx(2 * np.mean(energy * basis), abs=1e-12)
+
+
+def test_progress_lines_give_the_bound_and_the_incumbent(monkeypatch):
+    """On a long run (here: every line, the delay set to 0) the search says the master's
+    bound and the incumbent through the progress module."""
+    from counterpoise import progress
+    from counterpoise.synthesis import search
+
+    monkeypatch.setattr(search, "NOTE_AFTER_S", 0.0)
+    lines: list[str] = []
+    with progress.sink(lines.append):
+        result = _synthesise("arm2_springs.toml")
+    assert result.cost == 2
+    said = [line for line in lines if line.startswith("synthesis: ")]
+    assert said and all("bound " in line and "incumbent " in line for line in said)
+    assert any("incumbent 2" in line for line in said)

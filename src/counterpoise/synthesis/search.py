@@ -172,6 +172,7 @@ class Search:
         each at its least added mass, ``first`` included; whether the list is complete."""
         found = [first]
         while len(found) < limit:
+            self._say(f"enumerating the minimal topologies ({len(found)} found)", cost, cost)
             self.master_solves += 1
             m = self.master.solve("cost", self._master_rows([], [d.classes for d in found], cost + COST_TOLERANCE, None, None), time_limit=self.time_limit)
             if m.status == "infeasible":
@@ -179,8 +180,7 @@ class Search:
             if m.status != "optimal":
                 return found, False
             chosen = self.relaxation.chosen(m)
-            self._say("enumerating the minimal topologies", m.value, cost)
-            solved, design = self._sub(chosen, "lightest", True, None, None)
+            solved, design = self._sub(chosen, LIGHTEST, True, None, None)
             if design is not None:
                 found.append(design)
             elif solved.status == "infeasible":
@@ -193,7 +193,7 @@ class Search:
 
     def least_mass(self, design: Design) -> Design:
         """``design``'s topology at its least added mass on the grid."""
-        solved, better = self._sub(design.classes, "lightest", True, None, None)
+        solved, better = self._sub(design.classes, LIGHTEST, True, None, None)
         return better if better is not None and better.added_mass <= design.added_mass + MASS_STEP * self.program.spec.max_mass else design
 
     def pareto(self, cost: float, mass: float) -> list[Design]:
