@@ -143,6 +143,13 @@ def test_the_synthesis_files(arm2, tmp_path):
     assert lines[1].startswith("minimal,1,spring ground-link_2; spring link_1-link_2,2,2")
     problem = load_problem(folder / "arm2_springs_t1.toml")
     assert problem.synthesis is None and len(problem.springs) == 2
+    from counterpoise.cli import main
+
+    with pytest.raises(SystemExit) as exit_:  # `counterpoise solve` takes the written file
+        main(["solve", str(folder / "arm2_springs_t1.toml"), "--out", str(tmp_path / "solved"), "--report", "csv"])
+    assert exit_.value.code == 0
+    summary = (tmp_path / "solved" / "arm2_springs_t1" / "summary.csv").read_text().splitlines()
+    assert summary[1].split(",")[1] == "optimal"
 
 
 def _cli(args, capsys):
@@ -223,6 +230,14 @@ def test_payload_range_with_adjustments_and_a_tilting_base():
     # the counter-mass at the site's far end, 0.3 m behind the pivot, carries the heaviest
     # payload: M 0.3 m = (0.8 + 0.2) kg 0.3 m
     assert cm.result.solution.added_mass == pytest.approx(1.0, rel=1e-7)
+    # two working modes, the second with gravity along -x (the base turned by 90°): a
+    # spring's ground end cannot turn with gravity, a counter-mass on the link's far side
+    # balances both (its moment about the pivot is the tip's, M 0.3 m = 0.8 kg 0.3 m)
+    w = pendulum("modes").scenario("upright").scenario("turned", direction=(-1, 0, 0))
+    w.synthesis(regions=regions, sites=sites, max_rate="10 N/mm", max_mass="5 kg")
+    modes = synthesise(w.build(), raw=w.data)
+    assert {x.labels for x in modes.topologies} == {("counter-mass cm",)}
+    assert modes.topologies[0].result.solution.added_mass == pytest.approx(0.8, rel=1e-7)
     t = pendulum("tilt").tilt((1, 0, 0), "-15 deg", "15 deg")
     t.synthesis(regions=regions, sites=sites, max_rate="10 N/mm", max_mass="5 kg")
     tilted = synthesise(t.build(), raw=t.data)
