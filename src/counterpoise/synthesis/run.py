@@ -97,7 +97,7 @@ class SynthesisResult:
             if math.isinf(self.relaxation_bound):
                 return "no design balances, for any points in the regions (the relaxation is infeasible)"
             return "no design balances with spring ends on the grid points (the relaxation, with every point anywhere in its region, does not exclude one)"
-        if self.status != OPTIMAL:
+        if self.status == TIME_LIMIT or math.isnan(self.cost):
             return f"not proven: a solve hit the time limit (cost {self.cost:g} found, proven lower bound {self.grid_bound:g})"
         where = "" if self.conditions_exact else " at the sampled configurations"
         text = f"minimal on the grid{where}: no design of cost below {self.cost:g} balances exactly"
