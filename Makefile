@@ -10,7 +10,7 @@ DOCSTAMP := $(VENV)/.installed-docs
 # worker processes of `make demo`'s solve (the problems are independent)
 JOBS   ?= 2
 
-.PHONY: demo studies test docs bench clean
+.PHONY: demo studies synthesis test docs bench clean
 
 # $(call install,ARGS): `pip install ARGS` into the venv, by uv where it can be had (uv on the
 # PATH, else uv from PyPI put into the venv by $(PYTHON)'s pip): it resolves and installs in
@@ -63,6 +63,10 @@ studies: $(STAMP)
 	$(BIN)/counterpoise study problems/yasir2019_hybrid.toml --vary 'm_endo=400 g:1000 g:1000' --out results
 	$(BIN)/python scripts/tilt_tradeoff.py results/tilt_hybrid_arm-tradeoff
 	$(BIN)/counterpoise study problems/yasir2019_holder.toml --vary 'tilt=1 deg:15 deg:8' --out results
+
+# the synthesis examples (problems/synthesis/, docs/synthesis.md) into results/<problem>-synthesis/
+synthesis: $(STAMP)
+	for f in problems/synthesis/*.toml; do PYTHONDONTWRITEBYTECODE= $(BIN)/counterpoise synthesise "$$f" --out results || exit 1; done
 
 # type check first (docs/development.md: the settings are [tool.mypy] in pyproject.toml), then the suite
 test: $(TESTSTAMP)

@@ -17,7 +17,7 @@ API_PAGE = (ROOT / "docs" / "api.md").read_text(encoding="utf-8")
 #: other page that writes the order (the package's docstring, docs/layout.md) agrees with it.
 # io reads a file into the model and assembles closed loops at home (their homes are
 # starting guesses, docs/loops.md), so it sits above mechanics; mechanics never reads files
-LAYERS = ["model", "catalogue", "mechanics", "io", "formulation", "solvers", "designer", "verify", "selection", "payload", "robust", "pipeline", "report", "plots", "studies", "cli"]
+LAYERS = ["model", "catalogue", "mechanics", "io", "formulation", "solvers", "designer", "verify", "selection", "payload", "robust", "pipeline", "report", "plots", "synthesis", "studies", "cli"]
 
 
 def _api_python_blocks() -> list[str]:

@@ -15,7 +15,8 @@ catalogues) → ``mechanics`` (kinematics, energy) → ``io`` (files) → ``form
 (symbols, exact conditions) → ``solvers`` (one backend per module) → ``designer`` →
 ``verify`` (dense check) → ``selection`` (catalogue parts) → ``payload`` (payload ranges,
 schedules) → ``robust`` (tolerances) → ``pipeline`` (solve, verify, judge) → ``report``
-(CSV, HTML) → ``plots`` (PNG, matplotlib) → ``studies`` (many designs) → ``cli``.
+(CSV, HTML) → ``plots`` (PNG, matplotlib) → ``synthesis`` (the fewest elements that
+balance) → ``studies`` (many designs) → ``cli``.
 """
 
 from __future__ import annotations

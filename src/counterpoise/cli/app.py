@@ -1,5 +1,5 @@
 """The command line: ``counterpoise validate FILE...``, ``catalogue CSV...``, ``solve FILE...``,
-``schedule FILE --payload MASS``, ``study FILE --vary ...``, ``plot FILE|STUDY``, ``frames``
+``schedule FILE --payload MASS``, ``synthesise FILE``, ``study FILE --vary ...``, ``plot FILE|STUDY``, ``frames``
 and ``draw``: one typer app, its output drawn by rich.
 
 A thin layer: it parses options, calls the library and prints. The commands, their
@@ -232,6 +232,13 @@ def schedule(file: Path, payload: str, set_: list[str] | None) -> None:
 @command
 def study(**values: Any) -> None:
     raise typer.Exit(run.study_command(_err_line, _out_line, err_console, **values))
+
+
+@command
+def synthesise(file: Path, out: Path, set_: list[str] | None, refine: bool, report: str) -> None:
+    from .synthesis import run_synthesise
+
+    raise typer.Exit(run_synthesise(file, out, _overrides(set_), refine, report == "html", _err_line, _out_line))
 
 
 @command

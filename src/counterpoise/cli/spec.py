@@ -193,6 +193,30 @@ COMMANDS: tuple[Command, ...] = (
         ),
     ),
     Command(
+        "synthesise",
+        "Choose the fewest balancing elements of a [synthesis] superstructure, proven minimal; write every minimal topology (docs/synthesis.md).",
+        (
+            FILE,
+            _out("Folder for <problem>-synthesis/ (synthesis.csv, each topology's problem file and reports)."),
+            SET,
+            Param(
+                "refine",
+                "flag",
+                "Free each topology's attachment points in their regions and re-solve (the NLP); --no-refine keeps the grid's design.",
+                ("--refine", "--no-refine"),
+                default=True,
+            ),
+            Param(
+                "report",
+                "str",
+                "html: each topology's report.html beside its CSV files; csv: the CSV files only.",
+                ("--report",),
+                default="html",
+                choices=REPORTS,
+            ),
+        ),
+    ),
+    Command(
         "plot",
         "Write plots: energy.png of a problem's design, or study.png/pareto.png of a study.",
         (
