@@ -6,10 +6,11 @@ BIN    := $(VENV)/bin
 # set-up stamps: the runtime (make demo) and the test tools on top of it (make test)
 STAMP  := $(VENV)/.installed
 TESTSTAMP := $(VENV)/.installed-test
+DOCSTAMP := $(VENV)/.installed-docs
 # worker processes of `make demo`'s solve (the problems are independent)
 JOBS   ?= 2
 
-.PHONY: demo studies test bench clean
+.PHONY: demo studies synthesis test docs bench clean
 
 # $(call install,ARGS): `pip install ARGS` into the venv, by uv where it can be had (uv on the
 # PATH, else uv from PyPI put into the venv by $(PYTHON)'s pip): it resolves and installs in
@@ -40,6 +41,11 @@ $(TESTSTAMP): $(STAMP)
 	@$(call install,-e '.[test]')
 	@touch $(TESTSTAMP)
 
+# make docs: the [docs] extra (Sphinx, myst-parser, furo) on top of the runtime, never in it
+$(DOCSTAMP): $(STAMP)
+	@$(call install,-e '.[docs]')
+	@touch $(DOCSTAMP)
+
 # exit 1 from solve means "some design is not optimal": two examples are infeasible on purpose
 # (tilt_spring_arm: springs cannot follow a tilting base; yasir2019_holder: the paper's design
 # of the whole holder), and their reports say why; any other status stops make
@@ -58,14 +64,25 @@ studies: $(STAMP)
 	$(BIN)/python scripts/tilt_tradeoff.py results/tilt_hybrid_arm-tradeoff
 	$(BIN)/counterpoise study problems/yasir2019_holder.toml --vary 'tilt=1 deg:15 deg:8' --out results
 
+# the synthesis examples (problems/synthesis/, docs/synthesis.md) into results/<problem>-synthesis/
+synthesis: $(STAMP)
+	for f in problems/synthesis/*.toml; do PYTHONDONTWRITEBYTECODE= $(BIN)/counterpoise synthesise "$$f" --out results || exit 1; done
+
 # type check first (docs/development.md: the settings are [tool.mypy] in pyproject.toml), then the suite
 test: $(TESTSTAMP)
 	$(BIN)/python -m mypy
 	$(BIN)/python -m pytest -q -n 2 --dist loadfile --no-loadscope-reorder
+
+# the documentation site (docs/development.md#the-documentation-site): docs/*.md, problems/README.md,
+# the generated command-line reference, API reference and gallery (from problems/ and results/),
+# into docs/_build/html (git-ignored); any warning fails the build, after all are printed
+docs: $(DOCSTAMP)
+	$(BIN)/python -m sphinx -b html -W --keep-going -q docs docs/_build/html
+	@echo "docs: docs/_build/html/index.html"
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_solve.py
 	$(BIN)/python benchmarks/bench_scaling.py
 
 clean:
-	rm -rf $(VENV) build src/*.egg-info .pytest_cache .hypothesis
+	rm -rf $(VENV) build src/*.egg-info .pytest_cache .hypothesis docs/_build docs/_generated docs/gallery

@@ -7,7 +7,7 @@ k2) on a base that rolls and pitches by ±φ. Exact balance over any tilt range 
 counter-masses (the engine's design of the file, 16.95 kg). With less, the springs can only
 come close: for each tilt range φ and each share s of the full counter-masses (M1 and M2
 fixed at s × their full values), the engine designs the springs (its closest design: least
-squares over the tilt grid) and the dense check at random tilts gives the worst residual
+squares over the tilt grid) and the dense check (each configuration at its worst tilt) gives the worst residual
 ratio. Writes ``tradeoff.csv`` (one row per φ and s) and ``tradeoff.png``: the added mass
 needed against the tilt range for a few residual budgets, and the residual against the
 added mass for a few tilt ranges. Every figure comes from the engine; nothing is fitted.

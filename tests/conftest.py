@@ -209,6 +209,7 @@ HEAVY_FILES = (
     "test_search_screening.py",
     "test_speed.py",
     "test_studies.py",
+    "test_synthesis.py",
 )
 
 

@@ -1,4 +1,5 @@
-"""The Python API: the README's example runs, and code-built problems equal file-built ones."""
+"""The Python API: the example of docs/api.md runs, and code-built problems equal file-built
+ones; the layers import nothing above their own (:data:`LAYERS`)."""
 
 from __future__ import annotations
 
@@ -9,18 +10,25 @@ import pytest
 
 from conftest import ROOT
 
-README = (ROOT / "README.md").read_text(encoding="utf-8")
+API_PAGE = (ROOT / "docs" / "api.md").read_text(encoding="utf-8")
+
+#: The layers, innermost first: each imports only from those before it. The one statement of
+#: the order: docs/development.md names this list, and tests/test_docs.py checks that every
+#: other page that writes the order (the package's docstring, docs/layout.md) agrees with it.
+# io reads a file into the model and assembles closed loops at home (their homes are
+# starting guesses, docs/loops.md), so it sits above mechanics; mechanics never reads files
+LAYERS = ["model", "catalogue", "mechanics", "io", "formulation", "solvers", "designer", "verify", "selection", "payload", "robust", "realisation", "pipeline", "report", "plots", "synthesis", "studies", "cli"]
 
 
-def _readme_python_blocks() -> list[str]:
-    return re.findall(r"```python\n(.*?)```", README, flags=re.S)
+def _api_python_blocks() -> list[str]:
+    return re.findall(r"```python\n(.*?)```", API_PAGE, flags=re.S)
 
 
-def test_readme_example_runs_and_prints_the_documented_design(capsys):
-    blocks = _readme_python_blocks()
-    assert blocks, "README has no python example"
+def test_api_page_example_runs_and_prints_the_documented_design(capsys):
+    blocks = _api_python_blocks()
+    assert blocks, "docs/api.md has no python example"
     namespace: dict = {}
-    exec(compile(blocks[0], "README.md", "exec"), namespace)  # noqa: S102 - our own documentation
+    exec(compile(blocks[0], "docs/api.md", "exec"), namespace)  # noqa: S102 - our own documentation
     printed = capsys.readouterr().out
     assert printed.startswith("optimal ")
     values = namespace["result"].solution.values
@@ -111,9 +119,7 @@ def test_layers_do_not_import_upwards():
     """model imports nothing above it; mechanics nothing from io and beyond; io nothing from
     formulation and beyond; and so on. An import for annotations only is allowed where
     :data:`TYPE_ONLY_UPWARD` says so."""
-    # io reads a file into the model and assembles closed loops at home (their homes are
-    # starting guesses, docs/loops.md), so it sits above mechanics; mechanics never reads files
-    order = ["model", "catalogue", "mechanics", "io", "formulation", "solvers", "designer", "verify", "selection", "payload", "robust", "realisation", "pipeline", "report", "plots", "studies", "cli"]
+    order = LAYERS
     src = ROOT / "src" / "counterpoise"
     rank = {name: i for i, name in enumerate(order)}
     offenders = []

@@ -61,6 +61,51 @@ def test_vendor_mapping_si_and_inch(tmp_path):
     assert a.price[0] == pytest.approx(2.0)  # package of 5 for 10.00
 
 
+LBF, INCH = 4.4482216152605, 0.0254
+
+
+def _inch_file(path: Path, a: dict, rows) -> Path:  # noqa: ANN001 - rows: indices of the shipped catalogue
+    """Rows of the shipped catalogue written in lbf/in, in and lbf, without diameter columns."""
+    lines = ["part_number,rate_lbf_per_in,free_length_in,initial_tension_lbf,max_load_lbf,max_length_in"]
+    for i in rows:
+        lines.append(
+            f"P{i},{a['rate'][i] * INCH / LBF:.6g},{a['free_length'][i] / INCH:.6g},{a['initial_tension'][i] / LBF:.6g},"
+            f"{a['max_load'][i] / LBF:.6g},{a['max_length'][i] / INCH:.6g}"
+        )
+    return write(path, "\n".join(lines) + "\n")
+
+
+def test_every_shipped_part_is_a_possible_spring_and_none_is_in_lbf_read_as_n_mm():
+    """Issue 32 item 8: catalogue/physics.py bounds what a steel extension spring of a rate
+    and free length can carry. A bound, not a fit: every part of the shipped catalogue (made
+    by Shigley's formulas, docs/spring-catalogue.md) is within it (≤ 1); written in lbf/in,
+    in and lbf and read as N/mm, mm and N (force per area 145 times too high), every one is
+    beyond it, while read as SI from N-mm numbers (lengths 1000 times too long) they are
+    springs again: the bound catches what shrinks a spring, the median bands the rest."""
+    from counterpoise.catalogue.physics import implausibility
+
+    a = read_catalogue("shipped").arrays
+    assert implausibility(a["rate"], a["free_length"], a["initial_tension"], a["max_load"]).max() <= 1
+    misread = implausibility(a["rate"] * INCH / LBF * 1e3, a["free_length"] / INCH * 1e-3, a["initial_tension"] / LBF, a["max_load"] / LBF)
+    assert misread.min() > 1
+
+
+def test_any_two_shipped_parts_in_lbf_declared_n_mm_are_refused_naming_inch(tmp_path):
+    """Issue 32 item 8, in general: two parts drawn at random from the shipped catalogue,
+    written in lbf and inch without diameter columns, declared N-mm: refused, the line names
+    inch; declared inch: read."""
+    a = read_catalogue("shipped").arrays
+    columns = dict(zip(("part_number", "rate", "free_length", "initial_tension", "max_load", "max_length"),
+                       ("part_number", "rate_lbf_per_in", "free_length_in", "initial_tension_lbf", "max_load_lbf", "max_length_in")))
+    rng = np.random.default_rng(32)
+    for trial in range(20):
+        path = _inch_file(tmp_path / f"two_{trial}.csv", a, rng.choice(len(a["rate"]), 2, replace=False))
+        with pytest.raises(CatalogueError) as info:
+            read_catalogue(path, mapping_from(columns, "N-mm"))
+        assert info.value.key == "units" and 'set units = "inch"' in info.value.message, info.value.message
+        assert len(read_catalogue(path, mapping_from(columns, "inch"))) == 2
+
+
 @pytest.mark.parametrize(
     "row, where, fragment",
     [
@@ -316,3 +361,22 @@ def test_cli_checks_catalogues(tmp_path):
     proc = run_cli("catalogue", str(bad))
     assert proc.returncode == 2
     assert proc.stderr.strip() == f"{bad}: row 2 (line 3), column rate_N_per_m: the rate must be positive, got -5 N/m"
+
+
+@pytest.mark.parametrize(("excess", "fits"), [(1e-11, True), (1e-6, False)])
+def test_a_part_at_rounding_distance_outside_the_window_fits(tmp_path, excess, fits):
+    """Issue 32 item 17. Balance is k b h = m g r with h ≤ 0.3 m (b = 0.1 m, r = 0.2 m): with
+    m = 200 · 0.1 · 0.3/(g · 0.2) × (1 + excess) the 200 N/m part needs h = 0.3 m × (1 + excess),
+    just past its bound (the 5000 N/m part needs h = 0.012 m < 0.02 m: it never fits). At
+    1e-11 that is rounding: the part fits with h on its bound, the residual ratio about 1e-11.
+    At 1e-6 it does not, and the part is named as outside the balanceable range."""
+    rows = ["P-1,200,0.05,1,80,0.6,0.01,0.001,x", "P-2,5000,0.05,1,800,0.6,0.01,0.001,x"]
+    result = design(pendulum(tmp_path, rows, 200 * 0.1 * 0.3 / (9.81 * 0.2) * (1 + excess)))
+    if fits:
+        assert result.status is Status.OPTIMAL, result.message
+        assert result.parts.chosen == {"s": 0}
+        assert next(v for slot, v in result.solution.values.items() if slot.variable == "h") == 0.3
+        assert result.verification.residual_ratio == pytest.approx(excess, rel=1e-3)
+    else:
+        assert result.status is not Status.OPTIMAL
+        assert "P-1 (slot s): no balanced design within the bounds uses its rate" in result.message

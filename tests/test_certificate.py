@@ -253,14 +253,6 @@ def test_design_default_is_the_dense_check():
     assert certificate_of(result.verification) == SAMPLED
 
 
-def test_fast_path_parses_check():
-    from counterpoise.cli.light import parse
-
-    assert parse(["solve", "a.toml", "--check", "auto"])[1]["check"] == "auto"
-    assert parse(["solve", "a.toml"])[1]["check"] == "dense"
-    assert parse(["solve", "a.toml", "--check", "auto", "--check=dense"])[1]["check"] == "dense"  # the last, as the app
-
-
 def test_study_of_a_closed_loop_falls_back_to_the_dense_check(tmp_path, capsys):
     # a four-bar's residual lives on its loop's manifold: not certifiable, so every point
     # is verified by the dense check even with the default --check auto

@@ -120,7 +120,7 @@ def _design_files(folder: Path) -> dict[str, str]:
 
 
 def test_solve_jobs_gives_the_designs_and_summary_of_one_process(kinds, tmp_path):
-    """``solve --jobs 2`` (a process pool, the light path and the app): the same report files
+    """``solve --jobs 2`` (a process pool; through the entry point and typer's runner): the same report files
     as one process but for the timings, and one summary table with the problems in the
     files' order; a problem that fails keeps its line and exit status."""
     files = [str(kinds[k]) for k in ("payload", "plain", "lp", "modes")]
@@ -130,7 +130,7 @@ def test_solve_jobs_gives_the_designs_and_summary_of_one_process(kinds, tmp_path
     assert _design_files(tmp_path / "pooled") == _design_files(tmp_path / "serial")
     names = [line.split("│")[1].strip() for line in pooled.stdout.splitlines() if line.startswith("│")]
     assert names == ["pendulum_payload_lever", "plain", "lp", "two_tools"], pooled.stdout
-    # the app's path, and an infeasible problem among them: exit 1, its message after the table
+    # typer's runner, and an infeasible problem among them: exit 1, its message after the table
     app = _invoke("solve", files[1], files[2], "--out", str(tmp_path / "app"), "--set", "variables.M.upper=0.01 kg", "--jobs", "2")
     assert app.exit_code == 1, (app.stdout, app.stderr)
     assert "plain: " in app.stdout and "infeasible" in app.stdout, app.stdout

@@ -1,21 +1,20 @@
-"""The command line is declared once (``cli/spec.py``) and both parsers are derived from it:
-the typer app (``cli/app.py``) and the fast path's argparse parser (``cli/light.py``),
-which runs ``solve`` without importing typer and rich. These tests check the derivation
-(every option of the table is in both parsers, with the same help and default), that both
-parsers read the same command line to the same values, that the table's checks give the
-same one line on either path, and what the fast path prints (the same as rich would).
+"""The command line is declared once (``cli/spec.py``) and the typer app (``cli/app.py``) is
+derived from it. These tests check the derivation (every option of the table is a click
+parameter of its command, with the same help and default, and in ``--help``), the values
+a command line gives the command functions (``cli/run.py``), the table's checks (one line,
+exit status 2, nothing written), the usage errors typer prints, and the summary table.
 """
 
 from __future__ import annotations
 
 import inspect
-import re
+from pathlib import Path
 
 import pytest
 
 from conftest import PROBLEMS, run_cli
 from counterpoise.cli import app as cli_app
-from counterpoise.cli import light, spec
+from counterpoise.cli import run, spec
 from counterpoise.cli.spec import COMMANDS
 
 GROUP = None
@@ -66,36 +65,45 @@ def test_the_typer_app_has_the_tables_commands_options_help_and_defaults():
             assert theirs.required == mine.required
             assert theirs.multiple if mine.flags and mine.many else True
             if not mine.required:
-                want = light.convert(mine.kind, mine.default)
+                want = cli_app.default_value(mine)
                 assert theirs.default == want or (theirs.default in ((), None) and want is None), (command.name, mine.dest)
 
 
-def test_the_fast_parser_has_the_tables_options_help_and_defaults():
-    """The argparse parser of every command (the fast path serves ``solve``; the others are
-    derived the same way) holds each argument and option with the table's help."""
-    for command in COMMANDS:
-        actions = [a for a in light.parser(command)._actions]
-        for p in command.params:
-            mine = [a for a in actions if a.dest == p.dest]
-            assert mine, (command.name, p.dest)
-            assert sorted(f for a in mine for f in a.option_strings) == sorted(p.flags)
-            assert all(a.help.replace("%%", "%") == p.help for a in mine)
-            assert mine[0].required == p.required
-            assert mine[0].default == (None if p.required or not p.flags else p.default)
+def _help_text(capsys, argv: list[str], code: int = 0) -> str:
+    """What ``counterpoise ARGV`` prints (a help page: on stdout with status 0, on stderr as
+    a usage error), its wrapping undone."""
+    with pytest.raises(SystemExit) as exit_:
+        cli_app.main(argv)
+    assert exit_.value.code == code
+    printed = capsys.readouterr()
+    return " ".join((printed.out if code == 0 else printed.err).split())
 
 
 def test_every_commands_help_lists_every_option_of_the_table(monkeypatch, capsys):
-    """``counterpoise COMMAND --help`` (typer) names every option and shows its help."""
+    """``counterpoise COMMAND --help`` names every option and shows its help and default."""
     monkeypatch.setenv("COLUMNS", "400")
     monkeypatch.setenv("TERMINAL_WIDTH", "400")
     for command in COMMANDS:
-        with pytest.raises(SystemExit) as exit_:
-            cli_app.main([command.name, "--help"])
-        assert exit_.value.code == 0
-        text = " ".join(re.sub(r"[│╭╮╰╯─]", " ", capsys.readouterr().out).split())
+        text = _help_text(capsys, [command.name, "--help"])
+        assert " ".join(command.help.split()) in text
         for p in command.params:
             assert all(f in text for f in p.flags), (command.name, p.flags)
             assert " ".join(p.help.split()) in text, (command.name, p.dest)
+            if p.show_default and not p.required and p.default not in (None, False, True):
+                assert f"[default: {p.default}]" in text, (command.name, p.dest)
+
+
+def test_top_level_help_lists_every_command(monkeypatch, capsys):
+    """``counterpoise --help`` (status 0, on stdout) and ``counterpoise`` alone (status 2, on
+    stderr, as a usage error) print the description and every command with its whole
+    one-line help."""
+    monkeypatch.setenv("COLUMNS", "400")
+    monkeypatch.setenv("TERMINAL_WIDTH", "400")
+    for argv, code in (["--help"], 0), ([], 2):
+        text = _help_text(capsys, argv, code)
+        assert spec.DESCRIPTION in text and "Usage: counterpoise" in text
+        packed = "".join(text.split())  # click wraps at 80 columns, at a space or after a hyphen
+        assert all(c.name + "".join(c.help.split()) in packed for c in COMMANDS), text
 
 
 def test_the_check_modes_are_the_verifiers():
@@ -103,12 +111,6 @@ def test_the_check_modes_are_the_verifiers():
     from counterpoise.verify.check import CHECKS
 
     assert spec.CHECK_MODES == CHECKS
-
-
-def test_top_level_help_lists_every_command():
-    text = spec.top_level_help()
-    assert all(f"  {c.name}" in text and c.help in text for c in COMMANDS)
-    assert spec.DESCRIPTION in text
 
 
 def test_a_command_function_must_take_the_tables_parameters():
@@ -119,95 +121,97 @@ def test_a_command_function_must_take_the_tables_parameters():
         cli_app.command(solve)
 
 
-@pytest.mark.parametrize("name, function", [("solve", light.run_solve), ("validate", light.run_validate), ("study", light.run_study)])
-def test_the_shared_function_takes_every_option_of_its_command(name, function):
-    """The fast path and the app call the same function with the parsed values."""
-    assert name in light.FAST
+@pytest.mark.parametrize("name, function", [("solve", run.solve_command), ("validate", run.validate_command), ("study", run.study_command)])
+def test_the_run_function_takes_every_option_of_its_command(name, function):
+    """The app's command hands its parsed values to the plain function of ``cli/run.py``."""
     keywords = [k for k, p in inspect.signature(function).parameters.items() if p.kind is p.KEYWORD_ONLY]
-    assert keywords[: len(spec.BY_NAME[name].params)] == [p.dest for p in spec.BY_NAME[name].params]
+    assert keywords == [p.dest for p in spec.BY_NAME[name].params]
 
 
-# -- both parsers read the same values ---------------------------------------------------------
+# -- what a command line gives the command -----------------------------------------------------
 
 
 @pytest.fixture
 def recorded(monkeypatch):
-    """``run_solve`` and ``run_validate`` replaced by a recorder (exit 0): what each path
-    hands them."""
+    """``solve_command``, ``validate_command`` and ``study_command`` replaced by a recorder (exit 0):
+    the values the app hands them."""
     calls: list[dict] = []
 
-    def record(err, printer, /, loaded=None, **values):
+    def record(*_, **values):
         calls.append(values)
         return 0
 
-    monkeypatch.setattr(light, "run_solve", record)
-    monkeypatch.setattr(light, "run_validate", record)
-    monkeypatch.setattr(light, "run_study", record)
+    for name in ("solve_command", "validate_command", "study_command"):
+        monkeypatch.setattr(run, name, record)
     return calls
 
 
-SAME = [
-    ["solve", "a.toml"],
-    ["solve", "a.toml", "--set=x=1", "--debug", "--out=o", "--set", "y=2 mm", "b.toml", "--plot", "--starts", "3", "--", "--c.toml"],
-    ["solve", "a.toml", "--jobs=2", "--wide", "--report", "csv", "--check", "auto"],
-    ["solve", "a.toml", "--out", "x", "--out", "y"],  # the last one, as click
-    ["solve", "a.toml", "--starts", "+3", "--plot", "--plot"],
-    ["solve", "a.toml", "--out", "-1"],
-    ["solve", "a.toml", "--out="],
-    ["solve", "-"],
-    ["solve", "a.toml", "--", "--", "-x"],
-    ["solve", "--set", "a=[1, 2]", "a.toml", "--set=b={ c = 1 }"],
-    ["validate", "a.toml", "b.toml", "--set", "x=1"],
-    ["validate", "--debug", "a.toml"],
-    ["study", "a.toml", "--vary", "m=1 g:2 g:3"],
-    ["study", "a.toml", "--vary=m=1 g:2 g", "--vary", "r=1 mm:2 mm", "--samples", "5", "--method", "lhs", "--seed", "7", "--jobs", "2",
-     "--out", "o", "--resume", "--time-limit", "1.5", "--batch-size", "4", "--no-plot", "--set", "x=1", "--check", "dense"],
-    ["study", "a.toml", "--vary", "m=1 g:2 g:3", "--scheduler", "local", "--scheduler-timeout", "2.5", "--plot"],
+def _defaults(command: str) -> dict[str, object]:
+    return {p.dest: cli_app.default_value(p) for p in spec.BY_NAME[command].params if not p.required}
+
+
+READ = [
+    (["solve", "a.toml"], {"files": [Path("a.toml")]}),
+    (
+        ["solve", "a.toml", "--set=x=1", "--debug", "--out=o", "--set", "y=2 mm", "b.toml", "--plot", "--starts", "3", "--", "--c.toml"],
+        {"files": [Path("a.toml"), Path("b.toml"), Path("--c.toml")], "set_": ["x=1", "y=2 mm"], "out": Path("o"), "plot": True, "starts": 3},
+    ),
+    (["solve", "a.toml", "--jobs=2", "--wide", "--report", "csv", "--check", "auto"], {"files": [Path("a.toml")], "jobs": 2, "wide": True, "report": "csv", "check": "auto"}),
+    (["solve", "a.toml", "--out", "x", "--out", "y", "--check", "auto", "--check=dense"], {"files": [Path("a.toml")], "out": Path("y")}),  # the last one
+    (["solve", "-"], {"files": [Path("-")]}),
+    (["solve", "--set", "a=[1, 2]", "a.toml", "--set=b={ c = 1 }"], {"files": [Path("a.toml")], "set_": ["a=[1, 2]", "b={ c = 1 }"]}),
+    (["validate", "a.toml", "b.toml", "--set", "x=1"], {"files": [Path("a.toml"), Path("b.toml")], "set_": ["x=1"]}),
+    (["validate", "--debug", "a.toml"], {"files": [Path("a.toml")]}),
+    (["study", "a.toml", "--vary", "m=1 g:2 g:3"], {"file": Path("a.toml"), "vary": ["m=1 g:2 g:3"]}),
+    (
+        ["study", "a.toml", "--vary=m=1 g:2 g", "--vary", "r=1 mm:2 mm", "--samples", "5", "--method", "lhs", "--seed", "7", "--jobs", "2",
+         "--out", "o", "--resume", "--time-limit", "1.5", "--batch-size", "4", "--no-plot", "--set", "x=1", "--check", "dense",
+         "--scheduler", "local", "--scheduler-timeout", "2.5"],
+        {"file": Path("a.toml"), "vary": ["m=1 g:2 g", "r=1 mm:2 mm"], "samples": 5, "method": "lhs", "seed": 7, "jobs": 2, "out": Path("o"),
+         "resume": True, "time_limit": 1.5, "batch_size": 4, "plot": False, "set_": ["x=1"], "check": "dense", "scheduler": "local",
+         "scheduler_timeout": 2.5},
+    ),
 ]
 
 
-@pytest.mark.parametrize("argv", SAME, ids=range(len(SAME)))
-def test_the_fast_path_and_the_app_read_the_same_values(recorded, argv):
+@pytest.mark.parametrize("argv, given", READ, ids=range(len(READ)))
+def test_the_command_gets_the_given_values_and_the_tables_defaults(recorded, argv, given):
+    """Through the console script's entry point: every option not given has the table's
+    default (a path as a Path), every one given its value (a repeated option: all its
+    values; a single one given twice: the last)."""
     from counterpoise.cli import main
 
-    assert light.parse([a for a in argv if a != "--debug"]) is not None  # served by the fast path
-    for entry in (main, cli_app.main):
-        with pytest.raises(SystemExit) as exit_:
-            entry(list(argv))
-        assert exit_.value.code == 0
-    fast, app = recorded
-    assert fast == app
-    assert sorted(fast) == sorted(p.dest for p in spec.BY_NAME[argv[0]].params)
+    with pytest.raises(SystemExit) as exit_:
+        main(list(argv))
+    assert exit_.value.code == 0
+    assert recorded == [{**_defaults(argv[0]), **given}]
 
 
 @pytest.mark.parametrize(
     "argv",
     [
-        ["solve"],  # no file: the app's usage error
-        ["solve", "a.toml", "--help"],
+        ["solve"],  # no file
         ["solve", "a.toml", "--starts", "two"],
-        ["solve", "a.toml", "--starts", " 3"],  # numbers the app reads its own way
-        ["solve", "a.toml", "--jobs", "3_0"],
         ["solve", "a.toml", "--out"],
-        ["solve", "a.toml", "--out", "--plot"],
         ["solve", "a.toml", "--plot=yes"],
         ["solve", "a.toml", "--no-such-option"],
         ["solve", "a.toml", "--ou", "x"],  # no abbreviations
-        ["solve", "a.toml", "-1"],  # an unknown option to click, a file to argparse
-        ["solve", "a.toml", "--x y"],
-        ["solve", "a.toml", "--debug"],  # --debug is taken out before parsing
+        ["solve", "a.toml", "-1"],
+        ["solve", "a.toml", "--debug", "--debug"],  # the first --debug is the entry point's, not the second
         ["validate", "a.toml", "--plot"],
         ["study", "a.toml", "--samples", "two", "--vary", "m=1 g:2 g"],
         ["study", "a.toml", "--vary"],
-        ["schedule", "a.toml", "--payload", "1 kg"],  # not served here
+        ["nosuchcommand"],
     ],
 )
-def test_the_fast_path_hands_unusual_calls_to_the_app(argv):
-    assert light.parse(argv) is None
+def test_a_call_typer_does_not_accept_is_a_usage_error(recorded, capsys, argv):
+    """Exit status 2, typer's usage error on stderr (no traceback), nothing run."""
+    from counterpoise.cli import main
 
-
-def test_a_second_debug_goes_to_the_app(recorded):
-    assert light.run(["solve", "a.toml", "--debug", "--debug"]) is None
+    with pytest.raises(SystemExit) as exit_:
+        main(list(argv))
+    err = capsys.readouterr().err
+    assert exit_.value.code == 2 and "Error" in err and "Traceback" not in err, err
     assert recorded == []
 
 
@@ -222,158 +226,67 @@ def test_a_second_debug_goes_to_the_app(recorded):
         (["--set", "a=[1"], "--set a: cannot read '[1' as a TOML array: "),
     ],
 )
-def test_a_wrong_value_is_one_line_exit_2_nothing_written_on_either_path(tmp_path, capsys, option, line):
+def test_a_wrong_value_is_one_line_exit_2_nothing_written(tmp_path, option, line):
     problem = str(PROBLEMS / "yasir2019_counter_mass.toml")
-    fast = run_cli("solve", problem, "--out", str(tmp_path / "out"), *option)
-    with pytest.raises(SystemExit) as exit_:
-        cli_app.main(["solve", problem, "--out", str(tmp_path / "out"), *option])
-    app_err = capsys.readouterr().err
-    assert fast.returncode == exit_.value.code == 2
-    assert fast.stderr == app_err and fast.stderr.startswith(line) and fast.stderr.count("\n") == 1, fast.stderr
-    assert not (tmp_path / "out").exists()
+    done = run_cli("solve", problem, "--out", str(tmp_path / "out"), *option)
+    assert done.returncode == 2
+    assert done.stderr.startswith(line) and done.stderr.count("\n") == 1, done.stderr
+    assert done.stdout == "" and not (tmp_path / "out").exists()
 
 
 def test_a_study_check_is_checked_by_the_table(tmp_path):
     out = tmp_path / "out"
-    run = run_cli("study", str(PROBLEMS / "yasir2019_hybrid.toml"), "--vary", "m_endo=500 g:900 g:2", "--check", "x", "--out", str(out))
-    assert run.returncode == 2 and run.stderr == "--check: expected one of auto, dense, got 'x'\n"
+    done = run_cli("study", str(PROBLEMS / "yasir2019_hybrid.toml"), "--vary", "m_endo=500 g:900 g:2", "--check", "x", "--out", str(out))
+    assert done.returncode == 2 and done.stderr == "--check: expected one of auto, dense, got 'x'\n"
     assert not out.exists()
 
 
-# -- what the fast path prints -----------------------------------------------------------------
+def test_validate_says_ok_per_file_or_one_line_per_error():
+    good = str(PROBLEMS / "yasir2019_counter_mass.toml")
+    done = run_cli("validate", good, str(PROBLEMS / "yasir2019_hybrid.toml"))
+    assert done.returncode == 0 and [line.split()[:2] for line in done.stdout.splitlines()] == [["ok", good], ["ok", str(PROBLEMS / "yasir2019_hybrid.toml")]]
+    done = run_cli("validate", good, str(PROBLEMS / "no_such_file.toml"))
+    assert done.returncode == 2 and done.stdout == "" and done.stderr.count("\n") == 1 and "no_such_file.toml" in done.stderr
+    assert "Traceback" not in done.stderr
 
 
-def _rows():
-    base = {"added_inertia_kg_m2": 0.0665714, "objective": 5.753, "residual_ratio": 1.23e-15, "checked_configurations": 30024, "solve_time_s": 0.0123}
-    return [
-        {**base, "problem": "yasir2019_hybrid", "status": "optimal", "added_mass_kg": 5.753, "wall_s": 0.151, "folder": "out/yasir2019_hybrid", "message": "ok"},
-        {**base, "problem": "p", "status": "infeasible", "added_mass_kg": -123456789.0, "wall_s": 1234.5, "folder": "out/p", "message": "balance cannot be met: M at its upper bound"},
-    ]
+# -- the summary table -------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("which", [slice(0, 1), slice(0, 2), slice(1, 2)])
-def test_plain_summary_is_what_the_app_prints(which, monkeypatch, capsys):
-    """The plain-text table is byte for byte the app's rich table on a 160-column console
-    that is not a terminal (including a cell wider than its right-justified header)."""
+def _row(**changed):
+    row = {
+        "problem": "yasir2019_hybrid", "status": "optimal", "added_mass_kg": 5.753, "added_inertia_kg_m2": 0.0665714, "objective": 5.753,
+        "residual_ratio": 1.23e-15, "checked_configurations": 30024, "solve_time_s": 0.0123, "wall_s": 0.151, "folder": "out/yasir2019_hybrid",
+        "message": "ok",
+    }
+    return {**row, **changed}
+
+
+def _printed(rows, wide=False, width=160) -> str:
     import io
 
     from rich.console import Console
 
-    rows = _rows()[which]
     buffer = io.StringIO()
-    monkeypatch.setattr(cli_app, "out_console", Console(file=buffer, width=light.PLAIN_WIDTH))
-    cli_app._print_summary(rows)
-    monkeypatch.setattr(light, "rich_is_terminal", lambda stream, environ=None: False)
-    light.print_summary(rows)
-    assert light.plain_table(light.SUMMARY_TITLE, light.SUMMARY_COLUMNS, [light.summary_cells(r) for r in rows], light.PLAIN_WIDTH) is not None
-    assert capsys.readouterr().out == buffer.getvalue()
+    cli_app.print_summary(rows, wide, Console(file=buffer, width=width))
+    return buffer.getvalue()
 
 
-def test_plain_summary_defers_to_rich_when_rich_would_differ():
-    cells = [light.summary_cells(r) for r in _rows()]
-    table = lambda rows, width=light.PLAIN_WIDTH: light.plain_table(light.SUMMARY_TITLE, light.SUMMARY_COLUMNS, rows, width)  # noqa: E731
-    assert table(cells) is not None
-    assert table(cells, width=100) is None  # rich would shrink and wrap columns
-    assert table([]) is None
-    assert table([["[bold]x", *cells[0][1:]]]) is None  # markup
-    assert table([["a:smile:", *cells[0][1:]]]) is None  # emoji code
-    assert table([["é", *cells[0][1:]]]) is None  # width not known here
-    assert light.rich_is_terminal(_stream(False), {"FORCE_COLOR": "1"})
-    assert not light.rich_is_terminal(_stream(True), {"TTY_COMPATIBLE": "0"})
-    assert light.rich_is_terminal(_stream(True), {}) and not light.rich_is_terminal(_stream(False), {})
+def test_the_summary_lists_each_design_then_what_is_wrong_and_where_the_reports_are():
+    text = _printed([_row(), _row(problem="p", status="infeasible", message="balance cannot be met: M at its upper bound", folder="out/p")])
+    lines = text.splitlines()
+    assert lines[0].strip() == cli_app.SUMMARY_TITLE
+    body = [line for line in lines if line.startswith("│")]
+    assert [line.split("│")[1].strip() for line in body] == ["yasir2019_hybrid", "p"]
+    assert lines[-2:] == ["p: balance cannot be met: M at its upper bound", "reports in out/<problem>/"]
+    assert _printed([]) == ""  # no design, no table
 
 
-def _stream(tty: bool):
-    class Stream:
-        def isatty(self) -> bool:
-            return tty
-
-    return Stream()
-
-
-def _untimed(text: str) -> str:
-    """The summary with its total (s) column masked (in a UTF-8 or an ASCII box)."""
-    return re.sub(r"(?<=[│|]) +\d+\.\d{3} (?=[│|])", " T ", text)
-
-
-def _both_paths(tmp_path, capsys, *args: str, command: str = "solve"):
-    """The same ``solve`` (or ``command``) call through the fast path and through the typer app, in this
-    process: (exit status, stdout with the times masked, stderr, output folder) of each."""
-    from counterpoise.cli import main
-
-    runs = []
-    for name, entry in (("fast", main), ("app", cli_app.main)):
-        out = tmp_path / name
-        with pytest.raises(SystemExit) as exit_:
-            entry([command, *args, "--out", str(out)] if command == "solve" else [command, *args])
-        captured = capsys.readouterr()
-        text = captured.out.replace(str(out), "OUT")
-        text = _untimed(text)
-        runs.append((exit_.value.code, text, captured.err.replace(str(out), "OUT"), out))
-    return runs
-
-
-@pytest.mark.parametrize(
-    "args",
-    [
-        (str(PROBLEMS / "yasir2019_hybrid.toml"), str(PROBLEMS / "yasir2019_counter_mass.toml")),
-        (str(PROBLEMS / "yasir2019_counter_mass.toml"), "--set", "variables.M_c.upper=100 g"),  # infeasible: exit 1, message
-        (str(PROBLEMS / "yasir2019_counter_mass.toml"), str(PROBLEMS / "no_such_file.toml")),  # load error: one line, exit 2
-    ],
-)
-def test_the_fast_path_prints_and_writes_what_the_app_does(tmp_path, capsys, args):
-    (code_a, out_a, err_a, dir_a), (code_b, out_b, err_b, dir_b) = _both_paths(tmp_path, capsys, *args)
-    assert (code_a, out_a, err_a) == (code_b, out_b, err_b)
-    files_a = sorted(p.relative_to(dir_a) for p in dir_a.rglob("*.csv")) if dir_a.exists() else []
-    files_b = sorted(p.relative_to(dir_b) for p in dir_b.rglob("*.csv")) if dir_b.exists() else []
-    assert files_a == files_b
-    for rel in files_a:
-        if rel.name != "summary.csv":  # solve_time_s differs
-            assert (dir_a / rel).read_text() == (dir_b / rel).read_text(), rel
-
-
-@pytest.mark.parametrize(
-    "args",
-    [
-        (str(PROBLEMS / "yasir2019_hybrid.toml"), str(PROBLEMS / "yasir2019_counter_mass.toml")),
-        (str(PROBLEMS / "yasir2019_counter_mass.toml"), str(PROBLEMS / "no_such_file.toml"), "--set", "x=1"),
-        (str(PROBLEMS / "yasir2019_counter_mass.toml"), "--set", "novalue"),
-    ],
-)
-def test_validate_prints_what_the_app_prints(tmp_path, capsys, args):
-    (code_a, out_a, err_a, _), (code_b, out_b, err_b, _) = _both_paths(tmp_path, capsys, *args, command="validate")
-    assert (code_a, out_a, err_a) == (code_b, out_b, err_b)
-    assert code_a == 0 or (code_a == 2 and out_a == "" and "Traceback" not in err_a), err_a  # one line per error
-
-
-def test_a_long_or_unusual_line_is_printed_by_rich(monkeypatch, capsys):
-    """Plain only what rich would print unchanged; a line wider than the console, or with
-    text rich measures otherwise, goes to rich (which folds it as the app does)."""
-    monkeypatch.setattr(light, "rich_is_terminal", lambda stream, environ=None: False)
-    for line in ("ok  " + "x" * 200, "ok  é", "ok  plain"):
-        light._out(line)
-        mine = capsys.readouterr().out
-        cli_app._out_line(line)
-        assert mine == capsys.readouterr().out
-
-
-def test_the_fast_summary_without_utf8_stdout_is_richs(tmp_path, capsys, monkeypatch):
-    """A stdout that is not UTF-8: the fast path leaves the summary to rich, so both paths
-    print the same (rich draws an ASCII box)."""
-    import io
-    import sys
-
-    ends = []
-    for name in ("fast", "app"):
-        stream = io.TextIOWrapper(io.BytesIO(), encoding="ascii")
-        monkeypatch.setattr(sys, "stdout", stream)
-        from counterpoise.cli import main
-
-        entry = main if name == "fast" else cli_app.main
-        with pytest.raises(SystemExit) as exit_:
-            entry(["solve", str(PROBLEMS / "yasir2019_counter_mass.toml"), "--out", str(tmp_path / name)])
-        stream.flush()
-        text = stream.buffer.getvalue().decode("ascii").replace(str(tmp_path / name), "OUT")
-        ends.append((exit_.value.code, _untimed(text), capsys.readouterr().err))
-    assert ends[0] == ends[1]
-    assert "+----" in ends[0][1]  # rich's ASCII box
+def test_the_summary_prints_part_names_and_messages_as_written():
+    """A part's name comes from a catalogue (any text) and a message may quote input: rich
+    reads neither as markup nor as an emoji code. (Before, a part ``EXT[red]1:cat:`` was
+    printed as ``EXT1🐱``: the cells were markup strings and the consoles replaced emoji
+    codes, messages included.)"""
+    parts = "spring_a: EXT[red]1:cat:"
+    text = _printed([_row(parts=parts), _row(problem="q", status="infeasible", message="x:cat: [bold]y", folder="out/q")], width=200)
+    assert parts in text and "q: x:cat: [bold]y" in text

@@ -143,6 +143,107 @@ def test_force_limit_conflicting_with_a_mass_cap_is_named():
     assert "heavy" in result.message and "s.max_force" in result.message
 
 
+def spring_and_counter_mass(**constraints: dict) -> ProblemBuilder:
+    """The pendulum with both a free counter-mass (M, b) and a free zero-free-length spring k
+    (a = h = 0.1 m, as in :func:`spring_lp`): balance is m g r = k a h + M g b."""
+    b = ProblemBuilder("conflict", gravity=f"{G} m/s^2", direction=(0, -1, 0))
+    b.subsystem("arm", phi=("-90 deg", "90 deg"))
+    b.frame("link", rotate("z", "phi"))
+    b.parameter("m", "1 kg").parameter("r", "0.2 m").parameter("a", "0.1 m").parameter("h", "0.1 m")
+    b.variable("M", "0 kg", "10 kg").variable("b", "0.05 m", "0.5 m", initial="0.2 m").variable("k", "0 N/m", "1000 N/m")
+    b.body("link", "link", "m", ("r", 0, 0))
+    b.counter_mass("cm", "link", "M", ("-b", 0, 0))
+    b.spring("s", "k", ("ground", (0, "h", 0)), ("link", ("a", 0, 0)))
+    for name, spec in constraints.items():
+        b.constraint(name, **spec)
+    return b
+
+
+def test_an_infeasible_design_is_the_elastic_design_its_message_describes():
+    """Issue 32 item 6. No counter moment (M b ≤ 0) and a spring moment k a h ≤ 0.5 N·m
+    cannot hold with the balance m g r = k a h + M g b = 1.962 N·m: the smallest relaxation
+    keeps the spring at its limit (k = 0.5/(a h) = 50 N/m) and misses counter_moment by
+    (m g r − 0.5)/g = 1.462/9.81 = 0.14903 kg·m. The design reported is that one (balanced,
+    spring_moment at its bound, M b = 0.14903), not IPOPT's last iterate (k = 80 N/m, both
+    constraints beyond their bounds)."""
+    from counterpoise.report.rows import constraint_rows
+
+    result = design(spring_and_counter_mass(
+        counter_moment={"expression": "M * b", "upper": "0 kg m"},
+        spring_moment={"expression": "k * a * h", "upper": "0.5 N m"},
+    ).build())
+    assert result.status is Status.INFEASIBLE
+    missed = (1 * G * 0.2 - 0.5) / G
+    assert "counter_moment (missed by 0.149 kg m)" in result.message and "binding: spring_moment = 0.5 N m at its upper bound" in result.message
+    values = {slot.variable: v for slot, v in result.solution.values.items()}
+    assert values["k"] == pytest.approx(0.5 / (0.1 * 0.1), rel=1e-6)
+    assert values["M"] * values["b"] == pytest.approx(missed, rel=1e-6)
+    assert result.verification.balanced
+    moment, spring = _value(result, "counter_moment"), _value(result, "spring_moment")
+    assert moment.active == "violated" and moment.value == pytest.approx(missed, rel=1e-6) and moment.relaxed == pytest.approx(missed, rel=1e-6)
+    assert spring.active == "upper" and spring.relaxed == 0.0
+    rows = {r["name"]: r for r in constraint_rows(result)}  # design.csv's constraint rows
+    assert rows["spring_moment"]["active_bound"] == "upper" and rows["spring_moment"]["value"] == pytest.approx(0.5, rel=1e-6)
+    assert "relaxed by 0.149 kg m" in rows["counter_moment"]["description"]
+
+
+def spring_only(max_force: str) -> ProblemBuilder:
+    """The pendulum held by a zero-free-length spring alone: k and the anchor a on the link
+    free (an NLP), h = 0.1 m. Balance k a h = m g r; the pull k|A − B| is largest at
+    φ = −90° (|A − B| = a + h), so F_max = m g r (a + h)/(a h) = m g r (1/h + 1/a), least at
+    the largest a = 0.3 m: 1.962 × (10 + 10/3) = 26.16 N."""
+    b = ProblemBuilder("spring_only", gravity=f"{G} m/s^2", direction=(0, -1, 0))
+    b.subsystem("arm", phi=("-90 deg", "90 deg"))
+    b.frame("link", rotate("z", "phi"))
+    b.parameter("m", "1 kg").parameter("r", "0.2 m").parameter("h", "0.1 m")
+    b.variable("a", "0.01 m", "0.3 m").variable("k", "0 N/m", "10000 N/m")
+    b.body("link", "link", "m", ("r", 0, 0))
+    b.spring("s", "k", ("ground", (0, "h", 0)), ("link", ("a", 0, 0)), max_force=max_force)
+    return b
+
+
+SMALLEST_LARGEST_FORCE = 1 * G * 0.2 * (1 / 0.1 + 1 / 0.3)  # N, see spring_only
+
+
+def test_a_tiny_force_limit_is_named_with_how_far_it_is_missed():
+    """Issue 32 item 14: max_force = 1e-12 N. The elastic problem's rows are divided by the
+    bound (1e-12): from a slack of 1 IPOPT's restoration got stuck and the message was only
+    'IPOPT declared a balanceable problem infeasible'. It names the limit and its miss now."""
+    result = design(spring_only("1e-12 N").build())
+    assert result.status is Status.INFEASIBLE
+    assert f"s.max_force (missed by {SMALLEST_LARGEST_FORCE:.4g} N)" in result.message, result.message
+    assert _value(result, "s.max_force").value == pytest.approx(SMALLEST_LARGEST_FORCE, rel=1e-6)
+
+
+def test_an_absurdly_small_force_limit_names_the_limit_the_design_misses():
+    """max_force = 1e-300 N: the rows (divided by the bound) are ~1e301 and no solve settles
+    it; the message still names the limit, the spring's pull at the design reported and
+    by how much it is over."""
+    result = design(spring_only("1e-300 N").build())
+    assert result.status is not Status.OPTIMAL
+    values = {slot.variable: v for slot, v in result.solution.values.items()}
+    pull = values["k"] * (values["a"] + 0.1)  # at φ = −90°
+    assert "it misses s.max_force (springs.s.max_force): spring s pulls" in result.message, result.message
+    assert f"pulls {pull:.6g} N against its max_force 1e-300 N, {pull:.4g} N over (at phi=-90 deg)" in result.message
+
+
+@pytest.mark.parametrize(
+    ("expression", "fragment"),
+    [
+        # b → 0.5 m (its upper bound) minimises M; the root's argument reaches 0 at b = 0.45 m
+        ("sqrt(0.45 - b/(1 m)) * 1 m", "= 0 m has no finite derivative"),
+        # the initial b = 0.2 m divides by zero
+        ("1 m^2/(b - 0.2 m)", "has no finite value"),
+    ],
+)
+def test_a_constraint_that_is_not_a_finite_number_is_named(expression, fragment):
+    """Issue 32 item 13: IPOPT's Invalid_Number_Detected names the constraint and its key."""
+    result = design(housing("0.5 m", root={"expression": expression, "upper": "10 m"}).build())
+    assert result.status is Status.FAILED
+    assert "Invalid_Number_Detected: root (constraints.root.expression)" in result.message, result.message
+    assert fragment in result.message and "at the solver's point (M=" in result.message
+
+
 def test_nonlinear_constraint_moves_an_lp_to_the_nlp():
     """M² ≤ 0.3 kg² (M ≤ 0.5477 kg) is not linear: IPOPT solves it, and says why."""
     result = design(spring_lp(square={"expression": "M**2", "upper": "0.3 kg^2"}).build())
@@ -205,6 +306,14 @@ def test_bad_constraints_name_the_key(spec, key, fragment):
     with pytest.raises(ProblemFileError) as exc:
         spring_lp(c=spec).build()
     assert exc.value.key == key and fragment in exc.value.message
+
+
+@pytest.mark.parametrize("bound", [0.5, "0.5", " 5e-1 "])
+def test_a_dimensionless_bound_is_a_plain_number(bound):
+    """Issue 32 item 15: the bound of a dimensionless expression is a plain number, in TOML
+    as a number or a string ("0.5" said "expected a quantity such as '135 mm'")."""
+    built = spring_lp(ratio={"expression": "M / (1 kg)", "upper": bound}).build()
+    assert next(c for c in built.constraints if c.name == "ratio").upper == 0.5
 
 
 def test_max_force_must_be_a_positive_force():

@@ -110,7 +110,7 @@ def _same_file(name: str, mine: str, committed: str) -> bool:
 
 @pytest.mark.parametrize("name", SAME_AS_RESULTS)
 def test_solve_through_the_cache_writes_the_committed_results(name, tmp_path, cache_on, capsys):
-    """``counterpoise solve`` (the light path, as the console script runs it) writes the
+    """``counterpoise solve`` (with the cache, as the console script runs it) writes the
     same report files as the committed ``results/`` (made by ``make demo``), the first time
     (the file loaded, then kept) and the second (the problem unpickled from the cache)."""
     from counterpoise.cli import main
@@ -184,18 +184,18 @@ def test_cache_off_and_in_process_calls_write_nothing(tmp_path, monkeypatch, cap
 def test_console_script_keeps_the_problem_and_then_imports_neither_pint_nor_pydantic(tmp_path):
     """The console script (a real process: :func:`counterpoise.cli.main` without
     arguments) keeps the loaded problem; its next run on the same file unpickles it and
-    imports neither pint nor pydantic nor the loader, and writes the same reports. That
-    run imports neither hashlib (BLAKE2 from ``_blake2``, without OpenSSL) nor difflib
-    (only for messages), nor
-    the closed loops' ``mechanics.closure`` (this chain is open)."""
+    imports neither pint nor the problem schema (pydantic's models; pydantic itself is
+    typer's) nor the loader, and writes the same reports. That run imports neither the
+    closed loops' ``mechanics.closure`` (this chain is open) nor the degeneracy checks
+    (kept with the problem)."""
     runs = console_solve_twice(tmp_path, PROBLEMS / "yasir2019_counter_mass.toml", """
-print(sorted(m for m in ('hashlib', 'difflib', 'counterpoise.mechanics.closure') if m in sys.modules))
-print(status, sorted(m for m in ('pint', 'pydantic', 'counterpoise.io.loader') if m in sys.modules))
+print(sorted(m for m in ('counterpoise.mechanics.closure', 'counterpoise.formulation.assumptions') if m in sys.modules))
+print(status, sorted(m for m in ('pint', 'counterpoise.io.schema', 'counterpoise.io.loader') if m in sys.modules))
 """)
     outs = [lines[-1] for lines in runs]
     lines = runs[-1]
-    assert outs == ["0 ['counterpoise.io.loader', 'pint', 'pydantic']", "0 []"]
-    # nor, on the repeated run, the standard library's modules the reports and keys do without
+    assert outs == ["0 ['counterpoise.io.loader', 'counterpoise.io.schema', 'pint']", "0 []"]
+    # nor, on the repeated run, what an open chain read from the cache does without
     assert lines[-2] == "[]"
     assert len(list((tmp_path / "cache").glob("*.pickle"))) == 1
     for f in ("design.csv", "status.txt", "build.csv"):

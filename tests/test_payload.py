@@ -299,3 +299,31 @@ def test_schedule_failing_inside_the_range_fails_the_design_naming_the_payload(m
     assert result.status.value == "failed"
     assert "first failing payload 62 g" in result.message
     assert result.payload.samples == pytest.approx((0.0, 0.062, 0.122))  # 62 g was added to the samples
+
+
+DESIGNED_SPRING = """[variables.k]
+lower = "0 N/m"
+upper = "1 N/m"
+[springs.s]
+stiffness = "k"
+max_force = "1 N"
+from = { frame = "ground", point = [0, "0.1 m", 0] }
+to = { frame = "link", point = ["0.1 m", 0, 0] }
+"""
+
+
+def test_a_payload_design_that_balances_no_payload_gets_its_springs_designed():
+    """Issue 32 item 10 (``KeyError: 0.0``, exit 3): 1 kg at 0.3 m is 2.94 N·m; a counter-mass
+    of at most 0.1 kg at most 0.5 m behind the joint (0.49 N·m) and a spring of at most 1 N/m
+    (k a h ≤ 0.01 N·m) balance no payload of the range. The schedule has no feasible payload;
+    the designed spring is then sized on the design itself, not looked up in an empty schedule.
+    (Its max_force makes it a problem with constraints too: the other form of the report.)"""
+    from counterpoise import design
+    from counterpoise.io.loader import load_problem_text
+
+    text = payload_pendulum_toml("pay", "b", "0.05 m", "0.5 m", '["-b", 0, 0]', mass_upper="0.1 kg") + DESIGNED_SPRING
+    result = design(load_problem_text(text, "pay.toml"))
+    assert result.status.value == "infeasible"
+    assert not any(s.feasible for s in result.payload.schedule.rows)
+    assert result.payload.schedule_solution() is result.payload.solution
+    assert {s.spring for s in result.springs} == {"s"}

@@ -8,7 +8,9 @@ checks run Debian's ``chromium`` and are skipped, with the reason, where it is a
 
 from __future__ import annotations
 
+import csv
 import html
+import io
 import json
 import re
 import shutil
@@ -140,19 +142,15 @@ def test_page_loads_no_external_resource_and_every_image_decodes(page, tmp_path)
 
 
 def test_solve_writes_the_page_by_default_and_report_csv_leaves_it_out(tmp_path, capsys):
-    """``solve`` writes report.html unless ``--report csv``, on the light path and in the
-    typer app alike; another value is refused: exit 2, one line, nothing written."""
+    """``solve`` writes report.html unless ``--report csv``; another value is refused:
+    exit 2, one line, nothing written."""
     from counterpoise.cli import main
-    from counterpoise.cli.app import main as app_main
-    from counterpoise.cli.light import parse
 
     problem = str(ROOT / "problems" / "yasir2019_counter_mass.toml")
-    assert parse(["solve", problem, "--report", "csv"])[1]["report"] == "csv"
-    assert parse(["solve", problem])[1]["report"] == "html"
-    runs = ((main, tmp_path / "a", [], True), (main, tmp_path / "b", ["--report=csv"], False), (app_main, tmp_path / "c", ["--report", "csv"], False), (app_main, tmp_path / "e", [], True))
-    for entry, out, extra, page in runs:
+    runs = ((tmp_path / "a", [], True), (tmp_path / "b", ["--report=csv"], False), (tmp_path / "c", ["--report", "csv"], False))
+    for out, extra, page in runs:
         with pytest.raises(SystemExit) as exit_:
-            entry(["solve", problem, "--out", str(out), *extra])
+            main(["solve", problem, "--out", str(out), *extra])
         assert exit_.value.code == 0
         folder = out / "yasir2019_counter_mass"
         assert (folder / "build.csv").is_file() and (folder / "report.html").is_file() == page
@@ -177,3 +175,92 @@ def test_page_of_a_payload_range_holds_its_schedule(tmp_path):
     assert sorted(p.name for p in folder.glob("*.csv")) == sorted(shown)
     # the adjustments set per payload (the counter-mass levers dL_c1, dL_c2) have their table
     assert "<h3>Adjustments</h3>" in text and "dL_c1" in text and "dL_c2" in text
+
+
+# -- on paper (issue 32): A4, fonts of 8 pt or more, every column, the design first ------
+
+
+@pytest.fixture(scope="module")
+def designed_page(tmp_path_factory):
+    """(folder, page text) of a design with designed springs (yasir2019_hybrid): springs.csv
+    has some forty columns, the stresses, allowables, safety factor and mass last."""
+    result = solved("yasir2019_hybrid")
+    folder = write_reports(result, tmp_path_factory.mktemp("designed"), html=True)
+    return folder, (folder / "report.html").read_text(encoding="utf-8")
+
+
+def _print_block(text):
+    """The body of the page's ``@media print { ... }`` rule."""
+    start = text.index("@media print {") + len("@media print {")
+    depth, i = 1, start
+    while depth:
+        depth += {"{": 1, "}": -1}.get(text[i], 0)
+        i += 1
+    return text[start : i - 1]
+
+
+def _without_screen_copies(text):
+    """The page as printed: the screen-only copies of wide tables left out."""
+    return re.sub(r'<div class="wrap screen-only">.*?</table></div>', "", text, flags=re.S)
+
+
+@pytest.mark.parametrize("which", ["page", "designed_page"])
+def test_print_rules_put_every_column_on_paper_in_fonts_of_8_pt(which, request):
+    """Static (no browser): the print style sheet sets every font size in pt, none below 8;
+    every table printed has at most PRINT_COLUMNS columns; every column of springs.csv (the
+    widest table) is among the printed tables' headers; the design comes before the
+    summary's solver figures."""
+    from counterpoise.report.html import PRINT_COLUMNS
+
+    folder, text = request.getfixturevalue(which)
+    rules = _print_block(text)
+    assert "size: A4" in rules
+    sizes = re.findall(r"font-size:\s*([0-9.]+)(\w+)", rules)
+    assert sizes and all(unit == "pt" and float(value) >= 8 for value, unit in sizes), sizes
+    printed = _without_screen_copies(text)
+    for head in re.findall(r"<thead><tr>(.*?)</tr></thead>", printed, flags=re.S):
+        assert head.count("<th") <= PRINT_COLUMNS, head[:200]
+    header = (folder / "springs.csv").read_text(encoding="utf-8").splitlines()[0].split(",")
+    titles = set(re.findall(r'<th[^>]* title="([^"]*)"', printed))
+    rows = list(csv.DictReader(io.StringIO((folder / "springs.csv").read_text(encoding="utf-8"))))
+    shown = [c for c in header if any(r[c] for r in rows)]
+    assert [c for c in shown if c not in titles] == []
+    if which == "designed_page":
+        assert {"body_stress_MPa", "hook_bending_stress_MPa", "allowable_body_MPa", "safety_factor", "mass_g"} <= titles
+    order = re.findall(r'<section id="([a-z]+)">', text)
+    first = ["drawing"] if "drawing" in order else []  # the designed page is written without plots
+    design = [order.index(x) for x in (*first, "design", "build", "springs")]
+    assert design == sorted(design) and design[-1] < order.index("verification") < order.index("summary") == len(order) - 1 - ("plots" in order)
+
+
+@NEEDS_CHROMIUM
+@pytest.mark.parametrize("which", ["page", "designed_page"])
+def test_printed_tables_fit_an_a4_page(which, request, tmp_path):
+    """The browser lays the page out with its print rules (applied to the screen, at the
+    width of an A4 page inside its margins: 190 mm = 718 CSS px) and a probe (this test's
+    script) reports every displayed table that reaches past that width, every text in a
+    font below 8 pt, and the columns on show."""
+    folder, text = request.getfixturevalue(which)
+    probe = (
+        "<script>window.addEventListener('load', () => {"
+        "const width = document.documentElement.clientWidth;"
+        "const shown = e => e.offsetParent !== null || getComputedStyle(e).position === 'fixed';"
+        "const wide = [...document.querySelectorAll('table')].filter(t => shown(t) && t.getBoundingClientRect().right > width + 0.5)"
+        ".map(t => (t.caption ? t.caption.textContent : t.rows[0].textContent).slice(0, 80));"
+        "const small = []; const walk = document.createTreeWalker(document.body, NodeFilter.SHOW_TEXT);"
+        "while (walk.nextNode()) { const e = walk.currentNode.parentElement;"
+        " if (!walk.currentNode.textContent.trim() || !shown(e)) continue;"
+        " const px = parseFloat(getComputedStyle(e).fontSize); if (px < 8 * 96 / 72 - 0.01) small.push(e.tagName + ' ' + px); }"
+        "const columns = [...new Set([...document.querySelectorAll('th[title]')].filter(shown).map(th => th.title))];"
+        "document.body.setAttribute('data-probe', JSON.stringify({width, wide, small: small.slice(0, 20), columns}));});</script>"
+    )
+    copy = tmp_path / "print.html"
+    copy.write_text(text.replace("@media print {", "@media all {").replace("</body>", probe + "</body>"), encoding="utf-8")
+    run = _chromium("--window-size=718,1200", "--dump-dom", copy.as_uri(), cwd=tmp_path)
+    found = re.search(r'data-probe="([^"]*)"', run.stdout)
+    assert found, run.stdout[:500]
+    seen = json.loads(html.unescape(found.group(1)))
+    assert 700 <= seen["width"] <= 720
+    assert seen["wide"] == [] and seen["small"] == []
+    rows = list(csv.DictReader(io.StringIO((folder / "springs.csv").read_text(encoding="utf-8"))))
+    assert [c for c in rows[0] if any(r[c] for r in rows) and c not in seen["columns"]] == []

@@ -132,7 +132,7 @@ def test_the_default_summary_fits_80_columns_and_names_the_parts():
 
     from rich.console import Console
 
-    from counterpoise.cli import light
+    from counterpoise.cli.app import print_summary
 
     row = {
         "problem": "essomba2021_orientation_catalogue", "status": "optimal", "added_mass_kg": 0.0, "added_inertia_kg_m2": 0.0,
@@ -140,10 +140,10 @@ def test_the_default_summary_fits_80_columns_and_names_the_parts():
         "parts": "spring_a: CP-EXT-0324; spring_b: CP-EXT-0111", "folder": "results/x", "message": "",
     }
     buffer = io.StringIO()
-    light.rich_summary([row], Console(file=buffer, width=80))
+    print_summary([row], console=Console(file=buffer, width=80))
     text = buffer.getvalue()
     assert "…" not in text and max(len(line) for line in text.splitlines()) <= 80
     assert "optimal" in text and "CP-EXT-0324" in text and "configs" not in text
     wide = io.StringIO()
-    light.rich_summary([row], Console(file=wide, width=200), wide=True)
+    print_summary([row], wide=True, console=Console(file=wide, width=200))
     assert "configs" in wide.getvalue() and "solve (s)" in wide.getvalue()

@@ -15,15 +15,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import PROBLEMS, ROOT, run_cli
+from conftest import PROBLEMS, ROOT, run_cli, value
 
 from counterpoise.errors import ProblemFileError
 from counterpoise.io.builder import ProblemBuilder, rotate, translate
 from counterpoise.io.loader import load_problem, load_problem_text
 from counterpoise.io.robot import rpy_from_matrix
 from counterpoise.mechanics.poses import mechanics, place
+from counterpoise.pipeline import design
 
 BAD = Path(__file__).resolve().parent / "bad_problems" / "robots"
+GOOD_ROBOTS = Path(__file__).resolve().parent / "robots"
 SEED = 7
 TOL = 1e-12
 
@@ -49,7 +51,9 @@ MANIFEST = {
     "robot_nonfinite_origin.toml": ("robot.urdf", "nan_origin.urdf: link 'hand' has a position (joint origin) that is not a finite number"),
     "robot_origin_out_of_range.toml": ("robot.urdf", "huge_origin.urdf: link 'hand' has a position (joint origin) out of range: (1e+300, 0, 0) m; lengths up to 1e+06 m are accepted"),
     "robot_joint_missing_link.toml": ("robot.urdf", "missing_link.urdf: joint 'wrist' names link 'palm', which the model does not declare"),
-    "robot_xacro.toml": ("robot.urdf", "arm.urdf.xacro is a xacro file (ROS macros, not plain URDF): expand it first, `xacro arm.urdf.xacro > arm.urdf`"),
+    "robot_xacro.toml": ("robot.urdf", "arm.urdf.xacro is a xacro file (ROS macros, not plain URDF): expand it into a new file first, `xacro arm.urdf.xacro > arm_expanded.urdf`"),
+    # issue 32: named .urdf, the suggestion writes a new file (`> arm_macros.urdf` would empty it)
+    "robot_xacro_named_urdf.toml": ("robot.urdf", "arm_macros.urdf is a xacro file (ROS macros, not plain URDF): expand it into a new file first, `xacro arm_macros.urdf > arm_macros_expanded.urdf`, and give arm_macros_expanded.urdf"),
     "robot_mjcf_nan.toml": ("robot.mjcf", "nan_pos.xml: the model contains a 'NaN'"),
     "robot_mjcf_free_joint.toml": ("robot.mjcf", "joint 'float' of body 'base' is a free joint (a floating body); only hinge and slide joints are supported: in a copy of the model, delete <freejoint/>"),
     "robot_urdf_floating_joint.toml": ("robot.urdf", "joint 'float' is of type 'floating'; only revolute, continuous, prismatic, fixed joints are supported: in a copy of the model, give it type=\"fixed\""),
@@ -79,6 +83,105 @@ def test_bad_robot_input_is_one_line_through_the_cli(name, tmp_path):
     assert len(proc.stderr.splitlines()) == 1, proc.stderr
     assert proc.stderr.startswith(f"{BAD / name}: {MANIFEST[name][0]}: ")
     assert not (tmp_path / "out").exists()
+
+
+def test_expanded_urdf_declaring_the_xacro_namespace_solves():
+    """xacro keeps ``xmlns:xacro`` in every file it expands (issue 32: such a file was refused
+    as xacro). The fixture is plain URDF apart from that declaration: a two-link arm in the
+    x-z plane (joints about y, gravity along -z), upper link 1.2 kg at 150 mm, forearm 0.6 kg
+    at 100 mm past the elbow at 300 mm. Counter-masses at -150 mm (upper) and -100 mm
+    (forearm) balance it exactly: about the elbow M_f 0.1 = 0.6 x 0.1, so M_f = 0.6 kg; about
+    the shoulder M_u 0.15 = 1.2 x 0.15 + (0.6 + M_f) x 0.3 = 0.54, so M_u = 3.6 kg."""
+    urdf = GOOD_ROBOTS / "xacro_expanded_arm.urdf"
+    assert 'xmlns:xacro="http://www.ros.org/wiki/xacro"' in urdf.read_text(encoding="utf-8")
+    text = f"""
+[problem]
+name = "xacro_expanded_arm"
+[gravity]
+acceleration = "9.81 m/s^2"
+direction = [0, 0, -1]
+[robot]
+urdf = "{urdf.as_posix()}"
+joints.shoulder = {{ range = ["-90 deg", "90 deg"] }}
+joints.elbow = {{ range = ["-120 deg", "120 deg"] }}
+[variables.M_u]
+lower = "0 kg"
+upper = "20 kg"
+[variables.M_f]
+lower = "0 kg"
+upper = "20 kg"
+[counter_masses.M_u]
+frame = "upper"
+mass = "M_u"
+position = ["-150 mm", 0, 0]
+[counter_masses.M_f]
+frame = "fore"
+mass = "M_f"
+position = ["-100 mm", 0, 0]
+"""
+    result = design(load_problem_text(text, str(urdf.with_name("xacro_expanded_arm.toml"))))
+    assert result.status.value == "optimal", result.message
+    assert value(result, "M_f", "kg") == pytest.approx(0.6, rel=1e-6)
+    assert value(result, "M_u", "kg") == pytest.approx(3.6, rel=1e-6)
+
+
+def _example_robot_data(sub: str) -> Path:
+    """A file of example-robot-data, where that package is installed (else the test skips):
+    through its loader where it has one, else among the files the distribution installed
+    (6.x installs its robots under a cmeel prefix and ships no Python module)."""
+    from importlib import metadata
+
+    try:
+        from example_robot_data.robots_loader import getModelPath
+
+        path = Path(getModelPath(sub)) / sub
+        if path.is_file():
+            return path
+    except (ImportError, OSError, ValueError):
+        pass
+    try:
+        files = metadata.distribution("example-robot-data").files or []
+    except metadata.PackageNotFoundError:
+        pytest.skip("example-robot-data is not installed")
+    found = [Path(str(f.locate())) for f in files if f.as_posix().endswith(sub)]
+    if not found or not found[0].is_file():
+        pytest.skip(f"this example-robot-data has no {sub}")
+    return found[0]
+
+
+def test_example_robot_data_panda_solves(tmp_path):
+    """example-robot-data's panda.urdf declares xmlns:xacro (xacro expanded it) and is plain
+    URDF: it solved before issue 32's regression and must again. A counter-mass on link 2,
+    free in its x-y plane, balances the shoulder (joint 2) with the elbow held."""
+    urdf = _example_robot_data("panda_description/urdf/panda.urdf")
+    text = f"""
+[problem]
+name = "erd_panda"
+[gravity]
+acceleration = "9.81 m/s^2"
+direction = [0, 0, -1]
+[robot]
+urdf = "{urdf.as_posix()}"
+joints.panda_joint2 = {{ range = ["-90 deg", "90 deg"] }}
+locked.panda_joint4 = "-90 deg"
+[variables.M]
+lower = "0 kg"
+upper = "100 kg"
+[variables.x]
+lower = "-300 mm"
+upper = "300 mm"
+[variables.y]
+lower = "-300 mm"
+upper = "300 mm"
+[counter_masses.M]
+frame = "panda_link2"
+mass = "M"
+position = ["x", "y", 0]
+"""
+    (tmp_path / "panda.toml").write_text(text, encoding="utf-8")
+    proc = run_cli("solve", str(tmp_path / "panda.toml"), "--out", str(tmp_path / "out"), cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert "status: optimal" in (tmp_path / "out" / "erd_panda" / "status.txt").read_text(encoding="utf-8")
 
 
 def test_links_are_frames_and_bodies():

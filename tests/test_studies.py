@@ -102,6 +102,30 @@ def test_study_file_has_display_units_and_resume_runs_only_missing_points(tmp_pa
         run_study(problem, other, partial, resume=True)
 
 
+def test_a_study_of_catalogue_parts_names_each_slots_part_rate_and_force(tmp_path):
+    """Issue 32: study.csv of a catalogue problem had no part, rate or force column, so a
+    grip point jumping between points had nothing to say why. Each slot now has its chosen
+    part, the part's rate and its springs' largest working force; the first point (the
+    file's own m_head, solved cold) is the solve's design: its springs.csv has the same
+    part, rate and largest force."""
+    from conftest import solved
+    from counterpoise.report.files import report_texts
+
+    problem = load_problem(PROBLEMS / "lamp_catalogue.toml")
+    plan = plan_study(problem, ["m_head=450 g:500 g:2"], "f")
+    outcome = run_study(problem, plan, tmp_path, SerialRunner(), batch_size=1)
+    rows = read_rows(outcome.folder / "study.csv")
+    meta = json.loads((outcome.folder / "study.json").read_text(encoding="utf-8"))
+    assert meta["text_columns"] == ["lower_spring part", "upper_spring part"]
+    springs = list(csv.DictReader(report_texts(solved("lamp_catalogue"))["springs.csv"].splitlines()))
+    for slot in ("lower_spring", "upper_spring"):
+        used = [r for r in springs if r["slot"] == slot]
+        assert rows[0][f"{slot} part"] == used[0]["part_number"]
+        assert float(rows[0][f"{slot} rate [N/mm]"]) == pytest.approx(float(used[0]["rate_N_per_mm"]), rel=1e-6)
+        assert float(rows[0][f"{slot} max force [N]"]) == pytest.approx(max(float(r["max_force_N"]) for r in used), rel=1e-6)
+        assert rows[1][f"{slot} part"].startswith("CP-EXT-") and float(rows[1][f"{slot} max force [N]"]) > 0
+
+
 class _Flaky:
     """A designer that raises at m = 0.6 kg and hangs at m = 0.7 kg (for the failure test)."""
 

@@ -64,6 +64,8 @@ LHS = [(200.0 + 17 * ((7 * i) % 12), 170.0 + 4 * ((5 * i) % 12)) for i in range(
         ("grid", [("m_c", "g")], GRID, ()),  # curves
         ("grid", [("m_c", "g")], GRID, (3, 7)),  # red crosses, grey crosses and a residual row (log scale)
         ("lhs", [("m_pay", "g"), ("r_b", "mm")], LHS, (0,)),  # two columns of scatter plots
+        ("grid", [("m_c", "g")], [(1e6 + 3 * i,) for i in range(11)], ()),  # tick labels with an offset (+1e6)
+        ("grid", [("m_c", "g")], [(2e-7 * i,) for i in range(5)], ()),  # with an order of magnitude (1e-6)
     ],
 )
 def test_the_picture_is_the_whole_drawing_of_the_finished_figure(tmp_path, monkeypatch, method, vary, values, failed):
@@ -104,35 +106,6 @@ def test_a_prepared_figure_is_used_when_its_layout_is_the_studys(tmp_path):
     prepared = study_plot.prepare(meta, xs)
     study_plot.study_plots(tmp_path / "failed", prepared)
     assert not prepared.used and _pixels(tmp_path / "failed" / "study.png").shape[0] > _pixels(tmp_path / "ok" / "study.png").shape[0]
-
-
-@pytest.mark.parametrize(
-    "values",
-    [
-        GRID,  # matplotlib's locator gives a location beyond each end of the x axis (290 g to 510 g)
-        [(1e6 + 3 * i,) for i in range(11)],  # tick labels with an offset (+1e6)
-        [(2e-7 * i,) for i in range(5)],  # with an order of magnitude (1e-6)
-        [(5.0,)],  # one point: a singular range widened by the locator
-        LHS,
-    ],
-)
-def test_tick_objects_only_for_the_ticks_in_view_draw_matplotlibs_picture(tmp_path, monkeypatch, values):
-    """The axes make tick objects only for the locations in their view (``in_view``): the
-    picture is the one matplotlib's own locators give, pixel for pixel (the same ticks,
-    labels, offsets), with fewer tick objects when the locator gives locations beyond the
-    view (for GRID: MaxNLocator's step 50 g gives 250 g and 550 g, outside 290 g to 510 g)."""
-    made = []
-    init = study_plot.StudyFigure.__init__
-    monkeypatch.setattr(study_plot.StudyFigure, "__init__", lambda self, layout: made.append(self) or init(self, layout))
-    method, vary = ("lhs", [("m_pay", "g"), ("r_b", "mm")]) if values is LHS else ("grid", [("m_c", "g")])
-    for name in ("fewer", "default"):
-        _study(tmp_path / name, method, vary, values, ["optimal"] * len(values))
-    [fewer] = study_plot.study_plots(tmp_path / "fewer")
-    monkeypatch.setattr(study_plot, "in_view", lambda locator: locator)
-    [default] = study_plot.study_plots(tmp_path / "default")
-    assert (_pixels(fewer) == _pixels(default)).all()
-    counts = [sum(len(axis.majorTicks) for ax in figure.fig.axes for axis in (ax.xaxis, ax.yaxis)) for figure in made]
-    assert counts[0] <= counts[1] and (counts[0] < counts[1] or values is not GRID)
 
 
 @pytest.fixture

@@ -144,17 +144,16 @@ def test_the_study_plot_draws_the_objective_and_each_design_variable_once_laid_o
     assert [ax.get_xlabel() for ax in fig.axes] == ["", "", "", "m_c [g]"]  # one shared x axis, labelled under the last row
 
 
-def test_a_study_is_served_by_the_fast_path_without_typer(tmp_path):
-    """``counterpoise study`` in a fresh process: parsed and run by the fast path
-    (``light.run_study``), so typer (and the pydantic adapters it builds per option) is
-    never imported; the study is written as by the app."""
+def test_a_study_without_plot_imports_no_matplotlib(tmp_path):
+    """``counterpoise study --no-plot`` in a fresh process: matplotlib is never imported
+    (no plot helper, no preload); the study is written."""
     code = (
         "import sys\n"
         "from counterpoise.cli import main\n"
         f"try:\n    main(['study', {str(PROBLEMS / 'yasir2019_counter_mass.toml')!r}, '--vary', 'm_c=300 g:500 g:2', '--jobs', '1', '--no-plot',"
         f" '--out', {str(tmp_path)!r}])\n"
         "except SystemExit as e:\n    code = e.code\n"
-        "print(code, sorted(m for m in ('typer', 'click', 'matplotlib') if m in sys.modules))\n"
+        "print(code, sorted(m for m in ('matplotlib',) if m in sys.modules))\n"
     )
     stdout = fresh_python(code)
     assert stdout.strip().splitlines()[-1] == "0 []"

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 import pytest
 
 from counterpoise.io.builder import ProblemBuilder, rotate
@@ -161,3 +163,72 @@ def test_tilt_composes_with_a_catalogue_slot():
     k = slot.catalogue.rate[r.parts.chosen["s"]]
     # the part's rate k and the lever a: k h a = m g r cos 10°
     assert k * 0.1 * values(r)["a"] == pytest.approx(1 * G * 0.2 * math.cos(math.radians(10)), rel=1e-6)
+
+
+# -- the dense check reaches the tilt box's ends and faces (issue 32 item 7) -------------
+
+
+def _spring_pendulum() -> ProblemBuilder:
+    """m = 1 kg at r = 0.3 m, q ∈ [−90°, 90°], held by a zero-free-length spring k from
+    (0, h) on the base to (a, 0) on the link (a = h = 0.1 m); the base pitches ±10° about z.
+    Gravity in base coordinates is g(−sin φ, −cos φ), so V = m g r sin(q + φ) + ½ k |A − B|²
+    with |A − B|² = a² + h² − 2 a h sin q: the residual is m g r cos(q + φ) − k a h cos q and
+    the unbalanced gravity torque m g r cos(q + φ), whose largest magnitude m g r = 2.943 N·m
+    is reached (q = −φ lies in the range for every tilt)."""
+    b = ProblemBuilder("tilt_spring_pendulum", gravity=f"{G} m/s^2", direction=(0, -1, 0))
+    b.parameter("m", "1 kg").parameter("r", "0.3 m").parameter("a", "0.1 m").parameter("h", "0.1 m")
+    b.subsystem("arm", q=("-90 deg", "90 deg"))
+    b.frame("link", rotate("z", "q"))
+    b.body("tip", frame="link", mass="m", com=("r", 0, 0))
+    b.variable("k", "0 N/m", "1000 N/m")
+    b.spring("s", "k", ("ground", (0, "h", 0)), ("link", ("a", 0, 0)))
+    b.tilt((0, 0, 1), "-10 deg", "10 deg")
+    return b
+
+
+def test_the_dense_check_finds_the_worst_tilt_at_the_ends_of_the_range():
+    """Each configuration was drawn at a random tilt: the reported worst ratio fell short of
+    the true one, at an end of the range (0.17316 or, in the issue's run, 0.17348 against
+    0.17366), and so did the reference torque (2.9429995 or 2.94293 N·m against 2.943 N·m).
+    Now each configuration is evaluated at its own worst tilt. The true values are computed
+    here by brute force from the closed form above: a fine grid over the tilt range at the
+    worst configuration, and a fine grid over (q, φ)."""
+    r = design(_spring_pendulum().build())
+    k = values(r)["k"]
+    check = r.verification.checks[0]
+    mgr, kah = 1 * G * 0.3, k * 0.1 * 0.1
+
+    def residual(q, phi):
+        return mgr * np.cos(q + phi) - kah * np.cos(q)
+
+    phi = np.linspace(math.radians(-10), math.radians(10), 200_001)
+    (q_worst,) = check.worst_configuration
+    assert check.max_residual == pytest.approx(np.abs(residual(q_worst, phi)).max(), rel=1e-12)
+    assert abs(check.worst_tilt[0]) == pytest.approx(math.radians(10), abs=1e-12)  # at an end of the range
+    q_grid = np.linspace(-math.pi / 2, math.pi / 2, 4001)[:, None]
+    coarse = np.linspace(math.radians(-10), math.radians(10), 401)[None, :]
+    assert check.max_residual == pytest.approx(np.abs(residual(q_grid, coarse)).max(), rel=1e-6)  # the q samples: 10,004
+    assert check.max_gravity_torque == pytest.approx(mgr, rel=1e-12)  # 2.943 N·m
+    assert r.verification.ratio(check) == pytest.approx(check.max_residual / mgr, rel=1e-12)
+
+
+@pytest.mark.parametrize("n_tilts", [1, 2, 3])
+def test_tilt_extremes_against_a_brute_force_grid(n_tilts):
+    """Random quantities linear in gravity, f = c + w · g(φ), over boxes of one to three tilts
+    (axes not aligned with gravity, ranges up to ±40°): the largest |f| found equals the
+    largest on a fine grid of the box (to the grid's resolution) and is never below it; at
+    the angles returned f has the value returned."""
+    from counterpoise.model.tilt import Tilt, tilt_extremes, tilted_directions
+
+    rng = np.random.default_rng(n_tilts)
+    axes = [(1.0, 0.0, 0.0), (0.0, 0.0, 1.0), (0.6, 0.0, 0.8)][:n_tilts]
+    tilts = tuple(Tilt(a, -math.radians(lo), math.radians(hi)) for a, lo, hi in zip(axes, rng.uniform(5, 40, 3), rng.uniform(5, 40, 3)))
+    c, w = rng.normal(size=200), rng.normal(size=(200, 3))
+    found, angles = tilt_extremes(G, (0.0, -1.0, 0.0), tilts, c, w)
+    assert np.allclose(c + np.einsum("ij,ij->i", w, G * tilted_directions((0.0, -1.0, 0.0), tilts, angles)), found, atol=1e-12)
+    points = {1: 20_001, 2: 301, 3: 61}[n_tilts]
+    grid = np.array(np.meshgrid(*[np.linspace(t.lower, t.upper, points) for t in tilts], indexing="ij")).reshape(n_tilts, -1).T
+    brute = np.abs(c[:, None] + w @ (G * tilted_directions((0.0, -1.0, 0.0), tilts, grid)).T).max(axis=1)
+    largest = np.abs(found).max()
+    assert largest >= brute.max() - 1e-12
+    assert largest == pytest.approx(brute.max(), rel={1: 1e-9, 2: 1e-4, 3: 1e-3}[n_tilts])

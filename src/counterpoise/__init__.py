@@ -6,15 +6,17 @@ Typical use::
     result = design(load_problem("problems/yasir2019_hybrid.toml"))
     write_reports(result, "results")
 
-or build the problem in code with :class:`ProblemBuilder`. Heavy dependencies (CasADi,
+or build the problem in code with :class:`~counterpoise.io.builder.ProblemBuilder`. Heavy dependencies (CasADi,
 pandas, pydantic) are imported on first use, not here.
 
-Layers, each a subpackage with one job: ``model`` (typed problem) → ``catalogue`` (spring
-catalogues) → ``io`` (files) → ``mechanics`` (kinematics, energy) → ``formulation``
+Layers, each a subpackage with one job, in the order ``tests/test_api.py`` enforces (a layer
+imports only from those before it): ``model`` (typed problem) → ``catalogue`` (spring
+catalogues) → ``mechanics`` (kinematics, energy) → ``io`` (files) → ``formulation``
 (symbols, exact conditions) → ``solvers`` (one backend per module) → ``designer`` →
 ``verify`` (dense check) → ``selection`` (catalogue parts) → ``payload`` (payload ranges,
-schedules) → ``report`` (CSV) → ``plots`` (PNG, matplotlib) → ``studies`` (many designs) →
-``cli``.
+schedules) → ``robust`` (tolerances) → ``pipeline`` (solve, verify, judge) → ``report``
+(CSV, HTML) → ``plots`` (PNG, matplotlib) → ``synthesis`` (the fewest elements that
+balance) → ``studies`` (many designs) → ``cli``.
 """
 
 from __future__ import annotations

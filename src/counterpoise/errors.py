@@ -53,7 +53,7 @@ class InputError(CounterpoiseError):
     """A value found while resolving a problem is invalid; the loader adds file and key.
 
     Raised by the layers below the loader (units, expressions), which know neither the
-    file nor the key; :mod:`counterpoise.loader` turns it into a :class:`ProblemFileError`.
+    file nor the key; :mod:`counterpoise.io.loader` turns it into a :class:`ProblemFileError`.
     """
 
 

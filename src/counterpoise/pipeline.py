@@ -104,15 +104,21 @@ def build_method(problem: Problem, starts: int = 1, backend: str = "auto", desig
     """
     if starts < 1:
         raise ValueError("starts must be at least 1")
-    inner = _method(problem, starts, backend, designer)
-    if not problem.springs or problem.settings.ideal_springs:
-        return inner
-    from .realisation.method import RealisationMethod
+    from . import progress
 
-    return RealisationMethod(problem, lambda augmented: _method(augmented, starts, backend), inner)
+    # building the balance conditions grows with the scenarios (a tilting base: 3ⁿ of
+    # them): a build still running after a few seconds says so (progress.phase)
+    scenarios = len(problem.scenarios)
+    with progress.phase(f"{problem.name}: building the balance conditions of {scenarios} scenario{'s' if scenarios != 1 else ''}", after=progress.SLOW_PHASE_S):
+        inner = _build_method(problem, starts, backend, designer)
+        if not problem.springs or problem.settings.ideal_springs:
+            return inner
+        from .realisation.method import RealisationMethod
+
+        return RealisationMethod(problem, lambda augmented: _build_method(augmented, starts, backend, None), inner)
 
 
-def _method(problem: Problem, starts: int, backend: str, designer: "Designer | MinimaxDesigner | None" = None) -> DesignMethod:
+def _build_method(problem: Problem, starts: int, backend: str, designer: "Designer | MinimaxDesigner | None") -> DesignMethod:
     """Every layer of :func:`build_method` but the realisation layer."""
     direct = has_direct_springs(problem)
     method: DesignMethod

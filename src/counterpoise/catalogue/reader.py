@@ -10,6 +10,7 @@ from __future__ import annotations
 import csv
 import math
 import statistics
+from collections.abc import Callable
 from pathlib import Path
 
 from ..progress import counter
@@ -75,10 +76,14 @@ def read_catalogue(
         raise CatalogueError(label, "file", f"cannot read: {exc.strerror or exc}") from None
     except UnicodeDecodeError:
         raise CatalogueError(label, "file", "not UTF-8 text") from None
-    rows = list(csv.reader(text.splitlines()))
+    rows = _csv_rows(label, text.splitlines())
     if not rows or not any(cell.strip() for cell in rows[0]):
         raise CatalogueError(label, "header", "the file is empty: expected a header line of column names")
     header = [h.strip() for h in rows[0]]
+    twice = sorted({h for h in header if h and header.count(h) > 1}, key=header.index)
+    if twice:
+        where = ", ".join(str(i + 1) for i, h in enumerate(header) if h == twice[0])
+        raise CatalogueError(label, "header", f"column '{twice[0]}' appears twice (columns {where}): which one holds the values is ambiguous; rename or remove one")
     index: dict[str, int] = {}
     for field, column in mapping.columns:
         if column in header:
@@ -156,11 +161,108 @@ def check_plausible(label: str, values: dict[str, list], mapping: ColumnMapping,
 
     wrong = outside(mapping.units)
     if not wrong:
+        _check_springs_exist(label, values, mapping, header, index, to, lambda u: not outside(u), distance)
         return
     shown = "; ".join(show(f) for f in wrong[:2])
     fits = sorted((u for u in UNIT_SYSTEMS if u != mapping.units and not outside(u)), key=distance)
     hint = f'; the values are most plausible in {fits[0]} units: set units = "{fits[0]}"' if fits else "; check the unit system (units = ...) and the columns"
     raise CatalogueUnitsError(label, "units", f"not plausible for extension springs read in {mapping.units} units: {shown}{hint}")
+
+
+def _check_springs_exist(
+    label: str,
+    values: dict[str, list],
+    mapping: ColumnMapping,
+    header: list[str],
+    index: dict[str, int],
+    to: Callable[[str, str], float],
+    in_bands: Callable[[str], bool],
+    distance: Callable[[str], float],
+) -> None:
+    """The median part must be a possible steel extension spring in the file's units
+    (:func:`.physics.implausibility`: its rate and free length leave room for a wire that
+    carries its loads) when it is one in other units (where every band holds too): then the
+    file is refused, naming those units. Catches a file of weak springs in lbf and inch read
+    as N-mm, whose medians all lie in their bands. Parts that are springs in no unit system
+    (made up for a test, a paper's idealised rates) are left to the part limits."""
+    import numpy as np
+
+    from .physics import implausibility, sample
+
+    rows = sample(len(values["rate"]))
+
+    def median(units: str) -> float:
+        column = {f: np.array([values[f][i] for i in rows], dtype=float) * to(units, f) for f in ("rate", "free_length", "initial_tension", "max_load")}
+        return float(np.median(implausibility(column["rate"], column["free_length"], column["initial_tension"], column["max_load"])))
+
+    declared = median(mapping.units)
+    if not declared > 1:
+        return
+    fits = sorted((u for u in UNIT_SYSTEMS if u != mapping.units and in_bands(u) and median(u) <= 1), key=distance)
+    if not fits:  # no unit system makes them springs: made-up parts (a test's), not a unit mistake
+        return
+    hint = f'; the values are most plausible in {fits[0]} units: set units = "{fits[0]}"'
+    name = {f: header[index[f]] for f in ("rate", "free_length", "max_load", "initial_tension")}
+    raise CatalogueUnitsError(
+        label,
+        "units",
+        f"not plausible for extension springs read in {mapping.units} units: no steel spring of these rates and free lengths (columns "
+        f"{name['rate']}, {name['free_length']}) carries these max loads and initial tensions (columns {name['max_load']}, "
+        f"{name['initial_tension']}): the median part asks {declared:.3g} times the most it could{hint}",
+    )
+
+
+def _csv_rows(label: str, lines: list[str]) -> list[list[str]]:
+    """The CSV rows of ``lines``; a malformed line (a field longer than the csv module's
+    limit, :func:`csv.field_size_limit`) is a :class:`CatalogueError` naming its row and column."""
+    rows: list[list[str]] = []
+    reader = csv.reader(lines)
+    while True:
+        try:
+            cells = next(reader)
+        except StopIteration:
+            return rows
+        except csv.Error as exc:
+            line = reader.line_num
+            header = [h.strip() for h in rows[0]] if rows else []
+            where = "header" if line == 1 else f"row {sum(1 for r in rows[1:] if any(c.strip() for c in r)) + 1} (line {line})"
+            column = _long_field(lines[line - 1]) if 0 < line <= len(lines) else None
+            if column is not None:
+                name = header[column] if column < len(header) and header[column] else f"{column + 1}"
+                where += f", column {name}"
+                message = f"a field of {_field_length(lines[line - 1], column):,} characters; at most {csv.field_size_limit():,} are read"
+            else:
+                message = f"not valid CSV: {exc}"
+            raise CatalogueError(label, where, message) from None
+        rows.append(cells)
+
+
+def _fields(line: str) -> list[str]:
+    """The raw fields of one CSV line (quotes kept), split at commas outside quotes: enough to
+    say which one is too long where the csv module refuses the line."""
+    fields, start, quoted = [], 0, False
+    for i, char in enumerate(line):
+        if char == '"':
+            quoted = not quoted
+        elif char == "," and not quoted:
+            fields.append(line[start:i])
+            start = i + 1
+    fields.append(line[start:])
+    return fields
+
+
+def _long_field(line: str) -> int | None:
+    """The index of the first field of ``line`` longer than the csv module's limit."""
+    limit = csv.field_size_limit()
+    return next((i for i, f in enumerate(_fields(line)) if len(f) > limit), None)
+
+
+def _field_length(line: str, column: int) -> int:
+    """The length of a field of ``line`` without its quotes (``"a""b"`` is ``a"b``)."""
+    field = _fields(line)[column].strip()
+    if len(field) >= 2 and field[0] == field[-1] == '"':
+        field = field[1:-1].replace('""', '"')
+    return len(field)
 
 
 def _where(number: int, line: int, column: str) -> str:

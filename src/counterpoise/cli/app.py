@@ -1,15 +1,19 @@
-"""Command line: ``counterpoise validate FILE...``, ``counterpoise catalogue CSV...``,
-``counterpoise solve FILE...``, ``counterpoise schedule FILE --payload MASS``,
-``counterpoise study FILE --vary ...`` and ``counterpoise plot FILE|STUDY``.
+"""The command line: ``counterpoise validate FILE...``, ``catalogue CSV...``, ``solve FILE...``,
+``schedule FILE --payload MASS``, ``synthesise FILE``, ``study FILE --vary ...``, ``plot FILE|STUDY``, ``frames``
+and ``draw``: one typer app, its output drawn by rich.
 
 A thin layer: it parses options, calls the library and prints. The commands, their
 arguments and options (types, defaults, help, checks) are declared once, in :mod:`.spec`;
 :func:`command` gives each function below the typer signature of its entry there, and
-:mod:`.light` derives the fast path's parser from the same entry (``solve`` and
-``validate`` run the same function on both paths). Exit status: 0 every problem solved to
-a verified optimum; 1 some problem is infeasible or failed (its reports are still written
-when there is a design to report); 2 bad input (one line per error, nothing written); 3 an
-internal error (one line; ``--debug`` shows the traceback).
+runs the table's checks before it. A command is added as an entry in :mod:`.spec` and a
+function here; what a long command does once its values are parsed is a plain function of
+:mod:`.run` (``solve``, ``validate``, ``study``). The library is imported inside the
+command functions, so ``counterpoise --help`` imports typer and rich only.
+
+Exit status: 0 every problem solved to a verified optimum; 1 some problem is infeasible or
+failed (its reports are still written when there is a design to report); 2 bad input (one
+line per error, nothing written); 3 an internal error (one line; ``--debug`` shows the
+traceback).
 """
 
 from __future__ import annotations
@@ -22,22 +26,27 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, Optional
 
 import typer
-from rich.console import Console
+from rich.console import Console, JustifyMethod
 from rich.table import Table
+from rich.text import Text
 
-from . import light
-from .light import INTERNAL_ERROR, UsageError  # INTERNAL_ERROR: the app's exit status of an internal error, as the fast path's
+from . import run
+from .run import INTERNAL_ERROR, UsageError  # noqa: F401 - INTERNAL_ERROR: the app's exit status of an internal error
 from .spec import BY_NAME, DESCRIPTION, Param, invalid
 from ..errors import CounterpoiseError, ProblemFileError, clip
 
 if TYPE_CHECKING:
     from ..model.problem import Problem
 
-app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False, help=DESCRIPTION)
-out_console = Console()
-if not out_console.is_terminal:  # logs and CI: wide enough that names are not cut
-    out_console = Console(width=160)
-err_console = Console(stderr=True, highlight=False, soft_wrap=True)
+#: help pages and usage errors in click's plain format: typer's rich format imports rich's
+#: markdown and traceback modules (~0.2 s of CPU for a help page)
+app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False, rich_markup_mode=None, help=DESCRIPTION)
+#: stdout; wide enough in logs and CI (not a terminal) that names are not cut. No emoji:
+#: a name such as ``a:smile:`` is printed as written.
+out_console = Console(emoji=False)
+if not out_console.is_terminal:
+    out_console = Console(width=160, emoji=False)
+err_console = Console(stderr=True, highlight=False, soft_wrap=True, emoji=False)
 
 _TYPES: dict[str, type] = {"path": Path, "str": str, "int": int, "float": float, "flag": bool}
 
@@ -54,8 +63,16 @@ def typer_parameter(param: Param) -> inspect.Parameter:
     if param.metavar is not None:
         options["metavar"] = param.metavar
     info = typer.Option("/".join(param.flags), **options) if param.flags else typer.Argument(**options)
-    default = inspect.Parameter.empty if param.required else light.convert(param.kind, param.default)
+    default = inspect.Parameter.empty if param.required else default_value(param)
     return inspect.Parameter(param.dest, inspect.Parameter.KEYWORD_ONLY, default=default, annotation=Annotated[kind, info])
+
+
+def default_value(param: Param) -> object:
+    """The value a command function receives when ``param`` is not given (a path as a
+    :class:`~pathlib.Path`)."""
+    if param.kind == "path" and isinstance(param.default, str):
+        return Path(param.default)
+    return param.default
 
 
 def command(body: Callable[..., None]) -> Callable[..., None]:
@@ -69,30 +86,28 @@ def command(body: Callable[..., None]) -> Callable[..., None]:
         raise TypeError(f"{body.__name__}: parameters {[p.name for p in own]} are not the table's {[p.dest for p in entry.params]}")
 
     @functools.wraps(body)
-    def run(**values: Any) -> None:
+    def checked(**values: Any) -> None:
         wrong = invalid(entry, values)
         if wrong is not None:
             _err_line(wrong)
             raise typer.Exit(2)
         body(**values)
 
-    run.__signature__ = inspect.Signature([typer_parameter(p) for p in entry.params])  # type: ignore[attr-defined]  # what typer reads
-    app.command(entry.name, help=entry.help)(run)
-    return run
+    checked.__signature__ = inspect.Signature([typer_parameter(p) for p in entry.params])  # type: ignore[attr-defined]  # what typer reads
+    app.command(entry.name, help=entry.help, short_help=entry.help)(checked)  # short_help: listed whole in --help
+    return checked
 
 
 def _overrides(items: list[str] | None) -> dict[str, object]:
     try:
-        return light.overrides(items)
+        return run.overrides(items)
     except UsageError as exc:
         _err_line(str(exc))
         raise typer.Exit(2) from None
 
 
 def _load_all(files: list[Path], overrides: Mapping[str, object], warnings: dict[str, tuple[str, ...]] | None = None) -> list[Problem]:
-    from .run import load_all
-
-    problems = load_all(files, overrides, _err_line, warnings)
+    problems = run.load_all(files, overrides, _err_line, warnings)
     if problems is None:
         raise typer.Exit(2)
     return problems
@@ -100,9 +115,7 @@ def _load_all(files: list[Path], overrides: Mapping[str, object], warnings: dict
 
 def _check_out(out: Path) -> None:
     """``--out`` must be usable as a folder (one line and exit 2 before any work, else)."""
-    from .run import out_error
-
-    wrong = out_error(out)
+    wrong = run.out_error(out)
     if wrong is not None:
         _err_line(wrong)
         raise typer.Exit(2)
@@ -118,7 +131,7 @@ def _out_line(line: str) -> None:
 
 @command
 def validate(**values: Any) -> None:
-    raise typer.Exit(light.run_validate(_err_line, _out_line, **values))  # the fast path's function
+    raise typer.Exit(run.validate_command(_err_line, _out_line, **values))
 
 
 @command
@@ -151,7 +164,7 @@ def catalogue(files: list[Path], columns: str, units: str | None) -> None:
 
 @command
 def solve(**values: Any) -> None:
-    raise typer.Exit(light.run_solve(_err_line, _print_summary, **values))  # the fast path's function
+    raise typer.Exit(run.solve_command(_err_line, print_summary, **values))
 
 
 #: ``schedule --payload`` beyond this multiple of the declared range's upper end is an
@@ -218,7 +231,14 @@ def schedule(file: Path, payload: str, set_: list[str] | None) -> None:
 
 @command
 def study(**values: Any) -> None:
-    raise typer.Exit(light.run_study(_err_line, _out_line, **values))  # the fast path's function
+    raise typer.Exit(run.study_command(_err_line, _out_line, err_console, **values))
+
+
+@command
+def synthesise(file: Path, out: Path, set_: list[str] | None, refine: bool, report: str) -> None:
+    from .synthesis import run_synthesise
+
+    raise typer.Exit(run_synthesise(file, out, _overrides(set_), refine, report == "html", _err_line, _out_line))
 
 
 @command
@@ -276,9 +296,57 @@ def draw(file: Path, at: list[str] | None, out: Path, set_: list[str] | None, de
         out_console.print(f"wrote {path}", markup=False)
 
 
-def _print_summary(rows: list[dict[str, Any]], wide: bool = False) -> None:
-    if rows:  # no design, no table (every problem's failure was already said on stderr)
-        light.rich_summary(rows, out_console, wide=wide)  # one table for both paths (see .light)
+#: The summary table of ``solve``: header and justification of each column. ``--wide``
+#: shows them all; by default only those marked True, so the table fits 80 columns.
+SUMMARY_TITLE = "counterpoise: designs"
+SUMMARY_COLUMNS: tuple[tuple[str, JustifyMethod, bool], ...] = (
+    ("problem", "left", True),
+    ("status", "left", True),
+    ("added mass (kg)", "right", True),
+    ("added inertia (kg m²)", "right", False),
+    ("objective", "right", False),
+    ("residual ratio", "right", True),
+    ("configs", "right", False),
+    ("solve (s)", "right", False),  # summary.csv's solve_time_s: time inside the solver calls
+    ("total (s)", "right", True),  # design, verification and reports of this problem
+    ("parts", "left", True),  # the chosen catalogue parts (empty column left out)
+)
+
+
+def print_summary(rows: list[dict[str, Any]], wide: bool = False, console: Console | None = None) -> None:
+    """The summary table of ``solve`` (one row per design; ``wide``: every column, else the
+    default ones, and the parts column only when some problem has parts), then the message
+    of each design that is not optimal and where the reports are, on ``console`` (default:
+    stdout). No design, no table (every problem's failure was already said on stderr)."""
+    if not rows:
+        return
+    console = out_console if console is None else console
+    keep = [j for j, (name, _, default) in enumerate(SUMMARY_COLUMNS) if (wide or default) and (name != "parts" or any(r.get("parts") for r in rows))]
+    table = Table(title=SUMMARY_TITLE)
+    for j in keep:
+        name, justify, _ = SUMMARY_COLUMNS[j]
+        table.add_column(name, justify=justify, overflow="fold")
+    for r in rows:
+        cells = [
+            str(r["problem"]),
+            str(r["status"]),
+            f"{r['added_mass_kg']:.6g}",
+            f"{r['added_inertia_kg_m2']:.6g}",
+            f"{r['objective']:.6g}",
+            f"{r['residual_ratio']:.2e}",
+            str(r["checked_configurations"]),
+            f"{r['solve_time_s']:.3f}",
+            f"{r['wall_s']:.3f}",
+            str(r.get("parts") or ""),
+        ]
+        shown = [Text(cells[j]) for j in keep]
+        shown[1].stylize("green" if r["status"] == "optimal" else "red")
+        table.add_row(*shown)
+    console.print(table)
+    for r in rows:
+        if r["status"] != "optimal":
+            console.print(f"{r['problem']}: {r['message']}", markup=False, emoji=False)
+    console.print(f"reports in {Path(rows[0]['folder']).parent}/<problem>/", markup=False, emoji=False)
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -288,6 +356,6 @@ def main(argv: list[str] | None = None) -> None:
     if debug:
         args.remove("--debug")
     # the app exits by itself (0/1/2 as documented, 2 for usage errors); a failure is one line
-    code = light.guarded(_err_line, debug, lambda: app(args=args, prog_name="counterpoise"))
+    code = run.guarded(_err_line, debug, lambda: app(args=args, prog_name="counterpoise"))
     if code is not None:
         sys.exit(code)

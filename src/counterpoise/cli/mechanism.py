@@ -91,10 +91,12 @@ def read_design(problem: Problem, folder: Path) -> Design:
             else:
                 variables[name] = q.si
         elif kind == "part":
+            from ..report.files import cell_text
+
             slot = next((s for s in problem.slots if s.name == name), None)
             if slot is None:
                 raise AtError(f"{at}: the file has no slot '{name}'")
-            number = row.get("value", "")
+            number = cell_text(row.get("value", ""))
             if number not in slot.catalogue.part_number:
                 raise AtError(f"{at}: part '{number}' is not in catalogue {slot.catalogue.name} ({slot.catalogue.path})")
             parts[name] = number
@@ -223,7 +225,9 @@ def frames_table(problem: Problem, at: Sequence[str] | None, as_csv: bool, conso
     table_rows = rows(problem, placed, unit, unset)
     if as_csv:
         (err or (lambda line: print(line, file=sys.stderr)))(design.source)
-        writer = csv.writer(sys.stdout, lineterminator="\n")
+        from ..report.files import CsvWriter
+
+        writer = CsvWriter(sys.stdout)
         writer.writerow(HEADER)
         writer.writerows(table_rows)
         return

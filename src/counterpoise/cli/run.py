@@ -1,18 +1,35 @@
-"""What ``load`` and ``solve`` do, written once for the typer app (:mod:`.app`) and the
-light path (:mod:`.light`): neither typer nor rich is imported here, and every message
-goes through the caller's ``err`` (one line each)."""
+"""What the commands do once typer has parsed their values: a plain function per command
+that :mod:`.app` calls (``solve``, ``validate``, ``study``), and the steps they share
+(reading ``--set``, loading and checking files, solving and writing each problem). Neither
+typer nor rich is imported here (only a study's progress bar imports rich's console), and
+every message goes through the caller's ``err`` (one line each)."""
 
 from __future__ import annotations
 
+import sys
 import time
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from ..errors import clip
+
 if TYPE_CHECKING:
     from ..model.problem import Problem
 
 Err = Callable[[str], None]
+#: prints the summary rows of ``solve`` (``wide``: every column)
+Summary = Callable[[list[dict[str, Any]], bool], None]
+
+#: Exit status of an internal error (:func:`guarded`).
+INTERNAL_ERROR = 3
+
+#: exit status of an interrupted study: 128 + the signal number, as shells report it
+EXIT_SIGINT, EXIT_SIGTERM = 130, 143
+
+
+class UsageError(Exception):
+    """A command-line value that is wrong: its one line (the command exits 2, nothing written)."""
 
 
 def out_error(out: Path) -> str | None:
@@ -127,6 +144,7 @@ def solve_one(
     when there is no design to report) and its exit status. ``warnings``: the problem's
     degeneracy warnings found at load (None: the report layer finds them)."""
     from ..errors import CounterpoiseError, ProblemFileError
+    from ..nofollow import LinkRefused
     from ..pipeline import design
     from ..report.files import write_reports
     from ..report.rows import summary_row
@@ -151,6 +169,9 @@ def solve_one(
                 design_mechanism_plot(result, folder)
 
         folder = write_reports(result, out, extra, html=html, warnings=warnings)
+    except LinkRefused as exc:  # a link planted at the report folder: nothing written
+        err(f"{problem.path}: --out: {exc}")
+        return None, 2
     except OSError as exc:
         err(f"{problem.path}: cannot write reports to {out}: {exc.strerror or exc}")
         return None, 1
@@ -196,3 +217,219 @@ def _pooled(
         finished = True
     finally:  # interrupted or failed: the workers end now, none outlives the command
         stop_pool(pool, finished)
+
+
+# -- the commands ----------------------------------------------------------------------------
+
+
+def guarded(err: Err, debug: bool, body: Callable[[], int | None]) -> int | None:
+    """``body()`` as every command runs (the typer app, :func:`counterpoise.cli.app.main`): progress lines
+    on ``err``, no library warning (with its source path) unless ``debug``; Ctrl-C is one
+    line and status 130, any other failure one line and :data:`INTERNAL_ERROR` (the
+    traceback with ``debug``). What ``body`` returns, or raises as SystemExit, stands."""
+    import warnings
+
+    from .. import progress
+
+    try:
+        with warnings.catch_warnings(), progress.sink(err, timed=progress.wants_timed_notes(sys.stderr)):
+            if not debug:
+                warnings.simplefilter("ignore")
+            return body()
+    except KeyboardInterrupt:
+        err("interrupted")
+        return 130
+    except Exception as exc:  # noqa: BLE001 - the last line of defence: one line, never a traceback
+        if debug:
+            raise
+        err(f"internal error: {type(exc).__name__}: {_short(exc)} (run with --debug for the traceback)")
+        return INTERNAL_ERROR
+
+
+def _load(
+    files: list[Path], set_: list[str] | None, out: Path, err: Err, warnings: dict[str, tuple[str, ...]] | None = None
+) -> tuple[list[Problem], dict[str, object]] | None:
+    """What ``solve`` and ``study`` do before their work: read the ``--set`` values, load
+    and check every file, check the output folder; the problems and the values set, or
+    None after one line on ``err`` per error (the command exits 2)."""
+    try:
+        sets = overrides(set_)
+    except UsageError as exc:
+        err(str(exc))
+        return None
+    problems = load_all(list(files), sets, err, warnings)
+    if problems is None:
+        return None
+    wrong = out_error(out)
+    if wrong is not None:
+        err(wrong)
+        return None
+    return problems, sets
+
+
+def solve_command(
+    err: Err,
+    summary: Summary,
+    *,
+    files: list[Path],
+    out: Path,
+    set_: list[str] | None,
+    plot: bool,
+    starts: int,
+    report: str,
+    wide: bool,
+    check: str,
+    jobs: int,
+) -> int:
+    """``counterpoise solve`` once its values are parsed and checked: load every file,
+    design, verify and write each, print the summary through ``summary``; the exit status.
+    Every message goes through ``err`` (one line each)."""
+    if len(files) > 1:
+        from ..io.cache import keep_no_built
+
+        keep_no_built()  # built designers and evaluators are kept for a solve of one file only
+    warnings: dict[str, tuple[str, ...]] = {}  # found at load, written into status.txt as found
+    found = _load(files, set_, out, err, warnings)
+    if found is None:
+        return 2
+    problems, _ = found
+    rows, worst = solve_all(problems, out, plot, starts, err, html=report == "html", jobs=jobs, check=check, warnings=warnings)
+    summary(rows, wide)
+    return worst
+
+
+def validate_command(err: Err, out: Err, *, files: list[Path], set_: list[str] | None) -> int:
+    """``counterpoise validate`` once its values are parsed: load and check every file, one
+    ``ok`` line each on ``out``; the exit status (2: some file does not load, every error
+    said on ``err``)."""
+    try:
+        sets = overrides(set_)
+    except UsageError as exc:
+        err(str(exc))
+        return 2
+    problems = load_all(list(files), sets, err)
+    if problems is None:
+        return 2
+    for p in problems:
+        out(
+            f"ok  {p.path}  ({p.name}: {len(p.subsystems)} subsystem(s), {len(p.coordinates)} coordinate(s), "
+            f"{len(p.variables)} variable(s), {len(p.scenarios)} scenario(s))"
+        )
+    return 0
+
+
+def study_command(
+    err: Err,
+    said: Err,
+    console: Any,
+    *,
+    file: Path,
+    vary: list[str],
+    samples: int | None,
+    method: str | None,
+    seed: int | None,
+    out: Path,
+    jobs: int | None,
+    scheduler: str | None,
+    scheduler_timeout: float,
+    resume: bool,
+    time_limit: float | None,
+    batch_size: int,
+    plot: bool,
+    set_: list[str] | None,
+    check: str,
+) -> int:
+    """``counterpoise study`` once its values are parsed and checked: load the file, run the
+    study (its progress bar drawn on ``console``, a rich console on stderr), say where it is
+    on ``said``; the exit status (2 bad input, 1 the study cannot be written, 130/143
+    interrupted by Ctrl-C/SIGTERM with the finished points kept, else 0 whatever the
+    points' statuses)."""
+    import numpy  # noqa: F401 - both processes need it: imported once, before the fork
+
+    from ..plotter import PlotProcess
+
+    plotter = PlotProcess.fork_if_useful(plot, jobs, scheduler)  # draws the plot; imports matplotlib while this process loads
+    from ..errors import ProblemFileError
+    from ..studies.command import StudyOptions, run_study_command
+
+    found = None
+    try:
+        found = _load([file], set_, out, err)
+    finally:  # run_study_command ends the helper from here on
+        if plotter is not None and found is None:
+            plotter.close()
+    if found is None:
+        return 2
+    (problem,), sets = found
+    options = StudyOptions(tuple(vary), samples, method, seed, out, jobs, scheduler, scheduler_timeout, resume, time_limit, batch_size, plot,
+                           overrides=tuple(sets.items()), check=check)
+    try:
+        outcome = run_study_command(problem, options, console, plotter)
+    except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM: workers stopped, finished batches kept
+        return _study_interrupted(err, problem, out, exc)
+    except ProblemFileError as exc:
+        err(str(exc))
+        return 2
+    except OSError as exc:
+        err(f"{problem.path}: cannot write the study to {out}: {exc.strerror or exc}")
+        return 1
+    counts = ", ".join(f"{n} {s}" for s, n in sorted(outcome.counts.items()))
+    skipped = f", {outcome.skipped} already done" if outcome.skipped else ""
+    said(f"{problem.name}: {outcome.run} points run ({counts or 'none'}){skipped} in {outcome.wall_time:.1f} s; study in {outcome.folder}/")
+    return 0
+
+
+def _study_interrupted(err: Err, problem: Problem, out: Path, exc: KeyboardInterrupt) -> int:
+    from ..studies.command import StudyTerminated
+    from ..studies.study import study_folder, study_in_progress
+
+    folder = study_in_progress(problem, out)
+    kept = study_folder(problem, out)
+    earlier = f" (the earlier study in {kept} is kept until this one completes)" if folder != kept else ""
+    what = "terminated" if isinstance(exc, StudyTerminated) else "interrupted"
+    err(f"{problem.path}: {what}; the finished points are in {folder / 'study.csv'}{earlier}; run the same command with --resume to continue")
+    return EXIT_SIGTERM if isinstance(exc, StudyTerminated) else EXIT_SIGINT
+
+
+def overrides(items: list[str] | tuple[str, ...] | None) -> dict[str, object]:
+    """``--set`` items as the problem loader takes them; :class:`UsageError` (its one line)
+    when one is not KEY=VALUE or its value cannot be read."""
+    out: dict[str, object] = {}
+    for item in items or ():
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise UsageError(f"--set {clip(item)}: expected KEY=VALUE")
+        try:
+            out[key.strip()] = coerce(value.strip())
+        except ValueError as exc:
+            raise UsageError(f"--set {clip(key.strip())}: {clip(str(exc))}") from None
+    return out
+
+
+def coerce(value: str) -> object:
+    """Numbers and booleans on the command line become TOML numbers and booleans; an array
+    or inline table (``[0, 0, -1]``, ``{ range = [...] }``) is read as TOML, so an array is
+    set whole (``--set 'gravity.direction=[0, 0, -1]'``); :class:`ValueError` when it is
+    not valid TOML. One entry of an array is set by its index: ``KEY.0=VALUE``."""
+    if value in ("true", "false"):
+        return value == "true"
+    if value[:1] in ("[", "{"):
+        if sys.version_info >= (3, 11):
+            import tomllib  # the standard library from Python 3.11
+        else:  # pragma: no cover
+            import tomli as tomllib
+        try:
+            return tomllib.loads(f"value = {value}")["value"]
+        except tomllib.TOMLDecodeError as exc:
+            raise ValueError(f"cannot read '{value}' as a TOML {'array' if value[0] == '[' else 'inline table'}: {exc}") from None
+    for kind in (int, float):
+        try:
+            return kind(value)
+        except ValueError:
+            pass
+    return value
+
+
+def _short(exc: BaseException, limit: int = 300) -> str:
+    text = " ".join(str(exc).split())
+    return text if len(text) <= limit else text[: limit - 1] + "…"

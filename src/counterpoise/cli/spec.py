@@ -1,19 +1,12 @@
 """The command line, declared once: every command, argument and option with its type,
-default, help and checks. The standard library only (``typing``, already loaded), so the
-top-level help and the fast ``solve`` path read it at no cost.
+default, help and checks (the standard library only).
 
-Two parsers are derived from :data:`COMMANDS`, and nothing about an option is written
-anywhere else:
-
-- the typer app (:mod:`.app`): each command's typer signature is built from its entry
-  (:func:`counterpoise.cli.app.command`); typer prints ``--help`` and the usage errors;
-- the fast path (:mod:`.light`): an :mod:`argparse` parser built from the same entry runs
-  ``solve`` without importing typer and rich (0.2 s of CPU at start-up).
-
-Both run the checks declared here (:func:`invalid`: ``minimum``, ``choices``), so a wrong
-value gives the same one line and exit status 2 on either path. Records are
-:class:`typing.NamedTuple` (immutable): ``dataclasses`` would cost ~8 ms of imports to
-``counterpoise --help``.
+The typer app (:mod:`.app`) is derived from :data:`COMMANDS`, and nothing about an option
+is written anywhere else: each command's typer signature is built from its entry
+(:func:`counterpoise.cli.app.command`), typer prints ``--help`` and the usage errors, and
+the checks declared here (:func:`invalid`: ``minimum``, ``choices``) run before the
+command, so a wrong value gives one line and exit status 2. A command is added as an entry
+here and a function of the same name in :mod:`.app`.
 """
 
 from __future__ import annotations
@@ -200,6 +193,30 @@ COMMANDS: tuple[Command, ...] = (
         ),
     ),
     Command(
+        "synthesise",
+        "Choose the fewest balancing elements of a [synthesis] superstructure, proven minimal; write every minimal topology (docs/synthesis.md).",
+        (
+            FILE,
+            _out("Folder for <problem>-synthesis/ (synthesis.csv, each topology's problem file and reports)."),
+            SET,
+            Param(
+                "refine",
+                "flag",
+                "Free each topology's attachment points in their regions and re-solve (the NLP); --no-refine keeps the grid's design.",
+                ("--refine", "--no-refine"),
+                default=True,
+            ),
+            Param(
+                "report",
+                "str",
+                "html: each topology's report.html beside its CSV files; csv: the CSV files only.",
+                ("--report",),
+                default="html",
+                choices=REPORTS,
+            ),
+        ),
+    ),
+    Command(
         "plot",
         "Write plots: energy.png of a problem's design, or study.png/pareto.png of a study.",
         (
@@ -230,7 +247,7 @@ BY_NAME: dict[str, Command] = {c.name: c for c in COMMANDS}
 
 
 def invalid(command: Command, values: Mapping[str, object]) -> str | None:
-    """The first value of ``values`` (parsed by either path) that the table does not allow,
+    """The first value of ``values`` (as typer parsed them) that the table does not allow,
     as one line naming its option; None when all are allowed."""
     for p in command.params:
         value = values.get(p.dest)
@@ -240,34 +257,4 @@ def invalid(command: Command, values: Mapping[str, object]) -> str | None:
             return f"{p.name}: must be at least {p.minimum}, got {value}"
         if p.choices and value not in p.choices:
             return f"{p.name}: expected one of {', '.join(p.choices)}, got '{value}'"
-    return None
-
-
-def top_level_help() -> str:
-    """``counterpoise --help`` (and, with exit status 2, ``counterpoise``): the commands."""
-    width = max(len(c.name) for c in COMMANDS)
-    lines = [
-        "Usage: counterpoise [OPTIONS] COMMAND [ARGS]...",
-        "",
-        f"  {DESCRIPTION}",
-        "",
-        "Options:",
-        "  --help  Show this message and exit.",
-        "",
-        "Commands:",
-        *(f"  {c.name.ljust(width)}  {c.help}" for c in COMMANDS),
-        "",
-        "Run 'counterpoise COMMAND --help' for the options of a command.",
-        "",
-    ]
-    return "\n".join(lines)
-
-
-def wants_top_level_help(args: list[str]) -> int | None:
-    """The exit status when ``args`` ask for the top-level help (0 for ``--help``, 2 for
-    no arguments at all, as the typer app does), else None."""
-    if not args:
-        return 2
-    if args == ["--help"]:
-        return 0
     return None

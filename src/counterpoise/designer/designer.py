@@ -35,7 +35,17 @@ from ..numeric import NumericFunction
 from ..threads import limit_blas_threads
 from . import convex
 from ..formulation.constraints import MAX_ROUNDS, ConstraintRows, Extra, build_rows, evaluate, merge, violations
-from .constrained import BALANCEABLE_BUT_INFEASIBLE, attach_constraints, name_conflict, rows_multipliers
+from .constrained import (
+    BALANCEABLE_BUT_INFEASIBLE,
+    INVALID_NUMBER,
+    attach_constraints,
+    between_samples,
+    conflict_message,
+    name_conflict,
+    name_invalid_numbers,
+    rows_multipliers,
+    unmet_at,
+)
 from .solution import Solution, build_solution
 
 if TYPE_CHECKING:
@@ -213,7 +223,10 @@ class Designer:
         b = self.bounds(self.n_equalities, bounds)
         z0 = np.clip(d.to_z(d.vector(initial or {})), b.lbz, b.ubz)
         solution = self._solve(z0, p, b, bounds, certify)
-        add = violations(self.problem, solution.constraints)
+        # rounds only for a design whose solver held its sampled rows (one the dense check
+        # then failed between them): re-solving a failed or conflicting one with more rows
+        # cannot help (a max_force of 1e-300 N took 5 elastic solves of 500 iterations)
+        add = violations(self.problem, solution.constraints) if solution.status is Status.OPTIMAL or between_samples(solution) else {}
         if add and self._round < MAX_ROUNDS:
             # a workspace extreme beyond its bound between the sampled configurations: add
             # the dense check's worst configurations to the rows and solve again from here
@@ -300,6 +313,12 @@ class Designer:
                 z, message = out.z, f"{out.solver.upper()}: {out.solver_status}"
                 if out.status is Status.OPTIMAL:
                     z, message = self.polish(z, p, b), "balanced design found (restarted from a balanced point)"
+                elif out.status is Status.INFEASIBLE and (within := self._within_rounding(closest.z, p, b)) is not None:
+                    # the balanced design lies beyond a bound by rounding (issue 32: a catalogue
+                    # part's rate 1e-11 outside the balanceable window)
+                    elapsed += within[1].solve_time
+                    out = within[1]
+                    z, message = within[0], f"balanced design found (a variable held on a bound that the exact balance passes by less than {BOUND_TOLERANCE:g} of its span)"
                 elif out.status is Status.INFEASIBLE:
                     code = BALANCEABLE_BUT_INFEASIBLE if self.rows is not None else out.solver_status
                     out = SolverOutput(closest.z, Status.FAILED, code, out.iterations, out.solve_time, out.solver)
@@ -309,7 +328,34 @@ class Designer:
                 z = self.polish_settings(z, p, b)
                 elapsed += seconds
             out = _with_time(out, elapsed)
+        if out.solver_status == INVALID_NUMBER:
+            named = name_invalid_numbers(self, [z, z0], p)
+            if named:
+                message = f"{message}: {named}"
         return self._solution(z, p, b, out, message, closest_kind)
+
+    def _within_rounding(self, z: np.ndarray, p: np.ndarray, b: Bounds) -> tuple[np.ndarray, SolverOutput] | None:
+        """A balanced design IPOPT calls infeasible from a balanced start ``z``: solved once
+        more with every variable's bounds widened by :data:`BOUND_TOLERANCE` × its span (the
+        rule that puts a value "on" a bound), the result put back within the bounds and
+        polished. Returned (design, solver output) when that balances; None otherwise, or
+        with design constraints (their conflicts are the elastic problem's to name).
+
+        Why: the balance may need a variable a rounding amount beyond its bound (a catalogue
+        part's rate within 1e-11 of its balanceable window's end: the lever 3e-12 m past its
+        upper bound). IPOPT, held to 1e-12 on the balance with that variable pinned, declares
+        it infeasible; within the stated tolerance it is a fit."""
+        if self.rows is not None:
+            return None
+        span = np.where(np.isfinite(b.ubz - b.lbz), b.ubz - b.lbz, 0.0)
+        widened = Bounds(b.lbz - BOUND_TOLERANCE * span, b.ubz + BOUND_TOLERANCE * span, b.lbg, b.ubg)
+        out = self.backend.solve(z, p, widened)
+        if out.status is not Status.OPTIMAL:
+            return None
+        candidate = self.polish(np.clip(out.z, b.lbz, b.ubz), p, b)
+        if not self.balances(candidate, p) or not _admissible(np.array(self.residual_jacobian()(candidate, p)[2]).reshape(-1)):
+            return None
+        return candidate, out
 
     def balances(self, z: np.ndarray, p: np.ndarray, tolerance: float = BALANCE_TOLERANCE) -> bool:
         """Whether the compressed balance equalities hold at ``z`` (scaled as in the NLP)."""
@@ -382,7 +428,7 @@ class Designer:
 
         The equalities are scaled by the largest residual sampled over the whole variable
         box; when a bound is far larger than what the design uses (a stiffness allowed up to
-        1e7 N/m that ends at 0.15 N/m), IPOPT's stop (|g| ~ 1e-16 in those units) can still be
+        1e7 N/m that ends at 0.15 N/m), IPOPT's stop (``|g| ~ 1e-16`` in those units) can still be
         1e-8 of the design's own gravity torque, which the dense check sees. Rounding stops
         the steps; a step that breaks a sign constraint is not taken."""
         lo, hi = bounds.lbz, bounds.ubz
@@ -508,7 +554,7 @@ class Designer:
         that design: it weighs the scaled conditions, not the residual ratio the dense check
         reports (issue 24: on an infeasible four-bar, a worst residual of 11.9 % where 9.39 %
         can be reached; tests/test_closest.py has such a four-bar and a closed-form case). So the epigraph NLP of :class:`~counterpoise.designer.minimax.MinimaxDesigner`
-        (min t s.t. |r_j(q_s; z)| ≤ t·T on sampled configurations, T the largest unbalanced
+        (``min t s.t. |r_j(q_s; z)| ≤ t·T`` on sampled configurations, T the largest unbalanced
         gravity force of the coordinate's kind; built on first use) is solved from ``z``
         within the bounds, design constraints left out as in the least-squares design.
         Variables within BOUND_TOLERANCE × span of a bound are put on it when that does not
@@ -540,11 +586,14 @@ class Designer:
     def refine(self, z: np.ndarray, p: np.ndarray, b: Bounds, iterations: int = 8) -> np.ndarray:
         """Gauss-Newton steps on the balance equalities from ``z``, within the bounds.
 
-        Least squares on ½|g|² stops near |g| ~ 1e-8 (squaring loses half the digits), just
+        Least squares on ``½|g|²`` stops near ``|g| ~ 1e-8`` (squaring loses half the digits), just
         short of :meth:`balances`; a few Newton steps on g itself finish the job when a
-        balanced design is that near. Kept only while |g| decreases and signs stay ≥ 0.
+        balanced design is that near. Kept only while ``|g|`` decreases and signs stay ≥ 0.
         """
-        return gauss_newton(self._balance_evaluation(p), z, b.lbz, b.ubz, iterations=iterations, tolerance=EXACT_BALANCE).z
+        # a fixed variable (lower = upper: a part's rate in a part search) does not move: in
+        # the minimum-norm step it would take a share that the bounds then cut away, and the
+        # steps would stall short of balance (issue 32)
+        return gauss_newton(self._balance_evaluation(p), z, b.lbz, b.ubz, free=b.ubz > b.lbz, iterations=iterations, tolerance=EXACT_BALANCE).z
 
     def _overdetermined(self, z0: np.ndarray, p: np.ndarray, b: Bounds, bounds: BoundsOverride | None, minimax: bool = True) -> Solution:
         """More independent conditions than variables: balance only at special designs.
@@ -597,11 +646,22 @@ class Designer:
             )
         if solution.status is Status.INFEASIBLE or out.solver_status == BALANCEABLE_BUT_INFEASIBLE:
             conflict = name_conflict(self, z, parameters, b)
-            if conflict:
-                # balanced, yet infeasible: the constraints' verdict
-                solution = replace(solution, status=Status.INFEASIBLE, message=conflict).judged(Status.INFEASIBLE, conflict, "constraints")
-                return replace(solution, constraints=evaluate(self.problem, solution, self.rows, None))
-        return attach_constraints(solution, self.rows, rows_multipliers(out, self.rows))
+            if conflict is not None:
+                # balanced, yet infeasible: the constraints' verdict, on the design it describes
+                # (the elastic one: balanced, the named constraints relaxed by the stated amounts)
+                elastic = SolverOutput(conflict.z, Status.INFEASIBLE, out.solver_status, out.iterations, out.solve_time, out.solver)
+                solution = build_solution(self.formulation, conflict.z, parameters, b.lbz, b.ubz, elastic, conflict.message, self.n_equalities, self.conditions.summary())
+                values = tuple(replace(v, relaxed=conflict.relaxed.get((v.name, v.scenario), 0.0)) for v in evaluate(self.problem, solution, self.rows, None))
+                message = conflict_message(self.problem, conflict, values)
+                return replace(solution, message=message, constraints=values).judged(Status.INFEASIBLE, message, "constraints")
+        solution = attach_constraints(solution, self.rows, rows_multipliers(out, self.rows))
+        if (out.solver_status == BALANCEABLE_BUT_INFEASIBLE or solution.status is Status.FAILED) and not between_samples(solution):
+            # the elastic problem did not settle it, or the solver failed: name the limits the
+            # design reported misses
+            unmet = unmet_at(self.problem, solution.constraints)
+            if unmet:
+                solution = replace(solution, message=f"{solution.message}; it misses {unmet}")
+        return solution
 
 
 def _admissible(signs: np.ndarray) -> bool:

@@ -249,6 +249,9 @@ class ConstraintValue:
     constraint: Constraint
     #: workspace extremes: the configuration of the extreme (coordinate name -> SI value)
     configuration: dict[str, float] | None = None
+    #: an infeasible constrained design: how much (SI) the elastic problem relaxed this
+    #: constraint by, in the design reported (0: not relaxed)
+    relaxed: float = 0.0
 
 
 def _extreme(problem: Problem, spring: ZeroFreeLengthSpring, quantity: str, side: str, base: Mapping[str, float], gravity: Sequence[float],
@@ -406,8 +409,8 @@ def violations(problem: Problem, values: Sequence[ConstraintValue]) -> dict[tupl
     out: dict[tuple[str, str], list[list[float]]] = {}
     for v in values:
         call = v.constraint.extreme()
-        if call is None or v.active != "violated" or v.configuration is None:
-            continue
+        if call is None or v.active != "violated" or v.configuration is None or v.relaxed > 0:
+            continue  # a relaxed one: the conflict's elastic design misses it on purpose
         spring = springs[call.args[0].id]  # type: ignore[union-attr]  # the loader checked the argument is a name
         if spring.subsystem is None:
             continue  # no coordinates: the rows already hold the one configuration there is

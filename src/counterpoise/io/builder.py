@@ -279,6 +279,18 @@ class ProblemBuilder:
     def report(self, name: str, expression: str, unit: str = "", description: str = "") -> "ProblemBuilder":
         return self._put("report", name, self._described({"expression": expression, "unit": unit}, description))
 
+    def synthesis(self, regions: Mapping[str, Mapping[str, Any]] | None = None, sites: Mapping[str, Mapping[str, Any]] | None = None, **table: Any) -> "ProblemBuilder":
+        """The ``[synthesis]`` table (docs/synthesis.md): ``regions`` per frame, ``sites`` per
+        name (each a region table: ``box``, ``segment`` or ``holes``, ``points``...), and its
+        keys, e.g. ``max_rate="10 N/mm"``."""
+        entry: dict[str, Any] = dict(table)
+        if regions:
+            entry["regions"] = {k: dict(v) for k, v in regions.items()}
+        if sites:
+            entry["sites"] = {k: dict(v) for k, v in sites.items()}
+        self._data["synthesis"] = entry
+        return self
+
     def settings(self, **values: Any) -> "ProblemBuilder":
         self._data.setdefault("settings", {}).update(values)
         return self

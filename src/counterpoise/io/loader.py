@@ -65,6 +65,20 @@ def load_problem_text(text: str, label: str = "<string>", overrides: Mapping[str
 
 def load_problem_data(data: Mapping[str, Any], label: str = "<data>", overrides: Mapping[str, object] | None = None) -> Problem:
     """As :func:`load_problem`, from already parsed data (nested dicts, as TOML gives them)."""
+    raw = expand_repeats(apply_overrides(data, overrides, label), label)
+    from pydantic import ValidationError
+
+    try:
+        spec = ProblemFile.model_validate(raw)
+    except ValidationError as exc:
+        raise_errors(_schema_errors(raw, exc.errors(), label))
+    return resolve(spec, label)
+
+
+def apply_overrides(data: Mapping[str, Any], overrides: Mapping[str, object] | None, label: str = "<data>") -> dict[str, Any]:
+    """A deep copy of parsed ``data`` with the dotted-key ``overrides`` applied, as
+    :func:`load_problem_data` applies them (``--set``): what a file says once they are
+    set (``counterpoise synthesise`` writes its topologies' files from it)."""
     import copy
 
     try:
@@ -75,14 +89,7 @@ def load_problem_data(data: Mapping[str, Any], label: str = "<data>", overrides:
         known = _entry_names(raw, label)
         for key, value in overrides.items():
             _apply_override(raw, key, value, label, known)
-    raw = expand_repeats(raw, label)
-    from pydantic import ValidationError
-
-    try:
-        spec = ProblemFile.model_validate(raw)
-    except ValidationError as exc:
-        raise_errors(_schema_errors(raw, exc.errors(), label))
-    return resolve(spec, label)
+    return raw
 
 
 #: tables whose entries an override may change but not create: a new parameter is used by

@@ -37,7 +37,8 @@ GIMBAL = 1e-12
 MAX_MODEL_BYTES = 256 * 1024 * 1024
 #: an inertia tensor's eigenvalue may be this far below 0 (relative to its largest) and count as 0
 INERTIA_SLACK = 1e-9
-XACRO_NAMESPACE = "http://www.ros.org/wiki/xacro"
+#: the namespaces xacro files declare (ROS wiki addresses, old and new)
+XACRO_NAMESPACES = ("http://www.ros.org/wiki/xacro", "http://ros.org/wiki/xacro", "http://wiki.ros.org/xacro")
 
 
 @dataclass(frozen=True)
@@ -150,16 +151,36 @@ def _matrix(m: Sequence[Sequence[SupportsFloat]]) -> Matrix:
 
 
 def _is_xacro(root: etree._Element) -> bool:
-    """Whether a parsed XML tree is a xacro file (ROS macros) rather than plain URDF."""
-    if XACRO_NAMESPACE in (getattr(root, "nsmap", None) or {}).values():
-        return True
-    return any(isinstance(e.tag, str) and e.tag.startswith("{" + XACRO_NAMESPACE + "}") for e in root.iter())
+    """Whether a parsed XML tree still holds xacro macros (ROS), not plain URDF.
+
+    The macros are what count: an element of the xacro namespace (``xacro:macro``,
+    ``xacro:property``, ``xacro:include``, ``xacro:if``, a macro's call...), an attribute
+    of it, or a ``${...}`` / ``$(...)`` substitution in an attribute or a text. The
+    namespace declaration alone (``xmlns:xacro``) is not: xacro leaves it in every file it
+    expands, and most ROS robots ship such expanded files.
+    """
+    prefixes = tuple("{" + namespace + "}" for namespace in XACRO_NAMESPACES)
+    for element in root.iter():
+        if not isinstance(element.tag, str):  # a comment or a processing instruction
+            continue
+        if element.tag.startswith(prefixes) or any(str(name).startswith(prefixes) for name in element.attrib):
+            return True
+        if any(_substitutes(value) for value in element.attrib.values()) or _substitutes(element.text):
+            return True
+    return False
+
+
+def _substitutes(text: str | bytes | None) -> bool:
+    """Whether a text holds a xacro substitution: ``${expression}`` or ``$(arg name)``."""
+    return isinstance(text, str) and ("${" in text or "$(" in text)
 
 
 def _xacro_hint(path: Path) -> str:
-    plain = path.name.removesuffix(".xacro")
-    plain = plain if plain.endswith(".urdf") else f"{plain}.urdf"
-    return f"{path.name} is a xacro file (ROS macros, not plain URDF): expand it first, `xacro {path.name} > {plain}`, and give {plain}"
+    """The way out, writing the expansion to a NEW file: ``xacro a.urdf > a.urdf`` would
+    empty the file (the shell truncates it before xacro reads it)."""
+    stem = path.name.removesuffix(".xacro").removesuffix(".urdf")
+    expanded = f"{stem}_expanded.urdf"
+    return f"{path.name} is a xacro file (ROS macros, not plain URDF): expand it into a new file first, `xacro {path.name} > {expanded}`, and give {expanded}"
 
 
 class _DeferredTrimesh(types.ModuleType):
@@ -254,7 +275,7 @@ def _read_urdf(path: Path) -> RobotModel:
             source, build_scene_graph=False, load_meshes=False, build_collision_scene_graph=False, load_collision_meshes=False
         )
     except (etree.Error, OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
-        if "${" in str(exc) or path.name.endswith(".xacro"):
+        if "${" in str(exc) or "prefix xacro" in str(exc) or path.name.endswith(".xacro"):
             raise InputError(_xacro_hint(path)) from None
         raise InputError(f"cannot read the URDF {path.name}: {' '.join(str(exc).split())[:200]}") from None
     finally:

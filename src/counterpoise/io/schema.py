@@ -370,6 +370,52 @@ class RobustSpec(_Table):
     description: str = ""
 
 
+class BoxSpec(_Table):
+    """A box of a synthesis region: its lower and upper corners, in the frame."""
+
+    lower: Vec3
+    upper: Vec3
+
+
+class RegionSpec(_Table):
+    """Where a spring may be attached on a body, or a counter-mass placed
+    (``[synthesis.regions.<frame>]``, ``[synthesis.sites.<name>]``): one of ``box``,
+    ``segment`` and ``holes``; ``points`` or ``spacing`` sets the grid (docs/synthesis.md)."""
+
+    box: BoxSpec | None = None
+    segment: tuple[Vec3, Vec3] | None = None
+    holes: tuple[Vec3, ...] | None = None
+    points: Annotated[int, Field(ge=1, le=1000)] | None = None
+    spacing: Value | None = None
+    description: str = ""
+
+
+class SiteSpec(RegionSpec):
+    frame: str
+
+
+class SynthesisFileSpec(_Table):
+    """``[synthesis]``: the elements a balancer may be made of (docs/synthesis.md)."""
+
+    #: "all": a candidate spring between every pair of bodies with a region; "none"; or the pairs
+    springs: Union[Literal["all", "none"], tuple[tuple[Name, Name], ...]] = "all"
+    regions: dict[Name, RegionSpec] = Field(default_factory=dict)
+    sites: dict[Name, SiteSpec] = Field(default_factory=dict)
+    min_rate: Value | None = None
+    max_rate: Value | None = None
+    min_mass: Value | None = None
+    max_mass: Value | None = None
+    spring_cost: Annotated[FiniteFloat, Field(gt=0, le=1e9)] = 1.0
+    mass_cost: Annotated[FiniteFloat, Field(gt=0, le=1e9)] = 1.0
+    points: Annotated[int, Field(ge=1, le=1000)] = 5
+    same_rate: bool = False
+    adjust: bool = False
+    max_topologies: Annotated[int, Field(ge=1, le=1000)] = 20
+    time_limit: Annotated[FiniteFloat, Field(gt=0, le=1e6)] = 120.0
+    refine: bool = True
+    description: str = ""
+
+
 class RobotJointSpec(_Table):
     """A joint of a robot model that moves: it becomes a coordinate of the robot's subsystem."""
 
@@ -413,3 +459,4 @@ class ProblemFile(_Table):
     slots: dict[Name, SlotSpec] = Field(default_factory=dict)
     selection: SelectionSpec = Field(default_factory=SelectionSpec)
     robust: RobustSpec | None = None
+    synthesis: SynthesisFileSpec | None = None

@@ -27,15 +27,17 @@ _ATTRIBUTE = "_content_key"
 _PRIMITIVES = (str, int, float, bool, type(None))
 
 
-def _feed(h: Any, obj: Any) -> None:
+def _feed(h: Any, obj: Any, skip: frozenset[str] = frozenset()) -> None:
     kind = type(obj)
     if kind in _PRIMITIVES:
         h.update(f"{kind.__name__}:{obj!r};".encode())
     elif dataclasses.is_dataclass(obj) and not isinstance(obj, type):
         h.update(f"<{kind.__module__}.{kind.__qualname__}".encode())
         for f in dataclasses.fields(obj):
+            if f.name in skip:
+                continue
             h.update(f"|{f.name}=".encode())
-            _feed(h, getattr(obj, f.name))
+            _feed(h, getattr(obj, f.name), skip)
         h.update(b">")
     elif isinstance(obj, (tuple, list)):
         h.update(f"[{len(obj)}:".encode())
@@ -43,17 +45,17 @@ def _feed(h: Any, obj: Any) -> None:
             h.update(repr(tuple(obj)).encode())
         else:
             for x in obj:
-                _feed(h, x)
+                _feed(h, x, skip)
         h.update(b"]")
     elif isinstance(obj, Mapping):
         items = sorted(obj.items(), key=lambda kv: repr(kv[0]))
         h.update(f"{{{len(items)}:".encode())
         for k, v in items:
-            _feed(h, k)
-            _feed(h, v)
+            _feed(h, k, skip)
+            _feed(h, v, skip)
         h.update(b"}")
     elif isinstance(obj, (set, frozenset)):
-        _feed(h, sorted(obj, key=repr))
+        _feed(h, sorted(obj, key=repr), skip)
     elif isinstance(obj, np.ndarray):
         h.update(f"nd:{obj.dtype.str}:{obj.shape}:".encode())
         h.update(np.ascontiguousarray(obj).tobytes())
@@ -63,11 +65,24 @@ def _feed(h: Any, obj: Any) -> None:
         h.update(f"{kind.__qualname__}:{obj!r};".encode())
 
 
-def digest(obj: Any) -> str:
-    """Hex digest (BLAKE2b, 16 bytes) of ``obj``'s content (see the module's rules)."""
+def digest(obj: Any, skip: frozenset[str] = frozenset()) -> str:
+    """Hex digest (BLAKE2b, 16 bytes) of ``obj``'s content (see the module's rules);
+    dataclass fields named in ``skip`` are left out."""
     h = blake2b(digest_size=16)
-    _feed(h, obj)
+    _feed(h, obj, skip)
     return h.hexdigest()
+
+
+#: the fields that say where a problem's files lie, not what they hold
+LOCATIONS = frozenset({"path"})
+
+
+def content_key_anywhere(problem: Any) -> str:
+    """The content key of a problem wherever its files lie: :func:`content_key` without the
+    paths of the problem file and its catalogues (:data:`LOCATIONS`), so that the same
+    file read by another relative path, from another folder, gives the same key. A study
+    records it (``study.json``) and ``--resume`` continues only a study of an equal key."""
+    return digest(problem, LOCATIONS)
 
 
 def content_key(problem: Any) -> str:

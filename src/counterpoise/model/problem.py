@@ -26,6 +26,7 @@ from .units import DisplayUnit
 if TYPE_CHECKING:  # annotations only: a problem without loops or [robust] never needs them (pickle imports them for one with)
     from .loops import Loop
     from .robust import RobustSpec
+    from .synthesis import SynthesisSpec
 
 
 @dataclass(frozen=True)
@@ -197,6 +198,8 @@ class Problem:
     #: each scenario then stands for one node of the tilt grid (:func:`~.tilt.tilt_nodes`)
     tilts: tuple[Tilt, ...] = ()
     robust: RobustSpec | None = None  # [robust]: tolerances, robust design, tuning (counterpoise.robust)
+    #: [synthesis]: the elements a balancer may be chosen from (counterpoise.synthesis); `solve` ignores it
+    synthesis: SynthesisSpec | None = None
 
     @cached_property
     def frame(self) -> Mapping[str, Frame]:

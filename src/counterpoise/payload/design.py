@@ -89,12 +89,19 @@ class PayloadDesign:
     def schedule_solution(self) -> Solution:
         """The design on every feasible payload of its schedule (grid and between), one
         scenario per working mode and payload, each with that payload's adjustments: what
-        a check that must hold at every payload (a part's limits) is run on."""
+        a check that must hold at every payload (a part's limits) is run on.
+
+        When no payload of the schedule is feasible (a design that balances none: the
+        closest design of a range it cannot balance), there are no scheduled adjustments to
+        put in: the design itself, on its samples, is returned (issue 32: ``KeyError: 0.0``,
+        the samples' masses looked up among the feasible payloads)."""
+        by_mass = {s.payload: s for s in self.schedule.rows + self.schedule.between if s.feasible} if self.schedule is not None else {}
+        if not by_mass:
+            return self.solution
         sampled = self._scheduled()
         n_modes = len(modes(self.adjuster.source)) or 1  # type: ignore[union-attr]  # a design with a schedule has its adjuster
         first = list(self.solution.scenario_parameters.values())[:n_modes]
         values: dict[Slot, float] = {slot: v for slot, v in self.solution.values.items() if slot.scenario is None}
-        by_mass = {s.payload: s for s in self.schedule.rows + self.schedule.between if s.feasible}  # type: ignore[union-attr]  # a design with a schedule has its adjuster
         scenario_parameters = {}
         for i, scenario in enumerate(sampled.problem.scenarios):
             mass = sampled.setting_mass[scenario.setting or ""]

@@ -18,7 +18,6 @@ canvas written as PNG. Every artist is drawn once.
 from __future__ import annotations
 
 import csv
-import functools
 import json
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -46,59 +45,10 @@ LEFT, RIGHT, TOP, BOTTOM, TITLE_TOP = 1.0, 0.3, 0.8, 0.55, 0.1
 GAP_X, GAP_Y, AXES_HEIGHT = 0.25, 0.15, 1.75
 
 #: y tick objects made with each axes before its results are known (matplotlib makes them on
-#: demand, ~1 ms each, when the axis is drawn): a y axis of a study plot needs 3 to 7 (one per
-#: tick in its view, :func:`in_view`); those made here cost the helper's CPU while the
-#: study's points are solved, those missing are made after them, when the study waits
+#: demand, ~1 ms each, when the axis is drawn: one per location of its locator, in its view
+#: or next to it); those made here cost the helper's CPU while the study's points are
+#: solved, those missing are made after them, when the study waits
 Y_TICKS = 6
-
-
-def in_view(locator: Any) -> Any:
-    """``locator`` (of a linear axis) giving only the tick locations in its axis' view
-    interval (and any nearer than a millionth of its width), with matplotlib's others
-    unchanged (autoscaling, limits).
-
-    An axis makes a tick object (~1 ms: five artists) for each location its locator gives,
-    and draws those in its view: ``MaxNLocator`` gives one or two beyond each end, about a
-    third of the study plot's tick objects, never drawn. The picture is the same: the axis
-    keeps the ticks in its view as it did, and the default formatter's labels depend on the
-    visible locations (the order of magnitude and offset, ``ScalarFormatter``) and on their
-    spacing (the decimals), which the locations kept have; with fewer than two in view
-    every location is given (the formatter then widens its range by the view's ends)."""
-    return _in_view_class()(locator)
-
-
-@functools.cache
-def _in_view_class() -> Any:
-    """The class of :func:`in_view`'s locators (matplotlib imported on first use)."""
-    from matplotlib.ticker import Locator
-
-    class InView(Locator):
-        def __init__(self, base: Any) -> None:
-            self.base = base
-
-        def set_axis(self, axis: Any) -> None:
-            super().set_axis(axis)
-            self.base.set_axis(axis)
-
-        def __call__(self) -> Any:
-            locs = np.asarray(self.base())
-            if self.axis is None:  # not on an axis: no view
-                return locs
-            lo, hi = sorted(self.axis.get_view_interval())
-            slack = (hi - lo) * 1e-6
-            kept = locs[(locs >= lo - slack) & (locs <= hi + slack)]
-            return kept if kept.size >= 2 else locs
-
-        def tick_values(self, vmin: float, vmax: float) -> Any:
-            return self.base.tick_values(vmin, vmax)
-
-        def view_limits(self, vmin: float, vmax: float) -> Any:
-            return self.base.view_limits(vmin, vmax)
-
-        def nonsingular(self, v0: float, v1: float) -> Any:
-            return self.base.nonsingular(v0, v1)
-
-    return InView
 
 
 @dataclass(frozen=True)
@@ -123,7 +73,7 @@ def layout(meta: Mapping[str, Any], xs: Sequence[Sequence[float] | Any], residua
     have the varied values ``xs`` (one sequence per varied key, in ``meta``'s order, as
     ``study.csv`` holds them); ``residual``: a row of residual ratios (some point not optimal)."""
     varied = varied_headers(meta)
-    variables = [c for c in meta["columns"] if c not in FIXED and c not in varied]
+    variables = [c for c in meta["columns"] if c not in FIXED and c not in varied and c not in meta.get("text_columns", ())]
     ys = ["objective_kg"] + (["residual_ratio"] if residual else []) + variables
     ranges: list[tuple[float, float] | None] = []
     for x in xs:
@@ -156,10 +106,6 @@ class StudyFigure:
         self.axes = fig.subplots(nrows, ncols, squeeze=False, sharex="col", sharey="row", gridspec_kw={
             "left": LEFT / width, "right": 1 - RIGHT / width, "bottom": BOTTOM / height, "top": 1 - TOP / height,
             "wspace": GAP_X / axes_width, "hspace": GAP_Y / AXES_HEIGHT})
-        for ax in self.axes[0, :]:  # the x axes of a column share their locator, those of a row their y one
-            ax.xaxis.set_major_locator(in_view(ax.xaxis.get_major_locator()))
-        for ax in self.axes[:, 0]:
-            ax.yaxis.set_major_locator(in_view(ax.yaxis.get_major_locator()))
         self.title = fig.suptitle("", fontsize=11, y=1 - TITLE_TOP / height, va="top")
         for j, (x_name, xrange) in enumerate(zip(layout.varied, layout.xranges)):
             for i, y_name in enumerate(layout.ys):
@@ -271,7 +217,7 @@ def study_plots(folder: str | Path, prepared: StudyFigure | None = None) -> list
     columns = meta["columns"]
     varied = varied_headers(meta)
     ok = np.array([r["status"] == "optimal" for r in rows], dtype=bool)
-    data = {c: np.array([_number(r.get(c, "")) for r in rows]) for c in columns if c not in TEXT}
+    data = {c: np.array([_number(r.get(c, "")) for r in rows]) for c in columns if c not in TEXT and c not in meta.get("text_columns", ())}
     residual = bool((~ok).any()) and "residual_ratio" in data and bool(np.isfinite(data["residual_ratio"]).any())
     wanted = layout(meta, [data[x] for x in varied], residual)
     figure = prepared if prepared is not None and not prepared.used and prepared.layout == wanted else StudyFigure(wanted)

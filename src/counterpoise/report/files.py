@@ -4,6 +4,12 @@
 ``status.txt`` (see :mod:`.rows`), ``substitution.csv`` when the problem substitutes a body,
 and ``schedule.csv`` for a payload range (:mod:`.schedule`). Floats are written with 10 significant digits; a missing
 value (None, NaN) is an empty cell.
+
+Every CSV the tool writes (these, ``study.csv``, ``frames --csv``) goes through
+:class:`CsvWriter`: a text cell that a spreadsheet would run as a formula (one beginning
+with ``=``, ``+``, ``-``, ``@``, a tab or a carriage return: a name, a description, a
+catalogue's part number) is written with a leading single quote, as OWASP advises against
+CSV injection; a number, negative ones included, stays a number.
 """
 
 from __future__ import annotations
@@ -13,8 +19,10 @@ import errno
 import io
 import math
 import os
+import re
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
+from typing import TextIO
 
 from .. import unfinished
 from ..filemodes import respect_umask
@@ -34,6 +42,47 @@ from .rows import (
 )
 
 FLOAT_FORMAT = "%.10g"
+#: the first characters that make a spreadsheet read a cell as a formula (OWASP: CSV injection)
+FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
+#: a number written as text (``-12.5``, ``1e-05``): a spreadsheet reads it as a number, not a formula
+_NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
+
+
+def _runs_as_formula(text: str) -> bool:
+    return text.startswith(FORMULA_STARTS) and _NUMBER.fullmatch(text) is None
+
+
+def spreadsheet_cell(value: object) -> object:
+    """``value`` as a CSV cell no spreadsheet runs: a text beginning with one of
+    :data:`FORMULA_STARTS` (and not a number) gets a leading ``'``; so does a text that is
+    already such a text behind quotes (``'=x`` -> ``''=x``), so that :func:`cell_text`
+    gives back exactly what was written. Numbers and other values are left as they are."""
+    if isinstance(value, str) and _runs_as_formula(value.lstrip("'")):
+        return "'" + value
+    return value
+
+
+def cell_text(cell: str) -> str:
+    """The text :func:`spreadsheet_cell` was given, from the cell it wrote (a reader of our
+    own CSV files: a part number read back from ``design.csv``)."""
+    if cell.startswith("'") and _runs_as_formula(cell.lstrip("'")):
+        return cell[1:]
+    return cell
+
+
+class CsvWriter:
+    """``csv.writer`` (lines ending in ``\n``) whose every cell goes through
+    :func:`spreadsheet_cell`: the one way the tool writes CSV."""
+
+    def __init__(self, handle: TextIO) -> None:
+        self._writer = csv.writer(handle, lineterminator="\n")
+
+    def writerow(self, cells: Iterable[object]) -> None:
+        self._writer.writerow([spreadsheet_cell(c) for c in cells])
+
+    def writerows(self, rows: Iterable[Iterable[object]]) -> None:
+        for cells in rows:
+            self.writerow(cells)
 
 
 def _cell(value: object, float_format: str = FLOAT_FORMAT) -> object:
@@ -47,7 +96,7 @@ def _cell(value: object, float_format: str = FLOAT_FORMAT) -> object:
 def csv_text(rows: Iterable[Row], columns: Sequence[str], float_format: str = FLOAT_FORMAT) -> str:
     """CSV text with a header line; cells in ``columns`` order."""
     buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
+    writer = CsvWriter(buffer)
     writer.writerow(columns)
     for row in rows:
         writer.writerow([_cell(row.get(c), float_format) for c in columns])
@@ -79,10 +128,15 @@ def atomic_folder(folder: Path, fill: Callable[[Path], None]) -> Path:
     folder beside it, which then replaces ``folder`` by renames. What was there stays until
     the new folder is complete; if ``fill`` fails (a full disk), it stays as it was. Two runs
     writing the same folder at once each leave a whole folder, the last one to finish wins.
+    A symbolic link at ``folder`` is refused (:class:`~counterpoise.nofollow.LinkRefused`),
+    before anything is written.
     """
     import shutil  # here, not at import (with bz2 and lzma): only a written folder needs them
     import tempfile
 
+    from ..nofollow import refuse_link
+
+    refuse_link(folder)  # a planted link: refused (LinkRefused), as a study's folders are
     folder.parent.mkdir(parents=True, exist_ok=True)
     temp = Path(tempfile.mkdtemp(prefix=f".{folder.name}.", suffix=".new", dir=folder.parent))
     unfinished.begin(temp)  # an ended pool worker removes it (counterpoise.unfinished)
@@ -163,6 +217,8 @@ def report_texts(result: DesignResult, warnings: Sequence[str] | None = None) ->
 
         texts["build.csv"] = csv_text(list(result.sheet), COLUMNS, FLOAT_FORMAT)
     texts["status.txt"] += realisation_status(result)
+    if not texts["status.txt"].endswith("\n"):  # a text file ends with a newline, whichever layer wrote its last line
+        texts["status.txt"] += "\n"
     return texts
 
 

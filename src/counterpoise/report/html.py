@@ -1,12 +1,15 @@
 """``report.html``: one self-contained page per design (docs/build.md).
 
 The page is built from the report files themselves (their CSV text) and the PNG plots
-written beside them, so it shows exactly what the folder holds: the summary, the drawing
-(``mechanism.png``), the build sheet (``build.csv``), the spring specifications
-(``springs.csv``, whatever columns it has), the energy and residual plot (``energy.png``),
-the verification, the tolerance report and the payload schedule where there are some, the
-design variables and ``status.txt``. Images are inline (base64 ``data:`` URIs); the page
-has no script, no external URL and no web font, and a print style sheet for A4.
+written beside them, so it shows exactly what the folder holds, the design first: the
+status line, the drawing (``mechanism.png``), the design variables, the build sheet
+(``build.csv``), the spring specifications (``springs.csv``, whatever columns it has), the
+energy and residual plot (``energy.png``), the verification, the tolerance report and the
+payload schedule where there are some, and last the summary's solver figures and
+``status.txt``. Images are inline (base64 ``data:`` URIs); the page has no script, no
+external URL and no web font, and a print style sheet for A4 (fonts of 8 pt or more; a
+table wider than :data:`PRINT_COLUMNS` columns printed transposed or in column groups, so
+every column reaches the paper).
 No solve, no plot: building the page costs only the formatting of text already made.
 """
 
@@ -56,6 +59,7 @@ nav a { margin-right: 0.9em; color: #1f5fa8; text-decoration: none; }
 .status.bad { background: #fbe3e1; color: #9b2419; }
 .wrap { overflow-x: auto; }
 table { border-collapse: collapse; font-size: 0.84em; margin: 0.3em 0 0.8em; }
+table.flip th:first-child { white-space: nowrap; }
 caption { text-align: left; color: #4a5560; padding: 0.2em 0; }
 th, td { border: 1px solid #d5dbe1; padding: 0.22em 0.5em; vertical-align: top; }
 th { background: #eef2f5; text-align: left; font-weight: 600; }
@@ -66,21 +70,29 @@ table.kv th { width: 16em; }
 figure { margin: 0.6em 0; }
 figure img { max-width: 100%; height: auto; border: 1px solid #e3e7eb; }
 figcaption { color: #4a5560; font-size: 0.9em; }
+code, pre { font-family: ui-monospace, "DejaVu Sans Mono", Menlo, Consolas, monospace; font-size: 1em; }
 pre { background: #f5f7f9; border: 1px solid #e3e7eb; padding: 0.7em; white-space: pre-wrap; font-size: 0.85em; }
 .note { color: #4a5560; font-size: 0.92em; }
+.print-only { display: none; }
 @media print {
   @page { size: A4; margin: 12mm 10mm; }
   body { font-size: 9pt; max-width: none; padding: 0; }
   nav { display: none; }
-  h2 { break-after: avoid; page-break-after: avoid; }
-  table { font-size: 7.5pt; }
-  table.wide { font-size: 5.5pt; }
-  table.wide th, table.wide td { padding: 0.1em 0.25em; }
+  h1 { font-size: 14pt; }
+  h2 { font-size: 11.5pt; margin-top: 1em; break-after: avoid; page-break-after: avoid; }
+  h3 { font-size: 10pt; break-after: avoid; page-break-after: avoid; }
+  table, table.wide { font-size: 8pt; width: auto; max-width: 100%; }
+  caption, figcaption, .note, pre { font-size: 8pt; }
+  th, td { padding: 0.12em 0.3em; }
   td.nw { white-space: normal; }
+  th, td { overflow-wrap: break-word; }
   thead { display: table-header-group; }
-  tr, figure, img { break-inside: avoid; page-break-inside: avoid; }
+  tr, img { break-inside: avoid; page-break-inside: avoid; }
   .wrap { overflow: visible; }
-  figure img { max-height: 240mm; }
+  figure { margin: 0.3em 0; }
+  figure img { max-width: 100%; max-height: 170mm; width: auto; }
+  .screen-only { display: none; }
+  .print-only { display: block; }
   a { color: inherit; text-decoration: none; }
 }
 """
@@ -103,8 +115,16 @@ def _number(cell: str) -> str | None:
     return f"{value:.6g}"
 
 
-#: a table of more columns than this prints in a smaller font (springs.csv has ~20)
+#: a table of more columns than this is marked wide on screen (springs.csv has 20 to 40)
 WIDE = 12
+#: columns a printed table has at most (A4 portrait at 8 pt: 190 mm of six-digit numbers, 15 mm each):
+#: a wider table is laid out again for print, in a copy the screen does not show (the
+#: screen keeps the one table, scrolling): transposed, one column per row, when it has at
+#: most PRINT_TRANSPOSED_ROWS rows; else split into groups of columns, each repeating the
+#: first PRINT_KEY_COLUMNS (the row's name)
+PRINT_COLUMNS = 12
+PRINT_TRANSPOSED_ROWS = 6
+PRINT_KEY_COLUMNS = 2
 #: text cells up to this long are kept on one line (names, part numbers); notes wrap
 SHORT = 24
 
@@ -128,16 +148,58 @@ def label(column: str) -> str:
     return column.replace("_", " ")
 
 
-def table(columns: Sequence[str], rows: Sequence[Mapping[str, str]], caption: str = "", drop_empty: bool = True) -> str:
-    """An HTML table of ``rows`` (CSV cells) in ``columns`` order; columns empty in every row
-    are left out (``drop_empty``). Headers show the CSV names with their unit in brackets."""
-    if drop_empty:
-        columns = [c for c in columns if any(r.get(c, "") for r in rows)]
+def _plain(columns: Sequence[str], rows: Sequence[Mapping[str, str]], caption: str) -> str:
     head = "".join(f'<th title="{html.escape(c)}">{html.escape(label(c))}</th>' for c in columns)
     body = "".join("<tr>" + "".join(_cell(r.get(c, "") or "") for c in columns) + "</tr>" for r in rows)
     cap = f"<caption>{html.escape(caption)}</caption>" if caption else ""
     wide = ' class="wide"' if len(columns) > WIDE else ""
-    return f'<div class="wrap"><table{wide}>{cap}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table></div>'
+    return f"<table{wide}>{cap}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+
+
+def _row_name(columns: Sequence[str], row: Mapping[str, str], index: int) -> str:
+    """What a row is called in a transposed table: its first non-empty key cells."""
+    name = " ".join(row.get(c, "") or "" for c in columns[:PRINT_KEY_COLUMNS]).strip()
+    return name or f"row {index + 1}"
+
+
+def _transposed(columns: Sequence[str], rows: Sequence[Mapping[str, str]], caption: str) -> str:
+    """One column per row, one row per column: a table of few rows and many columns on paper."""
+    head = '<th scope="col"></th>' + "".join(f"<th>{html.escape(_row_name(columns, r, i))}</th>" for i, r in enumerate(rows))
+    body = "".join(
+        f'<tr><th scope="row" title="{html.escape(c)}">{html.escape(label(c))}</th>' + "".join(_cell(r.get(c, "") or "") for r in rows) + "</tr>"
+        for c in columns
+    )
+    cap = f"<caption>{html.escape(caption)}</caption>" if caption else ""
+    return f'<table class="flip">{cap}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
+
+
+def _for_print(columns: Sequence[str], rows: Sequence[Mapping[str, str]], caption: str) -> str:
+    """A table wider than :data:`PRINT_COLUMNS` as it is printed (see there)."""
+    if len(rows) <= PRINT_TRANSPOSED_ROWS:
+        return _transposed(columns, rows, caption)
+    key, rest = list(columns[:PRINT_KEY_COLUMNS]), list(columns[PRINT_KEY_COLUMNS:])
+    count = -(-len(rest) // (PRINT_COLUMNS - len(key)))  # groups needed; then of even size
+    size = -(-len(rest) // count)
+    out = []
+    for first in range(0, len(rest), size):
+        group = rest[first : first + size]
+        part = f"columns {len(key) + first + 1}-{len(key) + first + len(group)} of {len(columns)}"
+        out.append(_plain(key + group, rows, f"{caption} ({part})" if caption else part))
+    return "".join(out)
+
+
+def table(columns: Sequence[str], rows: Sequence[Mapping[str, str]], caption: str = "", drop_empty: bool = True) -> str:
+    """An HTML table of ``rows`` (CSV cells) in ``columns`` order; columns empty in every row
+    are left out (``drop_empty``). Headers show the CSV names with their unit in brackets.
+    A table of more than :data:`PRINT_COLUMNS` columns has a second layout for paper."""
+    if drop_empty:
+        columns = [c for c in columns if any(r.get(c, "") for r in rows)]
+    if len(columns) <= PRINT_COLUMNS:
+        return f'<div class="wrap">{_plain(columns, rows, caption)}</div>'
+    return (
+        f'<div class="wrap screen-only">{_plain(columns, rows, caption)}</div>'
+        f'<div class="wrap print-only">{_for_print(columns, rows, caption)}</div>'
+    )
 
 
 def csv_table(text: str, caption: str = "") -> str:
@@ -199,11 +261,13 @@ def _build_section(text: str) -> str:
 def report_html(name: str, title: str, status: str, texts: Mapping[str, str], images: Mapping[str, bytes]) -> str:
     """The page of one design: ``texts`` are the report files' text (name -> text),
     ``images`` the PNG plots written beside them (name -> bytes)."""
+    # the design first (drawing, variables, build items, springs), the solver's internals last:
+    # on paper the first page is the drawing, not seventeen rows of solver figures
     sections: list[tuple[str, str, str]] = []  # (id, title, html)
-    sections.append(("summary", "Summary", _summary(texts.get("summary.csv", "")) + f"<pre>{html.escape(texts.get('status.txt', ''))}</pre>"))
     drawing = images.get("mechanism.png")
     if drawing is not None:
         sections.append(("drawing", IMAGES[0][1], _image("mechanism.png", drawing, *IMAGES[0][1:])))
+    sections.append(("design", "Design variables", csv_table(texts.get("design.csv", ""), "design.csv: every design variable and report quantity, in the file's units")))
     if "build.csv" in texts:
         sections.append(("build", "Build sheet", _build_section(texts["build.csv"])))
     if "springs.csv" in texts:
@@ -218,9 +282,10 @@ def report_html(name: str, title: str, status: str, texts: Mapping[str, str], im
         sections.append(("schedule", "Payload schedule", csv_table(texts["schedule.csv"], "schedule.csv: the adjustments per payload")))
     if "substitution.csv" in texts:
         sections.append(("substitution", "Substituted bodies", csv_table(texts["substitution.csv"])))
-    sections.append(("design", "Design variables", csv_table(texts.get("design.csv", ""), "design.csv: every design variable and report quantity, in the file's units")))
+    sections.append(("summary", "Summary", _summary(texts.get("summary.csv", "")) + f"<pre>{html.escape(texts.get('status.txt', ''))}</pre>"))
     if drawing is None or energy is None:
         sections.append(("plots", "Plots", '<p class="note">The drawing and the energy plot are written by <code>counterpoise solve --plot</code>.</p>'))
+    message = next((line[len("message: ") :] for line in texts.get("status.txt", "").splitlines() if line.startswith("message: ")), "")
     nav = "".join(f'<a href="#{sid}">{html.escape(t)}</a>' for sid, t, _ in sections)
     body = "".join(f'<section id="{sid}"><h2>{html.escape(t)}</h2>{content}</section>' for sid, t, content in sections)
     badge = "ok" if status == "optimal" else "bad"
@@ -231,5 +296,6 @@ def report_html(name: str, title: str, status: str, texts: Mapping[str, str], im
         f"<title>{html.escape(name)}: counterpoise report</title><style>{CSS}</style></head><body>"
         f"<header><h1>{html.escape(title or name)}</h1>"
         f'<p class="lead">Problem <code>{html.escape(name)}</code> · design <span class="status {badge}">{html.escape(status)}</span></p>'
-        f"<nav>{nav}</nav></header><main>{body}</main></body></html>\n"
+        + (f'<p class="note">{html.escape(message)}</p>' if message else "")
+        + f"<nav>{nav}</nav></header><main>{body}</main></body></html>\n"
     )

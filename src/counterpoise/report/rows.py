@@ -155,6 +155,9 @@ def constraint_rows(result: DesignResult) -> list[Row]:
         if v.configuration:
             at = ", ".join(f"{n}={problem.coordinate[n].unit.from_si(x):.6g} {problem.coordinate[n].unit.label}".rstrip() for n, x in v.configuration.items())
             text = f"{text}; extreme at {at}" if text else f"extreme at {at}"
+        if v.relaxed > 0:
+            relaxed = f"relaxed by {u.from_si(v.relaxed):.4g} {u.label}".rstrip() + " in this design (the elastic design of the conflict)"
+            text = f"{text}; {relaxed}" if text else relaxed
         rows.append(
             {
                 "name": c.name,
@@ -212,7 +215,7 @@ def chosen_parts(result: DesignResult) -> str:
 
 
 def _scenario_label(problem: Problem, check: CoordinateCheck) -> str:
-    """A check's scenario; on a tilting base, the working mode checked at random tilts
+    """A check's scenario; on a tilting base, the working mode checked over its whole tilt box
     ('nominal (all tilts)'), since one check covers every node of its tilt grid."""
     if not check.worst_tilt:
         return check.scenario

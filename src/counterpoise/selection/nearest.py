@@ -11,6 +11,7 @@ import numpy as np
 from ..formulation.layout import Slot
 from ..model.parts import SpringSlot
 from .results import NearMiss
+from .windows import WINDOW_SLACK
 
 
 def rate_misses(slots: Mapping[str, SpringSlot], windows: Mapping[str, tuple[float, float]], values: Mapping[Slot, float], nearest: int) -> list[NearMiss]:
@@ -24,6 +25,6 @@ def rate_misses(slots: Mapping[str, SpringSlot], windows: Mapping[str, tuple[flo
             lo = hi = target
         distance = np.where(rates < lo, (lo - rates) / lo, np.where(rates > hi, (rates - hi) / hi, 0.0))
         for i in np.argsort(distance)[:nearest]:
-            if distance[i] > 0:
+            if distance[i] > WINDOW_SLACK:  # within the window's stated tolerance: not outside it
                 out.append(NearMiss(n, s.catalogue.part_number[int(i)], "rate", s.springs[0], float(distance[i])))
     return out

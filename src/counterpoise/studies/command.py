@@ -225,9 +225,9 @@ def plot_inputs(problem: Problem, plan: StudyPlan) -> tuple[dict[str, Any], list
     import math
 
     from ..report.files import FLOAT_FORMAT
-    from .study import columns
+    from .study import columns, text_columns
 
-    meta = {"problem": problem.name, "plan": json.loads(json.dumps(plan.identity())), "columns": columns(problem, plan)}
+    meta = {"problem": problem.name, "plan": json.loads(json.dumps(plan.identity())), "columns": columns(problem, plan), "text_columns": text_columns(problem)}
     xs = []
     for v in plan.varies:
         finite = [x for point in plan.points if math.isfinite(x := float(FLOAT_FORMAT % v.unit.from_si(point[v.key])))]
@@ -268,7 +268,7 @@ def _run(problem: Problem, plan: Any, options: StudyOptions, runner: Runner, tas
 
     try:
         outcome = run_study(problem, plan, options.out, runner, task=task, resume=options.resume, batch_size=options.batch_size,
-                            progress=progress, started=started)
+                            progress=progress, started=started, overrides=options.overrides)
         bar.update(job, completed=total)
     finally:
         if bar.live.is_started:

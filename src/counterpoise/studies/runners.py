@@ -117,6 +117,8 @@ class PointResult:
     certificate_gap: float = float("nan")
     #: ``exact``: balance proven by the certificate's coefficients; ``sampled``: the dense check
     certificate: str = ""
+    #: slot -> (chosen part number, its rate N/m, its springs' largest working force N)
+    parts: dict[str, tuple[str, float, float]] = field(default_factory=dict)
 
 
 #: design methods built in this process, per thread (a CasADi function is not safe to call
@@ -212,8 +214,26 @@ def solve_point(task: StudyTask, point: Point, initial: Mapping[Any, float] | No
         solver=s.solver,
         certificate_gap=s.certificate_gap,
         certificate=certificate_of(result.verification),
+        parts=_chosen_parts(result),
     )
     return res, (s.values if status == "optimal" else None)
+
+
+def _chosen_parts(result: Any) -> dict[str, tuple[str, float, float]]:
+    """Each slot's chosen part (the nearest candidate when none fits), its rate and the
+    largest force its springs pull over the checked configurations (``result``: a
+    :class:`~counterpoise.pipeline.DesignResult`)."""
+    parts = result.parts
+    if parts is None:
+        return {}
+    out = {}
+    for slot in result.problem.slots:
+        row = parts.chosen.get(slot.name)
+        if row is None:
+            continue
+        forces = [u.force_max for u in parts.springs if u.slot == slot.name]
+        out[slot.name] = (slot.catalogue.part_number[row], slot.catalogue.rate[row], max(forces) if forces else float("nan"))
+    return out
 
 
 def _failed(point: Point, status: str, message: str, elapsed: float) -> PointResult:

@@ -12,7 +12,15 @@ One study at a time writes a folder: :func:`study_lock` holds an exclusive ``flo
 ``.<name>-study.lock`` beside it, and a second study into it is an input error naming the
 holder (pid and host). A new study (without ``resume``) into a folder that holds one keeps
 that study until the new one completes: it runs in ``<name>-study.partial/``, which then
-replaces the folder; interrupted, it stays there and ``resume`` continues it.
+replaces the folder (:func:`_replace_folder`: the earlier study renamed aside, the new one
+renamed in, the earlier one removed; safe at every instant); interrupted, it stays there and
+``resume`` continues it.
+
+``study.json`` records the problem's content key (:func:`~counterpoise.model.digest.content_key_anywhere`:
+the file, the ``--set`` values, the catalogues it reads), and ``resume`` continues only a
+study of the same problem: another is an input error saying what differs. None of the
+folders and files a study makes beside or in its folder may be a symbolic link
+(:mod:`counterpoise.nofollow`): a planted link would have it write outside ``--out``.
 """
 
 from __future__ import annotations
@@ -31,7 +39,8 @@ from pathlib import Path
 
 from ..errors import ProblemFileError
 from ..model.problem import Problem
-from ..report.files import FLOAT_FORMAT, atomic_write_text
+from ..nofollow import LinkRefused, make_folder, open_no_follow, refuse_link
+from ..report.files import FLOAT_FORMAT, CsvWriter, atomic_write_text
 from .runners import ERROR, TIMEOUT, PointResult, Runner, SerialRunner, StudyTask, batched
 from .spec import StudyPlan
 
@@ -62,6 +71,15 @@ def partial_folder(folder: Path) -> Path:
     return folder.with_name(f"{folder.name}.partial")
 
 
+def aside_folder(folder: Path) -> Path:
+    """Where the earlier study waits while a finished new one is renamed in (:func:`_replace_folder`)."""
+    return folder.with_name(f".{folder.name}.old")
+
+
+def lock_file(folder: Path) -> Path:
+    return folder.with_name(f".{folder.name}.lock")
+
+
 def study_in_progress(problem: Problem, out: str | Path) -> Path:
     """The folder an interrupted study left its finished points in (``resume`` continues it)."""
     folder = study_folder(problem, out)
@@ -86,10 +104,13 @@ def study_lock(folder: Path, label: str) -> Iterator[None]:
     except ImportError:  # pragma: no cover - not POSIX: no lock (one study at a time is then the user's care)
         yield
         return
-    lock = folder.with_name(f".{folder.name}.lock")
+    lock = lock_file(folder)
     lock.parent.mkdir(parents=True, exist_ok=True)
     while True:
-        fd = os.open(lock, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o666)
+        try:
+            fd = open_no_follow(lock, os.O_RDWR | os.O_CREAT)  # a planted link is refused, never truncated
+        except LinkRefused as exc:
+            raise ProblemFileError(label, "--out", str(exc)) from None
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
@@ -117,20 +138,55 @@ def study_lock(folder: Path, label: str) -> Iterator[None]:
 
 
 def _replace_folder(folder: Path, new: Path) -> None:
-    """Move the finished study ``new`` into ``folder`` (the old one aside, then removed)."""
-    old = None
-    if folder.exists():
-        old = Path(tempfile.mkdtemp(prefix=f".{folder.name}.", suffix=".old", dir=folder.parent))
-        os.replace(folder, old / folder.name)
+    """Move the finished study ``new`` into ``folder``, safe at every instant: the earlier
+    study is renamed aside (:func:`aside_folder`), the new one renamed in, and only then is
+    the earlier one removed. SIGTERM and Ctrl-C wait until the renames are done (blocked
+    meanwhile); an exception between them puts the earlier study back; a process killed
+    outright between them leaves it aside, where the next study into the folder finds it
+    (:func:`_recover`). The earlier study is never removed before the new one is in."""
+    aside = aside_folder(folder)
+    refuse_link(aside)
+    with _signals_held():
+        try:
+            if os.path.lexists(folder):
+                os.rename(folder, aside)
+            os.rename(new, folder)
+        except BaseException:
+            _recover(folder)
+            raise
+        shutil.rmtree(aside, ignore_errors=True)
+
+
+def _recover(folder: Path) -> None:
+    """Finish or undo a replacement that stopped between its renames
+    (:func:`_replace_folder`): the new study in, the earlier one aside: remove that one;
+    the folder missing and the earlier study aside: put it back."""
+    aside = aside_folder(folder)
+    if not os.path.lexists(aside):
+        return
+    refuse_link(aside)
+    if os.path.lexists(folder):
+        shutil.rmtree(aside, ignore_errors=True)
+    else:
+        os.rename(aside, folder)
+
+
+@contextmanager
+def _signals_held() -> Iterator[None]:
+    """SIGTERM and SIGINT held back within (delivered as the block ends), in the main
+    thread of a POSIX process; elsewhere nothing is held."""
+    import signal
+    import threading
+
+    held = {signal.SIGTERM, signal.SIGINT}
+    if not hasattr(signal, "pthread_sigmask") or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, held)
     try:
-        os.rename(new, folder)
-    except OSError:
-        if old is not None:  # put the old study back: nothing is lost
-            os.replace(old / folder.name, folder)
-        raise
+        yield
     finally:
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 def _number(text: str | None) -> bool:
@@ -181,8 +237,21 @@ def variable_columns(problem: Problem) -> list[tuple[str, str, float]]:
     return out
 
 
+def part_columns(problem: Problem) -> list[tuple[str, str, str, str]]:
+    """(slot, part header, rate header, force header) of every catalogue slot: the part each
+    point chose, its rate and its springs' largest working force, so that a jump of the
+    design between points shows which part changed."""
+    return [(s.name, f"{s.name} part", f"{s.name} rate [N/mm]", f"{s.name} max force [N]") for s in problem.slots]
+
+
+def text_columns(problem: Problem) -> list[str]:
+    """The columns of ``study.csv`` that hold text besides the fixed ones (the part numbers)."""
+    return [part for _, part, _, _ in part_columns(problem)]
+
+
 def columns(problem: Problem, plan: StudyPlan) -> list[str]:
-    return FIXED_BEFORE + [v.header for v in plan.varies] + FIXED_AFTER + [h for _, h, _ in variable_columns(problem)] + FIXED_END
+    slots = [h for _, *headers in part_columns(problem) for h in headers]
+    return FIXED_BEFORE + [v.header for v in plan.varies] + FIXED_AFTER + [h for _, h, _ in variable_columns(problem)] + slots + FIXED_END
 
 
 def _fmt(value: object) -> str:
@@ -214,6 +283,9 @@ def result_row(problem: Problem, plan: StudyPlan, index: int, r: PointResult,
     )
     for key, header, size in variable_columns(problem) if variables is None else variables:
         row[header] = _fmt(r.values[key] / size) if key in r.values else ""
+    for slot, part, rate, force in part_columns(problem):
+        number, k, f = r.parts.get(slot, ("", math.nan, math.nan))
+        row.update({part: number, rate: _fmt(k / 1e3), force: _fmt(f)})
     return row
 
 
@@ -227,7 +299,7 @@ class _CsvLines:
 
         self.cols = cols
         self._buffer = io.StringIO()
-        self._writer = csv.writer(self._buffer, lineterminator="\n")
+        self._writer = CsvWriter(self._buffer)
         self.header = self._format(cols)
 
     def _format(self, values: Sequence[str]) -> str:
@@ -260,31 +332,81 @@ def run_study(
     flush_seconds: float = 1.0,
     progress: Callable[[list[PointResult]], None] | None = None,
     started: Callable[[int], None] | None = None,
+    overrides: Sequence[tuple[str, object]] = (),
 ) -> StudyOutcome:
     """Run every point of ``plan`` (minus those already done when ``resume``) and write the study.
 
     Finished batches are written to ``study.csv`` at most every ``flush_seconds`` (0: after
     every batch) and at the end, also when the study is interrupted. ``started(skipped)`` is called once the points already
-    done are known; ``progress(results)`` after each batch.
+    done are known; ``progress(results)`` after each batch. ``overrides``: the ``--set``
+    values the problem was loaded with (recorded, and named when a resume is refused).
     """
     t0 = time.perf_counter()
     folder = study_folder(problem, out)
     label = problem.path or problem.name
-    with study_lock(folder, label):
-        work, done = _prepare(problem, plan, folder, resume, label)
-        outcome = _run_points(problem, plan, work, done, runner, task, batch_size, flush_seconds, progress, started)
-        if work != folder:  # the new study is complete: it replaces the one that was there
-            _replace_folder(folder, work)
+    identity = _identity(problem, overrides)
+    try:
+        for path in (folder, partial_folder(folder), aside_folder(folder)):
+            refuse_link(path)
+        with study_lock(folder, label):
+            _recover(folder)
+            work, done = _prepare(problem, plan, folder, resume, label, identity)
+            outcome = _run_points(problem, plan, work, done, runner, task, batch_size, flush_seconds, progress, started, identity)
+            if work != folder:  # the new study is complete: it replaces the one that was there
+                _replace_folder(folder, work)
+    except LinkRefused as exc:
+        raise ProblemFileError(label, "--out", str(exc)) from None
     outcome.folder = folder
     outcome.wall_time = time.perf_counter() - t0
     return outcome
 
 
-def _prepare(problem: Problem, plan: StudyPlan, folder: Path, resume: bool, label: str) -> tuple[Path, dict[int, dict[str, str]]]:
+def _identity(problem: Problem, overrides: Sequence[tuple[str, object]]) -> dict[str, object]:
+    """What ``study.json`` records of the problem a study is of: its content key (wherever
+    its files lie), the ``--set`` values and a digest of the problem file's text (these two
+    say what differs when a resume is refused)."""
+    from ..hashing import blake2b
+    from ..model.digest import content_key_anywhere
+
+    text = b""
+    if problem.path:
+        try:
+            text = Path(problem.path).read_bytes()
+        except OSError:
+            pass
+    return {
+        "problem_key": content_key_anywhere(problem),
+        "set": [[str(k), str(v)] for k, v in overrides],
+        "file_digest": blake2b(text, digest_size=16).hexdigest() if text else None,
+    }
+
+
+def _other_problem(meta: Mapping[str, object], identity: Mapping[str, object], work: Path) -> str | None:
+    """Why the study in ``work`` (its ``study.json``: ``meta``) is not of this problem, or None."""
+    if meta.get("problem_key") == identity["problem_key"]:
+        return None
+    if "problem_key" not in meta:
+        return f"{work} holds a study that does not record its problem's content (an older counterpoise), so it may be of another problem"
+
+    def shown(values: object) -> str:
+        pairs = [f"{k}={v}" for k, v in values] if isinstance(values, list) else []
+        return "--set " + ", ".join(pairs) if pairs else "no --set"
+
+    if meta.get("set") != identity["set"]:
+        return f"{work} holds a study run with {shown(meta.get('set'))}, this run has {shown(identity['set'])}"
+    if meta.get("file_digest") != identity["file_digest"]:
+        return f"{work} holds a study of another version of the problem file (it was edited since)"
+    return f"{work} holds a study of another problem content (a file the problem reads, such as a catalogue or a robot model, changed)"
+
+
+def _prepare(
+    problem: Problem, plan: StudyPlan, folder: Path, resume: bool, label: str, identity: Mapping[str, object]
+) -> tuple[Path, dict[int, dict[str, str]]]:
     """The folder to run in and the rows already done there (``resume``).
 
     Resuming continues the unfinished new study (``.partial``) if there is one, else the
-    folder's; rows that are not a finished point of this plan are dropped (computed again).
+    folder's, if it is a study of this problem (``identity``: :func:`_identity`) and plan;
+    rows that are not a finished point of this plan are dropped (computed again).
     A new study runs in the folder when it holds no study, else in ``.partial`` (emptied)."""
     partial = partial_folder(folder)
     cols = columns(problem, plan)
@@ -292,13 +414,20 @@ def _prepare(problem: Problem, plan: StudyPlan, folder: Path, resume: bool, labe
         work = partial if (partial / "study.csv").exists() else folder
         done: dict[int, dict[str, str]] = {}
         csv_path, meta_path = work / "study.csv", work / "study.json"
+        refuse_link(csv_path)
+        refuse_link(meta_path)
         if csv_path.exists():
             try:
                 meta = json.loads(meta_path.read_text(encoding="utf-8"))
                 rows = read_rows(csv_path)
             except (OSError, ValueError) as exc:
                 raise ProblemFileError(label, "--resume", f"cannot read the study in {work}: {exc}") from None
-            if not isinstance(meta, dict) or meta.get("plan") != json.loads(json.dumps(plan.identity())) or meta.get("columns") != cols:
+            if not isinstance(meta, dict):
+                raise ProblemFileError(label, "--resume", f"cannot read the study in {work}: study.json holds no table; drop --resume to start again")
+            other = _other_problem(meta, identity, work)
+            if other is not None:
+                raise ProblemFileError(label, "--resume", f"{other}: --resume continues a study of the same problem only; run without --resume to start again")
+            if meta.get("plan") != json.loads(json.dumps(plan.identity())) or meta.get("columns") != cols:
                 raise ProblemFileError(label, "--resume", f"{work} holds a study with other --vary/--samples/--seed or another problem; drop --resume to start again")
             headers = [h for _, h, _ in variable_columns(problem)]
             for r in rows:
@@ -324,18 +453,21 @@ def _run_points(
     flush_seconds: float,
     progress: Callable[[list[PointResult]], None] | None,
     started: Callable[[int], None] | None,
+    identity: Mapping[str, object],
 ) -> StudyOutcome:
     csv_path, meta_path = folder / "study.csv", folder / "study.json"
     cols = columns(problem, plan)
     meta = {
         "problem": problem.name,
         "file": problem.path,
+        **identity,
         "plan": plan.identity(),
         "points": len(plan.points),
         "columns": cols,
+        "text_columns": text_columns(problem),
         "time_limit_s": task.time_limit if task else None,
     }
-    folder.mkdir(parents=True, exist_ok=True)
+    make_folder(folder)
     atomic_write_text(meta_path, json.dumps(meta, indent=2) + "\n")
     todo = [i for i in range(len(plan.points)) if i not in done]
     outcome = StudyOutcome(folder, len(plan.points), len(done))

@@ -15,7 +15,7 @@ import numpy as np
 from ..model.problem import Problem
 from .checks import PRISMATIC, REVOLUTE, CoordinateCheck, Verification
 from ..model import expr as ex
-from ..model.tilt import tilted_directions
+from ..model.tilt import tilt_extremes, tilted_directions
 from .manifold import ManifoldResiduals
 from .residuals import BOX_MAXIMUM_STARTS, BoxMaximum, SubsystemResiduals, _base_parameters, configurations, energy_scale_if_needed
 
@@ -136,8 +136,8 @@ def _restore_residuals(state: dict[str, Any]) -> SubsystemResiduals:
 
 def _checked_scenarios(problem: Problem) -> tuple[Any, ...]:
     """The scenarios the dense check evaluates: all of them, except that the nodes of a tilt
-    grid that differ only in their tilt are checked once, at random tilts over the whole
-    tilt box (:func:`_at_random_tilts`), which covers every node."""
+    grid that differ only in their tilt are checked once, each configuration at its worst tilt of the
+    whole tilt box (:func:`_at_worst_tilts`), which covers every node."""
     if not problem.tilts:
         return problem.scenarios
     seen, out = set(), []
@@ -176,34 +176,49 @@ def verify(solution: "Solution", samples: int | None = None, seed: int | None = 
     found = []
     tilted = {s.name: s for s in problem.scenarios if s.upright is not None and problem.tilts}
     tilts: dict[tuple[str, str], np.ndarray] = {}
-    for index, (scenario, subsystem, evaluator) in enumerate(evaluators(solution, samples, seed)):
+    torque_tilts: dict[tuple[str, str], np.ndarray] = {}
+    for scenario, subsystem, evaluator in evaluators(solution, samples, seed):
         variables = solution.variable_values(scenario)
         gravity, base = solution.scenario_parameters[scenario]
+        balanced_by: np.ndarray | None = None
         if scenario in tilted:
-            angles, r, t = _at_random_tilts(problem, tilted[scenario], evaluator, variables, base, gravity, index, seed)
+            r, angles, t, torque_angles, balanced_by = _at_worst_tilts(problem, tilted[scenario], evaluator, variables, base)
             tilts[(scenario, subsystem)] = angles
+            torque_tilts[(scenario, subsystem)] = torque_angles
         else:
             r, t = evaluator.evaluate(variables, base, gravity)
         kinds = [REVOLUTE if problem.coordinate[name].unit.dimension == "" else PRISMATIC for name in evaluator.names]
         sampled = np.array([np.abs(t[:, j]).max() for j in range(t.shape[1])])
-        found.append((scenario, subsystem, evaluator, variables, gravity, base, r, t, kinds, sampled))
+        found.append((scenario, subsystem, evaluator, variables, gravity, base, r, t, kinds, sampled, balanced_by))
     # the coordinates that may set the reference of their kind (see .checks) get their box maximum
     top: dict[str, float] = {}
-    for *_, kinds, sampled in found:
+    for *_, kinds, sampled, _ in found:
         for kind, load in zip(kinds, sampled):
             if np.isfinite(load):
                 top[kind] = max(top.get(kind, 0.0), float(load))
-    for scenario, subsystem, evaluator, variables, gravity, base, r, t, kinds, sampled in found:
+    for scenario, subsystem, evaluator, variables, gravity, base, r, t, kinds, sampled, balanced_by in found:
         q = evaluator.q  # after evaluate: a manifold is solved again when the geometry changed
         # column by column: r and t are transposed views, and a column is contiguous
         columns = [np.abs(r[:, j]) for j in range(r.shape[1])]
         residual = np.array([c.max() for c in columns])  # NaN if any is NaN
         candidates = np.array([load >= REFERENCE_CANDIDATE * top.get(kind, 0.0) and load > 0 for kind, load in zip(kinds, sampled)], dtype=bool)
-        if (scenario, subsystem) in tilts:  # the gravity differs per configuration: the sampled maxima
-            loads = sampled
+        if (scenario, subsystem) in tilts:
+            # each configuration at its own worst tilt: the box maximum over the coordinates is
+            # climbed at the gravity of the best configuration's tilt, coordinate by coordinate
+            loads = sampled.copy()
+            upright = tilted[scenario].upright
+            for col in np.flatnonzero(candidates):
+                if upright is None:
+                    break
+                at = torque_tilts[(scenario, subsystem)][int(np.nanargmax(np.abs(t[:, col]))), col]
+                g_col = upright.acceleration * tilted_directions(upright.direction, problem.tilts, at[None, :])[0]
+                only = np.zeros_like(candidates)
+                only[col] = True
+                loads[col] = _box_loads(problem, subsystem, scenario, evaluator, t, sampled, only, variables, base, tuple(float(x) for x in g_col))[col]
         else:
             loads = _box_loads(problem, subsystem, scenario, evaluator, t, sampled, candidates, variables, base, gravity)
-        balancers = np.array([np.abs(r[:, j] - t[:, j]).max() for j in range(r.shape[1])])
+        forces = r - t if balanced_by is None else balanced_by  # under a tilt: each at its own worst tilt
+        balancers = np.array([np.abs(forces[:, j]).max() for j in range(r.shape[1])])
         scale = energy_scale_if_needed(problem, subsystem, q, residual, loads, variables, base, gravity)
         for j, name in enumerate(evaluator.names):
             column = columns[j]
@@ -220,7 +235,7 @@ def verify(solution: "Solution", samples: int | None = None, seed: int | None = 
                     energy_scale=scale,
                     configurations=int(q.shape[0]),
                     worst_configuration=tuple(float(v) for v in q[worst]),
-                    worst_tilt=tuple(float(a) for a in tilts[(scenario, subsystem)][worst]) if (scenario, subsystem) in tilts else (),
+                    worst_tilt=tuple(float(a) for a in tilts[(scenario, subsystem)][worst, j]) if (scenario, subsystem) in tilts else (),
                 )
             )
     if _to_keep:
@@ -228,30 +243,39 @@ def verify(solution: "Solution", samples: int | None = None, seed: int | None = 
     return Verification(tuple(checks), problem.settings.verify_tolerance)
 
 
-def _at_random_tilts(
-    problem: Problem, scenario: Any, evaluator: SubsystemResiduals, variables: Any, base: Any, gravity: Any, index: int, seed: int | None
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(tilt angles, residual, unbalanced gravity torque) of a tilting-base scenario, each
-    configuration at its own random tilt drawn uniformly from the tilt ranges.
+def _at_worst_tilts(
+    problem: Problem, scenario: Any, evaluator: SubsystemResiduals, variables: Any, base: Any
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(residual, its tilts, unbalanced gravity torque, its tilts, balancers' force) of a
+    tilting-base scenario: for each configuration and coordinate, each at the tilt of the box
+    where its magnitude is largest (:func:`~counterpoise.model.tilt.tilt_extremes`); the
+    tilts (N, n_coordinates, n_tilts).
 
     Gravity enters the energy linearly, so r(q, g) = r(q, 0) + Σₖ gₖ [r(q, eₖ) − r(q, 0)]
-    exactly: four evaluations give every configuration its own gravity vector. The scenario
-    itself (a node of the tilt grid the design was balanced at) is one draw among many."""
-    n = evaluator.q.shape[0]
-    rng = np.random.default_rng([problem.settings.seed + 2 if seed is None else seed, index])
-    angles = np.column_stack([rng.uniform(t.lower, t.upper, n) for t in problem.tilts])
+    exactly: four evaluations give every configuration its residual as a function of the
+    tilt, whose extremes over the box are found per configuration (the box's vertices and
+    the edges' and faces' stationary points, not a random tilt: issue 32)."""
     upright = scenario.upright
-    directions = tilted_directions(upright.direction, problem.tilts, angles)
-    g = upright.acceleration * directions
     r0, t0 = evaluator.evaluate(variables, base, (0.0, 0.0, 0.0))
-    r, t = r0.copy(), t0.copy()
+    rk, tk = [], []
     for k in range(3):
         unit = [0.0, 0.0, 0.0]
         unit[k] = 1.0
-        rk, tk = evaluator.evaluate(variables, base, tuple(unit))
-        r += g[:, k : k + 1] * (rk - r0)
-        t += g[:, k : k + 1] * (tk - t0)
-    return angles, r, t
+        r_unit, t_unit = evaluator.evaluate(variables, base, tuple(unit))
+        rk.append(r_unit - r0)
+        tk.append(t_unit - t0)
+    n, m = r0.shape
+    angles = np.zeros((n, m, len(problem.tilts)))
+    torque_angles = np.zeros((n, m, len(problem.tilts)))
+    r, t, balancers = np.empty((n, m)), np.empty((n, m)), np.empty((n, m))
+    for j in range(m):
+        slope_r = np.column_stack([x[:, j] for x in rk])
+        slope_t = np.column_stack([x[:, j] for x in tk])
+        with np.errstate(invalid="ignore"):
+            r[:, j], angles[:, j] = tilt_extremes(upright.acceleration, upright.direction, problem.tilts, r0[:, j], slope_r)
+            t[:, j], torque_angles[:, j] = tilt_extremes(upright.acceleration, upright.direction, problem.tilts, t0[:, j], slope_t)
+            balancers[:, j], _ = tilt_extremes(upright.acceleration, upright.direction, problem.tilts, r0[:, j] - t0[:, j], slope_r - slope_t)
+    return r, angles, t, torque_angles, balancers
 
 
 #: coordinates whose sampled largest gravity torque is at least this share of the largest of

@@ -10,7 +10,7 @@ from __future__ import annotations
 from ...errors import ProblemFileError, raise_errors
 from ...model.problem import Problem, Settings
 from ..schema import ProblemFile
-from . import constraints, loops, mechanism, parts, payloads, pulleys, quantities, report, robot, robust, substitution
+from . import constraints, loops, mechanism, parts, payloads, pulleys, quantities, report, robot, robust, substitution, synthesis
 from .context import REPORT_FUNCTIONS, RESERVED, Context
 
 __all__ = ["REPORT_FUNCTIONS", "RESERVED", "resolve"]
@@ -76,11 +76,12 @@ def _resolve(ctx: Context) -> Problem:
     selection = parts.selection(ctx)
     gravity = quantities.gravity(ctx, spec.gravity, "gravity")
     tilts = quantities.tilts(ctx, spec.gravity)
-    scenarios = quantities.tilted_scenarios(quantities.scenarios(ctx, gravity, parameters), tilts)
+    scenarios = quantities.tilted_scenarios(ctx, quantities.scenarios(ctx, gravity, parameters), tilts)
     objective = quantities.objective(ctx)
     reports = report.report(ctx, subsystems, by_name)
     design_constraints = constraints.constraints(ctx, subsystems, by_name, springs, counter_masses)
     robust_spec = robust.robust(ctx, bodies, springs)
+    synthesis_spec = synthesis.synthesis(ctx, by_name)
     meta = spec.problem
     return Problem(
         name=meta.name,
@@ -108,4 +109,5 @@ def _resolve(ctx: Context) -> Problem:
         constraints=design_constraints,
         tilts=tilts,
         robust=robust_spec,
+        synthesis=synthesis_spec,
     )

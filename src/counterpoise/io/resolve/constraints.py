@@ -27,12 +27,25 @@ from ...model.constraints import (
 )
 from ...model.elements import CounterMass, ZeroFreeLengthSpring
 from ...model.mechanism import Frame, Subsystem
-from ...model.units import FORCE, DisplayUnit, base_unit_symbol, dimension_name, dimensionality_of, display_unit, pint_quantity, ureg
+from ...model.units import FORCE, DisplayUnit, base_unit_symbol, dimension_name, dimensionality_of, display_unit, looks_like_quantity, pint_quantity, ureg
 from .context import REPORT_FUNCTIONS, Context, evaluate_checked, numpy_functions, suggest
 from .report import report_call
 
 #: representative values of the named quantities for dimension checks (SI, with units)
 _UNITS = {"force": "N", "length": "m", "wrap": "rad"}
+
+
+def _plain_number(raw: Any) -> float | None:
+    """A bound written as a number in a string (``"100"``, ``"1e2"``): the number, as the
+    bare TOML number ``100`` is (a dimensionless expression's bound is a plain number);
+    None for anything else."""
+    if not isinstance(raw, str):
+        return None
+    try:
+        number = float(raw.strip())
+    except ValueError:
+        return None
+    return number if math.isfinite(number) else None
 
 
 def designed_spring_force_limit(spring: ZeroFreeLengthSpring) -> tuple[float, str] | None:
@@ -85,8 +98,14 @@ def constraints(
                 raw = getattr(spec, side)
                 if raw is None:
                     continue
-                q = ctx.literal(raw, f"{key}.{side}")
+                plain = _plain_number(raw)
+                if dimension == "" and plain is None and isinstance(raw, str) and not looks_like_quantity(raw):
+                    raise ctx.fail(f"{key}.{side}", f"expected a plain number such as 100 ('{spec.expression}' is dimensionless), got '{raw}'")
+                q = ctx.literal(raw if plain is None else plain, f"{key}.{side}")
                 if q.dimension != dimension and not (q.si == 0 and q.unit.symbol == ""):
+                    if plain is not None or not isinstance(raw, str):  # a number without a unit
+                        example = f"'{str(raw).strip()} {base_unit_symbol(value)}'" if isinstance(value, ureg().Quantity) else "its unit"
+                        raise ctx.fail(f"{key}.{side}", f"'{raw}' is a plain number but '{spec.expression}' is {dimension_name(dimension)}: give the bound with its unit, such as {example}")
                     raise ctx.fail(f"{key}.{side}", f"'{raw}' is {dimension_name(q.dimension)} but '{spec.expression}' is {dimension_name(dimension)}")
                 if not math.isfinite(q.si):
                     raise ctx.fail(f"{key}.{side}", "must be finite")

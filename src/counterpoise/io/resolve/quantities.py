@@ -13,7 +13,7 @@ from ...errors import InputError, ProblemFileError, UnitError
 from ...model import expr as ex
 from ...model.mechanism import Rotation
 from ...model.problem import Gravity, Objective, Parameter, Scenario, Variable
-from ...model.tilt import FULL_TURN, Tilt, angle_name, tilt_nodes, tilt_text, tilted
+from ...model.tilt import FULL_TURN, MAX_SCENARIOS, Tilt, angle_name, tilt_nodes, tilt_text, tilted
 from ...model.units import (
     ACCELERATION,
     COMPLIANCE_MASS,
@@ -225,12 +225,24 @@ def tilts(ctx: Context, g: Any) -> tuple[Tilt, ...]:
     return tuple(out)
 
 
-def tilted_scenarios(scenarios: tuple[Scenario, ...], tilts: tuple[Tilt, ...]) -> tuple[Scenario, ...]:
+def tilted_scenarios(ctx: Context, scenarios: tuple[Scenario, ...], tilts: tuple[Tilt, ...]) -> tuple[Scenario, ...]:
     """Each scenario once per node of the tilt grid (:func:`tilt_nodes`); the copies of one
-    scenario share its setting (an adjustment is not reset as the base tilts)."""
+    scenario share its setting (an adjustment is not reset as the base tilts). More than
+    :data:`~counterpoise.model.tilt.MAX_SCENARIOS` of them is an input error (before any is made)."""
     if not tilts:
         return scenarios
     import itertools
+
+    nodes = math.prod(len(tilt_nodes(t)) for t in tilts)
+    if nodes * len(scenarios) > MAX_SCENARIOS:
+        ranged = sum(len(tilt_nodes(t)) > 1 for t in tilts)
+        per = f" for each of the {len(scenarios)} scenarios" if len(scenarios) > 1 else ""
+        raise ctx.fail(
+            "gravity.tilt",
+            f"{ranged} tilt ranges give 3^{ranged} = {nodes:,} tilt nodes{per}: {nodes * len(scenarios):,} balance scenarios, more than the "
+            f"{MAX_SCENARIOS} designed at once (MAX_SCENARIOS, counterpoise/model/tilt.py); use fewer tilt axes, fix a tilt at one angle "
+            "(range = ['5 deg', '5 deg']: one node)" + (", or fewer [scenarios]" if len(scenarios) > 1 else ""),
+        )
 
     grid = list(itertools.product(*(tilt_nodes(t) for t in tilts)))
     default_only = len(scenarios) == 1 and scenarios[0].name == DEFAULT_SCENARIO and not scenarios[0].parameters
