@@ -147,27 +147,63 @@ class RealisationMethod:
     ) -> tuple[Solution, tuple[Any, ...], tuple[Limit, ...], dict[str, tuple[float, float]]]:
         """The design re-solved for the wound rates (see :func:`wound_rates`), with its
         springs' designs checked again for the new working range; as it was when no rate
-        moves, or with a limit naming the springs when no design balances them as wound."""
-        fixed, replaced, changed = wound_rates(problem, springs)
+        moves, or with a limit naming the springs when no design balances them as wound.
+
+        A geometry held at a bound can follow a rate on one side of the design rate only:
+        when the springs as designed cannot be followed, each is tried wound on the other
+        side of its design rate alone, then all of them (at most n + 2 tries)."""
+        _, _, changed = wound_rates(problem, springs)
         if not changed:
             return solution, tuple(springs), limits, {}
-        first = dict(changed)
+        options = [tuple(springs)] + [_other_side(springs, {n: changed[n]}) for n in changed]
+        if len(changed) > 1:
+            options.append(_other_side(springs, changed))
+        for option in options:
+            followed = self._follow(problem, solution, option, parameters, bounds, certify)
+            if followed is not None:
+                final, made = followed
+                rates = {d.spring: float(d.design.rate) for d in made if d.ok}
+                wound = {n: (design, rates.get(n, first)) for n, (design, first) in changed.items()}
+                return final, made, evaluate(final, made, final.parts), wound
+        note = "; ".join(f"{n}: designed for {a / 1e3:.6g} N/mm, wound to {b / 1e3:.6g} N/mm" for n, (a, b) in changed.items())
+        limit = Limit(next(iter(changed)), "spring", math.nan, math.nan, "lower", "", "", None,
+                      f"no design balances the springs as wound ({note}), on either side of their design rates: "
+                      "free a point of the spring or a tune variable so the geometry can follow its rate")
+        return solution, tuple(springs), (*limits, limit), changed
+
+    def _follow(
+        self, problem: Problem, solution: Solution, springs: Sequence[Any], parameters: Parameters | None, bounds: BoundsOverride | None, certify: bool,
+    ) -> tuple[Solution, tuple[Any, ...]] | None:
+        """The design solved again for these springs' wound rates (each spring kept as wound
+        while the geometry follows it, :func:`_same_springs`); None when no design balances them."""
         held: dict[str, float] = {}
         for _ in range(WOUND_ROUNDS):
+            fixed, replaced, changed = wound_rates(problem, springs)
+            if not changed:
+                return solution, tuple(springs)
             held.update(fixed)
             problem = with_rates(problem, replaced)
             over: dict[Any, tuple[float, float]] = {**(bounds or {}), **{name: (k, k) for name, k in held.items()}}
             again = self._method(problem).solve(parameters, over, dict(solution.values), certify=certify)
             if again.status is not Status.OPTIMAL:
-                note = "; ".join(f"{n}: designed for {a / 1e3:.6g} N/mm, wound to {b / 1e3:.6g} N/mm" for n, (a, b) in first.items())
-                limit = Limit(next(iter(first)), "spring", math.nan, math.nan, "lower", "", "", None,
-                              f"no design balances the springs as wound ({note}): free a point of the spring or a tune variable so the geometry can follow its rate")
-                return solution, tuple(springs), (*limits, limit), first
+                return None
             solution, springs = again, _same_springs(springs, designed_of(again))
-            fixed, replaced, changed = wound_rates(problem, springs)
-            if not changed:
-                break
-        return solution, tuple(springs), evaluate(solution, springs, solution.parts), first
+        return (solution, tuple(springs)) if not wound_rates(problem, springs)[2] else None
+
+
+def _other_side(springs: Sequence[Any], changed: Mapping[str, tuple[float, float]]) -> tuple[Any, ...]:
+    """The springs of ``changed`` designed again, wound on the other side of their design rate."""
+    from ..springs.design import redesign_on_side
+
+    out = []
+    for d in springs:
+        if d.spring in changed and d.ok:
+            design_rate, wound_rate = changed[d.spring]
+            other = redesign_on_side(d.design, -1 if wound_rate > design_rate else 1)
+            out.append(replace(d, design=other) if other.ok else d)
+        else:
+            out.append(d)
+    return tuple(out)
 
 
 def with_rates(problem: Problem, rates: Mapping[str, float]) -> Problem:

@@ -68,6 +68,9 @@ class Requirement:
     initial_tension: float | None = None
     free_length: float | None = None
     slack_margin: float = SLACK_MARGIN  # m, behind a pulley
+    #: which side of the design rate the wound rate may fall on: +1 at or above it, −1 at or
+    #: below it, 0 either (a geometry held at a bound can follow a rate on one side only)
+    rate_side: int = 0
 
     @property
     def pulley(self) -> bool:
@@ -298,8 +301,9 @@ def _stages(g: dict[str, np.ndarray], r: Requirement, F0: np.ndarray, rules: _Ru
     tol, n = rules.rate_tolerance, rules.min_safety_factor
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         upper = F0 + (1.0 + tol) * (f["hi"] - F0)
+        side = np.sign(g["rate"] - r.rate) * r.rate_side >= 0 if r.rate_side else np.ones(F0.shape, dtype=bool)
         stages = [
-            ("index", g["index"]),
+            ("index", g["index"] & side),
             ("coils", g["coils"]),
             ("tension", (F0 >= g["t_lo"] * (1 - 1e-12)) & (F0 <= g["t_hi"] * (1 + 1e-12)) & (F0 < f["hi"])),
             ("strength", g["capacity"] >= n * upper * (1 - 1e-12)),
@@ -408,6 +412,13 @@ def redesign_at(made: SpringDesign, requirement: Requirement) -> SpringDesign:
     return replace(again, reasons=tuple(f"{spring}: {why}" for why in again.reasons))
 
 
+def redesign_on_side(made: SpringDesign, side: int) -> SpringDesign:
+    """The lightest spring for ``made``'s requirement, with its material, envelope, rate
+    tolerance and safety factor, wound to a rate on ``side`` of the design rate (+1 at or
+    above, −1 at or below)."""
+    return design(replace(made.requirement, rate_side=side), made.material, made.envelope, made.rate_tolerance, made.min_safety_factor)
+
+
 def _failed(m: Material, r: Requirement, rules: _Rules, reasons: tuple[str, ...], needed: float = math.nan) -> SpringDesign:
     return SpringDesign(
         m, r, reasons=reasons, rate_tolerance=rules.rate_tolerance, min_safety_factor=rules.min_safety_factor, envelope=rules.envelope, needed_distance=needed
@@ -495,7 +506,8 @@ def _reason(stage: str, m: Material, r: Requirement, g: dict[str, np.ndarray], r
 
     tol, n = rules.rate_tolerance, rules.min_safety_factor
     if stage == "index":
-        return f"no standard {wires} winds the rate {r.rate:.4g} N/m at a spring index 4-12"
+        side = {1: " at or above", -1: " at or below"}.get(r.rate_side, "")
+        return f"no standard {wires} winds the rate{side} {r.rate:.4g} N/m (within {100 * RATE_ROUNDING:g} %) at a spring index 4-12"
     if stage == "coils":
         return f"the rate {r.rate:.4g} N/m is too stiff for {wires}: fewer than {MIN_BODY_COILS:g} body coils at every index 4-12"
     if stage == "tension" and not r.pulley:  # direct mount: the file's initial tension
