@@ -199,7 +199,7 @@ def test_builder_gives_the_file_problem():
     urdf = (PROBLEMS / "robots" / "ur5.urdf").as_posix()
     b = ProblemBuilder("ur5_built", direction=(0, 0, -1))
     b.robot(urdf=urdf, subsystem="arm", joints={"shoulder_lift_joint": ("-180 deg", "0 deg"), "elbow_joint": ("-150 deg", "150 deg")}, locked={"wrist_1_joint": "-90 deg"})
-    b.parameter("shoulder_height", "89.159 mm").parameter("h_1", "100 mm").parameter("h_2", "100 mm").parameter("k_1", "4000 N/m").parameter("k_2", "2000 N/m")
+    b.parameter("shoulder_height", "89.159 mm").parameter("h_1", "150 mm").parameter("h_2", "150 mm").parameter("k_1", "4000 N/m").parameter("k_2", "2000 N/m")
     b.frame("lift_ref", translate(0, 0, "shoulder_height"), parent="shoulder_link")
     b.frame("elbow_ref", parent="forearm_link", orientation="shoulder_link")
     for v in ("x_1", "y_1", "x_2", "y_2"):
