@@ -213,6 +213,8 @@ def made_springs(solution: Any, designed: Sequence[Any], parts: Any) -> dict[str
             out[s.name] = Made(str(cat.part_number[i]), float(cat.rate[i]), float(cat.initial_tension[i]), float(cat.free_length[i]))
         elif s.name in designs:
             d = designs[s.name]
+            if not d.ok and s.direct is None and math.isfinite(d.needed_distance):
+                d = slack_spring(d)  # what would be wound, though its cable goes slack: the sheet shows it
             rate = float(d.rate) if d.ok else _f(mech.value(s.stiffness))
             if s.direct is not None:
                 out[s.name] = Made("", rate, _f(mech.value(s.direct.initial_tension)), _f(mech.value(s.direct.free_length)))
@@ -223,6 +225,19 @@ def made_springs(solution: Any, designed: Sequence[Any], parts: Any) -> dict[str
         else:
             out[s.name] = Made("", _f(mech.value(s.stiffness)), math.nan, math.nan)
     return out
+
+
+def slack_spring(made: Any) -> Any:
+    """The spring a pulley mount would be wound as when the slack rule alone refuses every
+    candidate (its ends come closer than any windable F0/k): the lightest that keeps every
+    other rule, its initial tension the middle of its band. Its cable goes slack near the
+    shortest distance; the as-built check measures what that costs."""
+    from dataclasses import replace as replaced
+
+    from ..springs.design import design
+
+    need = made.requirement
+    return design(replaced(need, force_min=need.force_max), made.material, made.envelope, made.rate_tolerance, made.min_safety_factor)
 
 
 def _spring_rows(problem: Problem, mech: Mechanics, s: ZeroFreeLengthSpring, made: Made, found: Mapping[str, Extreme]) -> list[Row]:
