@@ -174,7 +174,7 @@ def _mechanism_rows(problem: Problem, mech: Mechanics, scenario: Any) -> list[Ro
                 norm = math.sqrt(sum(a * a for a in axis))
                 constant, coeffs = affine(mech, t.angle, names)
                 rows.append({"kind": "rotation", "name": f.name, "axis_x": axis[0] / norm, "axis_y": axis[1] / norm, "axis_z": axis[2] / norm,
-                             "angle_rad": constant, "coefficients": coefficients_text(coeffs)})
+                             "angle_rad": constant + 0.0, "coefficients": coefficients_text(coeffs)})
             else:
                 parts = [affine(mech, v, names) for v in t.vector]
                 used = sorted({n for _, c in parts for n in c}, key=names.index)
