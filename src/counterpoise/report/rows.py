@@ -153,6 +153,8 @@ def constraint_rows(result: DesignResult) -> list[Row]:
         if v.configuration:
             at = ", ".join(f"{n}={problem.coordinate[n].unit.from_si(x):.6g} {problem.coordinate[n].unit.label}".rstrip() for n, x in v.configuration.items())
             text = f"{text}; extreme at {at}" if text else f"extreme at {at}"
+        if v.corner:  # a [robust] design: the value at the constraint's worst tolerance corner
+            text = f"{text}; worst tolerance corner: {v.corner}" if text else f"worst tolerance corner: {v.corner}"
         rows.append(
             {
                 "name": c.name,

@@ -99,13 +99,26 @@ class Decomposition:
         """``p`` with deviation ``deviation`` at +h in every scenario (None: unchanged)."""
         if deviation is None:
             return p
+        signs = [0] * len(self.deviations)
+        signs[deviation] = 1
+        return self.p_at(p, signs)
+
+    def parameter_index(self, deviation: int) -> list[int]:
+        """The entries of the parameter vector that hold deviation ``deviation`` (one per scenario)."""
         layout = self.formulation.parameters
-        d = self.deviations[deviation]
-        i = layout.base_names.index(d.parameter)
-        out = p.copy()
-        for c in range(len(self.problem.scenarios)):
-            out[c * layout.stride + 3 + i] = d.half_width
+        i = layout.base_names.index(self.deviations[deviation].parameter)
+        return [c * layout.stride + 3 + i for c in range(len(self.problem.scenarios))]
+
+    def p_at(self, p: np.ndarray, signs: Sequence[float]) -> np.ndarray:
+        """``p`` with every deviation i at ``signs[i]`` × its half width, in every scenario."""
+        out = np.array(p, dtype=float, copy=True)
+        for i, (d, s) in enumerate(zip(self.deviations, signs)):
+            out[self.parameter_index(i)] = s * d.half_width
         return out
+
+    def values_at(self, signs: Sequence[float]) -> dict[str, float]:
+        """The deviation parameters' values (SI) at a corner: name -> ``signs[i]`` × half width."""
+        return {d.parameter: float(s) * d.half_width for d, s in zip(self.deviations, signs)}
 
     def rows(self, q: list[np.ndarray], z_ref: np.ndarray, free: Sequence[int], p: np.ndarray) -> Rows:
         """The rows at configurations ``q`` (one array per block), around ``z_ref``, for

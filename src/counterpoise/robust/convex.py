@@ -14,12 +14,13 @@ cvxpy is imported here only, so that a problem without ``[robust]`` never loads 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..errors import SolverError
 from .affine import Rows
+from .constraints import LinearRows
 
 
 @dataclass(frozen=True)
@@ -29,6 +30,8 @@ class RobustLP:
     ratio: float  # the worst-case ratio on the LP's rows
     seconds: float
     solver: str
+    #: the elastic problem: each constraint's slack (scaled, in the order of the rows' groups)
+    slack: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 def solve_robust(
@@ -40,8 +43,15 @@ def solve_robust(
     weight: float,
     limit: float,
     shape: str,
+    design_rows: LinearRows | None = None,
+    elastic: bool = False,
 ) -> RobustLP:
-    """``objective`` (c, c0): c·dz + c0 (kg); ``signs`` (G, g0): G dz + g0 ≥ 0; ``bounds``: on dz."""
+    """``objective`` (c, c0): c·dz + c0 (kg); ``signs`` (G, g0): G dz + g0 ≥ 0; ``bounds``: on dz;
+    ``design_rows``: the design constraints at every tolerance corner (:mod:`.constraints`).
+
+    ``elastic``: each constraint may be missed by a slack s ≥ 0 (its scaled units); minimise
+    Σ s instead of the objective: the constraints with s > 0 are those that cannot hold
+    together with the balance requirement (``limit``) and the bounds."""
     import cvxpy as cp
 
     start = time.perf_counter()
@@ -70,15 +80,29 @@ def solve_robust(
     constraints += [e >= r, e >= -r]
     worst = e + spread + rows.tension * scale
     cost = objective[0] @ dz + objective[1] if n else cp.Constant(objective[1])
+    slack = None
+    if design_rows is not None and design_rows.g0.size:
+        c = design_rows
+        g = c.G @ dz + c.g0 if n else cp.Constant(c.g0)
+        if elastic:
+            slack = cp.Variable(int(c.group.max()) + 1, nonneg=True)
+            g_lo, g_hi = g + slack[c.group], g - slack[c.group]
+        else:
+            g_lo = g_hi = g
+        lo, hi = np.isfinite(c.lower), np.isfinite(c.upper)
+        if lo.any():
+            constraints.append(g_lo[np.flatnonzero(lo)] >= c.lower[lo])
+        if hi.any():
+            constraints.append(g_hi[np.flatnonzero(hi)] <= c.upper[hi])
+    rho = cp.Variable()
     if mode == "minimise":
-        rho = cp.Variable()
         constraints.append(worst <= rho)
-        problem = cp.Problem(cp.Minimize(cost + weight * rho), constraints)
+        cost = cost + weight * rho
     elif mode == "limit":
         constraints.append(worst <= limit)
-        problem = cp.Problem(cp.Minimize(cost), constraints)
     else:
         raise ValueError(f"unknown robust mode {mode!r}")
+    problem = cp.Problem(cp.Minimize(cp.sum(slack) if slack is not None else cost), constraints)
     try:
         problem.solve(solver=cp.CLARABEL)
     except cp.error.SolverError as exc:
@@ -88,4 +112,5 @@ def solve_robust(
         return RobustLP(problem.status, np.zeros(n), float("nan"), seconds, "clarabel")
     value = np.asarray(dz.value, dtype=float).reshape(-1)
     ratio = float(np.max(np.asarray(worst.value if hasattr(worst, "value") else worst)))
-    return RobustLP(problem.status, value, ratio, seconds, "clarabel")
+    missed = np.asarray(slack.value, dtype=float).reshape(-1) if slack is not None and slack.value is not None else np.zeros(0)
+    return RobustLP(problem.status, value, ratio, seconds, "clarabel", missed)

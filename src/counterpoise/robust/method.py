@@ -27,14 +27,18 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..designer.constrained import SLACK_TOLERANCE
 from ..designer.convex import geometric_variables
 from ..designer.methods import DesignMethod
 from ..designer.solution import Solution, build_solution
+from ..errors import ProblemFileError
+from ..formulation.constraints import MAX_ROUNDS, ConstraintValue, describe, scale, violations
 from ..formulation.layout import Gravity3, Slot
 from ..model.problem import Problem
 from ..model.robust import RobustSpec
 from ..solvers.base import SolverOutput, Status
 from .affine import LP_CONFIGURATIONS, Decomposition, Rows, worst
+from .constraints import CornerConstraints, LinearRows
 from .perturb import Deviation, corner_name, corner_text, perturbed
 
 if TYPE_CHECKING:
@@ -48,6 +52,11 @@ BAND_CONFIGURATIONS = 10_000
 ZERO_EFFECT = 1e-12
 #: configurations per (subsystem, corner) on which the tuned corners are verified
 TUNE_VERIFY_SAMPLES = 2_000
+
+
+#: the positional arguments of :func:`.convex.solve_robust` (rows, objective, signs, bounds,
+#: mode, weight, limit, shape)
+LPArguments = tuple[Rows, tuple[np.ndarray, float], tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray], str, float, float, str]
 
 
 @dataclass(frozen=True)
@@ -98,6 +107,7 @@ class RobustMethod:
         self._nonnegative: Any = None  # a CasADi Function (casadi ships no type information)
         self._tuner: Designer | None = None  # the designer of the tuning, built on first use
         self._minimax: RobustMinimax | None = None  # the minimax NLP (free geometry), built on first use
+        self._constraints: CornerConstraints | None = None  # the constraints at every corner, built on first use
 
     def with_spec(self, spec: RobustSpec) -> "RobustMethod":
         """The same method (its inner method and decomposition shared) for another ``[robust]``
@@ -134,53 +144,93 @@ class RobustMethod:
         objective = {"nominal": nominal.objective}
         lp_ratio, lp_seconds = float("nan"), 0.0
         design, z, status, message = nominal, z_nom, nominal.status, nominal.message
+        cons = self._corner_constraints()
+        corner_values: tuple[ConstraintValue, ...] = ()
+        out: SolverOutput | None = None
         if spec.mode != "none":
             geometric = geometric_variables(self.problem)
             moving = [i for i, slot in enumerate(d.slots) if slot.variable in geometric and lbz[i] < ubz[i]]
             free = [i for i, slot in enumerate(d.slots) if slot.variable not in geometric and lbz[i] < ubz[i]]
-            if moving:  # the geometry is free: the minimax NLP over every corner (robust/minimax.py)
-                from .minimax import RobustMinimax
-
-                if self._minimax is None:
-                    try:
-                        self._minimax = RobustMinimax(self.decomposition, spec.mode, spec.weight, self.problem.settings.seed)
-                    except ValueError as exc:  # too many corners
-                        return design.judged(Status.FAILED, f"robust design with free geometry: {exc}; hold the geometry or tolerance fewer items", "robust")
-                mm = self._minimax.solve(z_nom, p, lbz, ubz, spec.limit)
-                z = np.clip(mm.z, lbz, ubz)
-                lp_ratio, lp_seconds = mm.ratio, mm.seconds
-                status = mm.status
-                out = SolverOutput(z, status, mm.solver_status, mm.iterations, mm.seconds, "ipopt")
-                message = "robust design (minimax NLP over the tolerance corners, IPOPT)"
-                if status is not Status.OPTIMAL:
-                    message = self._infeasible_text(mm.solver_status) if status is Status.INFEASIBLE else f"robust minimax NLP: IPOPT {mm.solver_status}"
-                summary = f"minimax over {len(self._minimax.offsets)} corners on sampled configurations"
-            elif not free:
+            nonlinear = cons.nonlinear(free) if cons is not None else ()
+            if not moving and not free:
                 return design.judged(Status.FAILED, f"[robust] mode = \"{spec.mode}\" needs a free mass or stiffness variable: every variable is held", "robust")
-            else:
-                z_ref = z_nom.copy()
-                z_ref[free] = 0.0
-                rows = self.decomposition.rows(self.decomposition.configurations(LP_CONFIGURATIONS, self.problem.settings.seed), z_ref, free, p)
-                from .convex import solve_robust
+            for round_ in range(MAX_ROUNDS + 1):
+                if moving or nonlinear:  # the geometry is free (or a constraint is nonlinear): the minimax NLP over every corner
+                    from .minimax import RobustMinimax
 
-                lp = solve_robust(rows, self._objective(z_ref, free, p), self._signs(z_ref, free, p), (lbz[free], ubz[free]), spec.mode, spec.weight, spec.limit, spec.shape)
-                lp_ratio, lp_seconds = lp.ratio, lp.seconds
-                z = z_ref.copy()
-                z[free] = lp.dz
-                ok = lp.status == "optimal"
-                status = Status.OPTIMAL if ok else Status.INFEASIBLE
-                out = SolverOutput(z, status, lp.status, 0, lp.seconds, "cvxpy/clarabel")
-                message = f"robust design ({'LP' if spec.shape == 'box' else 'SOCP'}, cvxpy/Clarabel)"
-                if not ok:
-                    message = self._infeasible_text(lp.status)
-                summary = f"robust counterpart on {rows.r0.size} sampled rows"
-            design = build_solution(f, z, p, lbz, ubz, out, message, 0, summary)
-            design = replace(design, problem=self.problem, scenario_parameters=_without_deviations(design.scenario_parameters, self.deviations))
+                    if self._minimax is None:
+                        try:
+                            self._minimax = RobustMinimax(self.decomposition, spec.mode, spec.weight, self.problem.settings.seed, cons)
+                        except ValueError as exc:  # too many corners
+                            return design.judged(Status.FAILED, f"robust design with free geometry: {exc}; hold the geometry or tolerance fewer items", "robust")
+                    mm = self._minimax.solve(z_nom, p, lbz, ubz, spec.limit)
+                    z = np.clip(mm.z, lbz, ubz)
+                    lp_ratio, lp_seconds = mm.ratio, mm.seconds
+                    status = mm.status
+                    out = SolverOutput(z, status, mm.solver_status, mm.iterations, mm.seconds, "ipopt")
+                    why = "free geometry" if moving else f"the nonlinear constraint{'s' if len(nonlinear) > 1 else ''} {', '.join(nonlinear)}"
+                    message = f"robust design (minimax NLP over the tolerance corners, IPOPT; {why})"
+                    if status is not Status.OPTIMAL:
+                        message = self._infeasible_text(mm.solver_status, cons) if status is Status.INFEASIBLE else f"robust minimax NLP: IPOPT {mm.solver_status}"
+                    summary = f"minimax over {len(self._minimax.offsets)} corners on sampled configurations"
+                else:
+                    z_ref = z_nom.copy()
+                    z_ref[free] = 0.0
+                    rows = self.decomposition.rows(self.decomposition.configurations(LP_CONFIGURATIONS, self.problem.settings.seed), z_ref, free, p)
+                    from .convex import solve_robust
+
+                    args: LPArguments = (rows, self._objective(z_ref, free, p), self._signs(z_ref, free, p), (lbz[free], ubz[free]), spec.mode, spec.weight, spec.limit, spec.shape)
+                    linear = cons.linear_rows(z_ref, free, p) if cons is not None else None
+                    lp = solve_robust(*args, design_rows=linear)
+                    lp_ratio, lp_seconds = lp.ratio, lp.seconds
+                    z = z_ref.copy()
+                    z[free] = lp.dz
+                    ok = lp.status == "optimal"
+                    status = Status.OPTIMAL if ok else Status.INFEASIBLE
+                    out = SolverOutput(z, status, lp.status, 0, lp.seconds, "cvxpy/clarabel")
+                    message = f"robust design ({'LP' if spec.shape == 'box' else 'SOCP'}, cvxpy/Clarabel)"
+                    if not ok:
+                        message = self._infeasible_text(lp.status, cons)
+                        if cons is not None and linear is not None:
+                            conflict, relaxed = self._lp_conflict(args, linear, cons)
+                            if conflict:  # report the design the message describes: the least relaxation's
+                                message = conflict
+                                z[free] = relaxed
+                                out = SolverOutput(z, status, lp.status, 0, lp.seconds, "cvxpy/clarabel")
+                    summary = f"robust counterpart on {rows.r0.size} sampled rows"
+                design = build_solution(f, z, p, lbz, ubz, out, message, 0, summary)
+                design = replace(design, problem=self.problem, scenario_parameters=_without_deviations(design.scenario_parameters, self.deviations))
+                if cons is not None:
+                    corner_values = cons.worst(design, self.perturbed)
+                if cons is None or status is not Status.OPTIMAL:
+                    break
+                add = violations(self.perturbed, corner_values)
+                if not add or round_ == MAX_ROUNDS:
+                    break
+                # a workspace extreme beyond its bound between the sampled rows at some corner: add
+                # those configurations to the rows and solve again (as the designer's rounds do)
+                cons = self._constraints = cons.refined(add)
+                self._minimax = None
             bands["robust"] = self._band(self.decomposition.rows(dense, np.clip(z, lbz, ubz), [], p))
             added["robust"] = design.added_mass
             objective["robust"] = design.objective
-        solver = "" if spec.mode == "none" else ("IPOPT" if out.solver == "ipopt" else "cvxpy/Clarabel")
+        elif cons is not None and nominal.status is Status.OPTIMAL:
+            corner_values = cons.worst(replace(nominal, problem=self.problem), self.perturbed)
+        if corner_values:
+            design = replace(design, constraints=corner_values)
+        solver = "" if spec.mode == "none" or out is None else ("IPOPT" if out.solver == "ipopt" else "cvxpy/Clarabel")
         report = RobustReport(spec.mode, spec.shape, self.deviations, bands, added, objective, lp_ratio, lp_seconds, solver=solver)
+        breached = [v for v in corner_values if v.active == "violated"]
+        if breached and status is Status.OPTIMAL:
+            text = "; ".join(describe(self.perturbed, v) for v in breached[:3])
+            if spec.mode == "none":
+                status, message = Status.INFEASIBLE, (
+                    f"the ordinary design breaks a constraint at a tolerance corner: {text}; [robust] mode = \"none\" does not "
+                    "re-design for the tolerances: mode = \"limit\" or \"minimise\" keeps every constraint at every corner"
+                )
+            else:
+                status, message = Status.FAILED, f"constraint violated at a tolerance corner between the sampled configurations after the verification rounds: {text}"
+            return replace(design, robust=report).judged(status, message, "robust")
         if spec.tune and status is Status.OPTIMAL:
             report = self._tune(design, z, p, dense, report, parameters)
             if report.tuning_status != "balanced":
@@ -191,6 +241,9 @@ class RobustMethod:
             text += f" (nominal design {bands['nominal']['all']:.4g}); added mass {added['robust']:.6g} kg (nominal design {added['nominal']:.6g} kg)"
         if report.corners and report.tuning_status == "balanced":
             text += f"; tuned at {len(report.corners)} corners, largest residual ratio after tuning {report.tuned_residual:.2g}"
+        binding = [v for v in corner_values if v.active in ("upper", "lower")]
+        if binding:
+            text += "; binding: " + "; ".join(describe(self.perturbed, v) for v in binding)
         design = replace(design, robust=report)
         if status is not Status.OPTIMAL:
             if key == "robust" or report.tuning_status not in ("", "balanced"):
@@ -199,6 +252,47 @@ class RobustMethod:
         if key == "robust":
             return design.judged(status, text, "robust")  # the counterpart may leave the nominal unbalanced by choice
         return replace(design, message=text)  # the ordinary design: judged by its dense check as usual
+
+    def _corner_constraints(self) -> CornerConstraints | None:
+        """The design constraints at every tolerance corner (None: the problem has none); built once."""
+        if not self.problem.constraints:
+            return None
+        if self._constraints is None:
+            try:
+                self._constraints = CornerConstraints(self.decomposition)
+            except ValueError as exc:  # too many corners: an input limit
+                raise ProblemFileError(self.problem.path, "robust.tolerances", f"not combinable with [constraints]: {exc}; tolerance fewer items") from None
+        return self._constraints
+
+    def _lp_conflict(self, args: "LPArguments", linear: LinearRows, cons: CornerConstraints) -> tuple[str, np.ndarray]:
+        """When the counterpart is infeasible with the constraints but feasible without them:
+        the constraints the elastic LP had to relax, with the amount, and its design (the
+        step of the free slots); ("", empty) when the constraints are not the cause."""
+        from .convex import solve_robust
+
+        none = ("", np.zeros(0))
+        alone = solve_robust(*args)
+        if alone.status != "optimal":
+            return none
+        elastic = solve_robust(*args, design_rows=linear, elastic=True)
+        if elastic.status != "optimal" or not elastic.slack.size:
+            return none
+        parts = []
+        for k, amount in enumerate(elastic.slack):
+            if amount > SLACK_TOLERANCE:
+                c = next(g.constraint for g in cons.rows.groups if g.constraint.name == cons.names[k])
+                parts.append(f"{c.name} (missed by {c.unit.from_si(amount * scale(c)):.4g} {c.unit.label})".replace(" )", ")"))
+        if not parts:
+            return none
+        spec = self._spec()
+        need = f"robust.limit = {spec.limit:g}" if spec.mode == "limit" else "the bounds"
+        text = (
+            f"robust design infeasible: the constraints cannot all hold at every tolerance corner together with {need}: "
+            + ", ".join(parts)
+            + " (the smallest total relaxation, the design reported; relax or remove these"
+            + (", or relax the limit)" if spec.mode == "limit" else ")")
+        )
+        return text, elastic.dz
 
     # -- pieces --------------------------------------------------------------------
     def _spec(self) -> RobustSpec:
@@ -231,13 +325,16 @@ class RobustMethod:
         G = np.stack([np.array(self._nonnegative(z_ref + np.eye(z_ref.size)[j], p)).reshape(-1) - g0 for j in free], axis=1) if free else np.zeros((g0.size, 0))
         return G, g0
 
-    def _infeasible_text(self, lp_status: str) -> str:
+    def _infeasible_text(self, lp_status: str, cons: CornerConstraints | None = None) -> str:
         spec = self._spec()
+        held = f" and the constraints {', '.join(cons.names)} at every tolerance corner" if cons is not None else ""
         if spec.mode == "limit":
             return (
-                f"robust design infeasible ({lp_status}): no design within the bounds keeps the worst-case residual ratio "
+                f"robust design infeasible ({lp_status}): no design within the bounds{held} keeps the worst-case residual ratio "
                 f"at or below robust.limit = {spec.limit:g} over the tolerance box"
             )
+        if cons is not None:
+            return f"robust design infeasible ({lp_status}): no design within the bounds keeps the constraints {', '.join(cons.names)} at every tolerance corner"
         return f"robust design failed: cvxpy/Clarabel returned {lp_status}"
 
     def _tune(

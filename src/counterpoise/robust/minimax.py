@@ -26,6 +26,7 @@ import numpy as np
 from ..solvers.base import Bounds, Status
 from ..solvers.ipopt import IPOPT_DEFAULTS, IpoptBackend
 from .affine import Decomposition
+from .constraints import CornerConstraints
 
 #: configurations per coordinate and block in the NLP (× corners: its rows)
 SAMPLES_PER_COORDINATE = 48
@@ -46,7 +47,8 @@ class MinimaxResult:
 class RobustMinimax:
     """The minimax NLP of a decomposition (built once per mode)."""
 
-    def __init__(self, decomposition: Decomposition, mode: str, weight: float, seed: int) -> None:
+    def __init__(self, decomposition: Decomposition, mode: str, weight: float, seed: int, constraints: CornerConstraints | None = None) -> None:
+        """``constraints``: the design constraints, held at every tolerance corner."""
         import casadi as ca
 
         f = decomposition.formulation
@@ -72,6 +74,8 @@ class RobustMinimax:
         self._decomposition = decomposition
         self._backend: IpoptBackend | None = None
         self._reference: np.ndarray | None = None
+        self.constraints = constraints
+        self._lbg_c = self._ubg_c = np.zeros(0)
 
     def _build(self, z0: np.ndarray, p: np.ndarray) -> None:
         import casadi as ca
@@ -97,8 +101,12 @@ class RobustMinimax:
                     rows += [self.rho - scaled, self.rho + scaled]
             i += len(block.coordinates)
         self.n_rows = int(sum(r.numel() for r in rows))
-        g = ca.vertcat(*rows, f.nonnegative)
         self.n_signs = int(f.nonnegative.numel())
+        if self.constraints is not None:
+            g_c, self._lbg_c, self._ubg_c = self.constraints.symbolic_rows()
+        else:
+            g_c, self._lbg_c, self._ubg_c = ca.SX(0, 1), np.zeros(0), np.zeros(0)
+        g = ca.vertcat(*rows, f.nonnegative, g_c)
         objective = f.objective + (self.weight * self.rho if self.mode == "minimise" else 0)
         options = {**IPOPT_DEFAULTS, "tol": 1e-9}
         self._backend = IpoptBackend({"x": ca.vertcat(f.z, self.rho), "p": f.p, "f": objective, "g": g}, options, "robust_minimax")
@@ -113,8 +121,8 @@ class RobustMinimax:
         b = Bounds(
             np.concatenate([lbz, [0.0]]),
             np.concatenate([ubz, [upper]]),
-            np.zeros(self.n_rows + self.n_signs),
-            np.full(self.n_rows + self.n_signs, np.inf),
+            np.concatenate([np.zeros(self.n_rows + self.n_signs), self._lbg_c]),
+            np.concatenate([np.full(self.n_rows + self.n_signs, np.inf), self._ubg_c]),
         )
         start = upper if np.isfinite(upper) else 1.0
         out = backend.solve(np.concatenate([z0, [start]]), p, b)
