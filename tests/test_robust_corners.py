@@ -139,3 +139,31 @@ def test_lamp_force_limit_is_kept_at_every_corner(tmp_path):
     (limit,) = result.solution.constraints
     assert limit.value <= 10 * (1 + 1e-7)
     assert limit.corner == "rate spring_1 +10 %"
+
+
+# -- input (issue 31 part 6; issue 32 item 12) ------------------------------------------------
+
+
+def test_absolute_rate_tolerance_beyond_the_nominal_is_refused(folder):
+    """1e308 N/m on a rate of at most 2000 N/m (k's upper bound) gave a band of 1.7e305, exit 0."""
+    from counterpoise.errors import ProblemFileError
+
+    with pytest.raises(ProblemFileError) as error:
+        _problem(folder, "huge_rate", 'tolerances.rate = "1e308 N/m"')
+    assert error.value.key == "robust.tolerances.rate"
+    assert "not below the nominal rate (at most 2000 N/m within the bounds)" in error.value.message
+
+
+def test_counter_mass_tolerance(folder):
+    """The counter-mass toleranced too (±5 %, by name): ρ = |1 − u − v| + 0.1 u + 0.05 v. On the
+    balance line (e = 0) ρ = 0.05 + 0.05 u ≤ 0.08 gives u ≤ 0.6 (a positive e costs 0.95 per unit
+    against u's 0.05, a negative one only lowers u), so v = 0.4: M = 2.4 kg, k = 0.6 × 294.3 =
+    176.58 N/m, and the mass tolerance's share of the band is 0.05 v = 0.02."""
+    result = design(_problem(folder, "cm_tolerance", 'mode = "limit"\nlimit = 0.08\ntolerances.rate = "10 %"\ntolerances.mass = { cm = "5 %" }'))
+    assert result.optimal, result.message
+    v = _values(result)
+    assert v["M"] == pytest.approx(2.4, rel=1e-6)
+    assert v["k"] == pytest.approx(0.6 * 294.3, rel=1e-6)
+    band = result.solution.robust.bands["robust"]
+    assert band["mass"] == pytest.approx(0.02, rel=1e-6)
+    assert band["all"] == pytest.approx(0.08, rel=1e-6)

@@ -68,6 +68,7 @@ def perturbed(problem: Problem) -> tuple[Problem, tuple[Deviation, ...]]:
         return problem, ()
     deviations: list[Deviation] = []
     bodies = {b.name: b for b in problem.bodies}
+    masses = {c.name: c for c in problem.counter_masses}
     springs = {s.name: s for s in problem.springs}
     for t in spec.tolerances:
         if t.amount == 0 or t.kind == "initial_tension":
@@ -78,11 +79,17 @@ def perturbed(problem: Problem) -> tuple[Problem, tuple[Deviation, ...]]:
             deviations.append(Deviation(name, t, "", t.amount))
         elif t.kind == "mass":
             name = _name("mass", t.item)
-            bodies[t.item] = replace(bodies[t.item], mass=_scaled(bodies[t.item].mass, name, t.relative))
+            if t.item in masses:  # a counter-mass: its (designed) mass as made
+                masses[t.item] = replace(masses[t.item], mass=_scaled(masses[t.item].mass, name, t.relative))
+            else:
+                bodies[t.item] = replace(bodies[t.item], mass=_scaled(bodies[t.item].mass, name, t.relative))
             deviations.append(Deviation(name, t, "", t.amount))
         elif t.kind == "com":
             names = tuple(_name("com", t.item, a) for a in AXES)
-            bodies[t.item] = replace(bodies[t.item], com=_shifted(bodies[t.item].com, names))  # type: ignore[arg-type]  # a point of three coordinates stays one
+            if t.item in masses:  # a counter-mass: where its centre of mass sits on the link
+                masses[t.item] = replace(masses[t.item], position=_shifted(masses[t.item].position, names))  # type: ignore[arg-type]  # a point of three coordinates stays one
+            else:
+                bodies[t.item] = replace(bodies[t.item], com=_shifted(bodies[t.item].com, names))  # type: ignore[arg-type]  # a point of three coordinates stays one
             deviations += [Deviation(n, t, a, t.amount) for n, a in zip(names, AXES)]
         elif t.kind == "point":
             spring = springs[t.item]
@@ -98,6 +105,7 @@ def perturbed(problem: Problem) -> tuple[Problem, tuple[Deviation, ...]]:
         problem,
         parameters=problem.parameters + extra,
         bodies=tuple(bodies[b.name] for b in problem.bodies),
+        counter_masses=tuple(masses[c.name] for c in problem.counter_masses),
         springs=tuple(springs[s.name] for s in problem.springs),
     )
     return out, tuple(deviations)
