@@ -167,3 +167,43 @@ def test_counter_mass_tolerance(folder):
     band = result.solution.robust.bands["robust"]
     assert band["mass"] == pytest.approx(0.02, rel=1e-6)
     assert band["all"] == pytest.approx(0.08, rel=1e-6)
+
+
+# -- issue 32, item 16 and the Tolerance caption ----------------------------------------------
+
+
+def test_fully_fixed_robust_problem_is_judged_by_its_dense_check(tmp_path):
+    """problems/lamp_robust.toml with every variable fixed: the rates at their balancing values
+    k_1 = g (m_1 L_1/2 + (m_2 + m_head) L_1)/(h_1 a_1) = 551.8125 N/m and k_2 = g (m_2 L_2/2 +
+    m_head L_2)/(h_2 a_2) = 613.125 N/m, k_2 given 1.6e-10 high (a residual ratio of about
+    1e-10, within verify_tolerance 1e-8), no counter-mass, the anchors held as tune variables.
+    It was "infeasible (IPOPT)" with an empty tuning table; it is the design as given, judged
+    by its dense check, and tuned at the 17 corners."""
+    text = (PROBLEMS / "lamp_robust.toml").read_text(encoding="utf-8")
+    for old, new in [
+        ('[variables.k_1]\nlower = "0 N/m"\nupper = "3000 N/m"', '[variables.k_1]\nlower = "551.8125 N/m"\nupper = "551.8125 N/m"'),
+        ('[variables.k_2]\nlower = "0 N/m"\nupper = "3000 N/m"', '[variables.k_2]\nlower = "613.1250001 N/m"\nupper = "613.1250001 N/m"'),
+        ('[variables.M_1]\nlower = "0 kg"\nupper = "5 kg"', '[variables.M_1]\nlower = "0 kg"\nupper = "0 kg"'),
+        ('[variables.M_2]\nlower = "0 kg"\nupper = "5 kg"', '[variables.M_2]\nlower = "0 kg"\nupper = "0 kg"'),
+        ('mode = "limit"\nlimit = 0.06\n', ""),
+    ]:
+        assert old in text
+        text = text.replace(old, new)
+    path = tmp_path / "fixed.toml"
+    path.write_text(text, encoding="utf-8")
+    result = design(load_problem(path))
+    assert result.optimal, result.message
+    assert 0 < result.verification.residual_ratio <= 1e-8
+    report = result.solution.robust
+    assert len(report.corners) == 17 and report.tuning_status == "balanced"
+
+
+def test_robust_tolerance_section_has_its_own_caption(folder, capsys):
+    path = folder / "caption.toml"
+    path.write_text(PENDULUM % {"robust": 'tolerances.rate = "10 %"', "h_lower": "100 mm", "h_upper": "100 mm"}, encoding="utf-8")
+    with pytest.raises(SystemExit) as stop:
+        main(["solve", str(path), "--out", str(folder / "caption_out")])
+    assert stop.value.code == 0, capsys.readouterr()
+    page = (folder / "caption_out" / "robust_pendulum" / "report.html").read_text()
+    assert "worst-case residual ratio over the whole tolerance box ([robust])" in page
+    assert "the parts&#x27; rates and initial tensions" not in page and "the parts' rates and initial tensions" not in page

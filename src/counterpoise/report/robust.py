@@ -22,6 +22,16 @@ if TYPE_CHECKING:
     from ..robust.method import RobustReport
 
 TOLERANCE_COLUMNS = ["design", "case", "deviation", "residual_ratio", "adjusted_residual_ratio", "adjustment"]
+#: report.html's caption of a [robust] problem's tolerance.csv (a catalogue's has its own)
+TOLERANCE_CAPTION = (
+    "tolerance.csv: the worst-case residual ratio over the whole tolerance box ([robust]) and per kind of tolerance, "
+    "for the nominal and the robust design; with tune, each corner before and after tuning"
+)
+
+
+def is_robust_tolerance(text: str) -> bool:
+    """Whether a tolerance.csv text is a [robust] problem's (its header), not a catalogue's."""
+    return text.split("\n", 1)[0].strip() == ",".join(TOLERANCE_COLUMNS)
 
 
 def _report(result: DesignResult) -> "RobustReport | None":

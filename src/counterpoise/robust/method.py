@@ -132,11 +132,16 @@ class RobustMethod:
         spec = self._spec()
         held: dict[Slot | str, tuple[float, float]] = {**(bounds or {})}
         held.update({name: (self.problem.variable[name].initial, self.problem.variable[name].initial) for name in spec.tune})
-        nominal = self.inner.solve(parameters, held, initial, certify=certify)
         f = self.decomposition.formulation
         d = f.design
         p = f.parameters.values(parameters)
         lbz, ubz = d.bounds(held)
+        if np.array_equal(lbz, ubz):  # every variable held (the tune ones at their factory setting): the design as given
+            out0 = SolverOutput(lbz, Status.OPTIMAL, "every variable held", 0, 0.0, "none")
+            given = build_solution(f, lbz, p, lbz, ubz, out0, "every variable is held: the design as given, judged by its dense check", 0, "no variable to solve for")
+            nominal = replace(given, problem=self.problem, scenario_parameters=_without_deviations(given.scenario_parameters, self.deviations))
+        else:
+            nominal = self.inner.solve(parameters, held, initial, certify=certify)
         z_nom = np.clip(d.to_z(d.vector(nominal.values)), lbz, ubz)
         dense = self.decomposition.configurations(BAND_CONFIGURATIONS, self.problem.settings.seed)
         bands = {"nominal": self._band(self.decomposition.rows(dense, z_nom, [], p))}
