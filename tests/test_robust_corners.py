@@ -207,3 +207,94 @@ def test_robust_tolerance_section_has_its_own_caption(folder, capsys):
     page = (folder / "caption_out" / "robust_pendulum" / "report.html").read_text()
     assert "worst-case residual ratio over the whole tolerance box ([robust])" in page
     assert "the parts&#x27; rates and initial tensions" not in page and "the parts' rates and initial tensions" not in page
+
+
+# -- exactness (issue 31 part 4) --------------------------------------------------------------
+
+
+def test_mass_and_centre_of_mass_together_equal_vertex_enumeration(folder):
+    """Acceptance: the worst case with a body's mass and centre of mass toleranced together
+    (their product δ_m·δ_c is not first order) equals an exact enumeration of the 16 vertices
+    of (δ_k, δ_m, δ_x, δ_y) on the same configurations (θ on a grid of 10,001 nodes over
+    [−180°, 180°]: affine.grid for one coordinate): the residual of the nominal design
+    (M = 0, k h a = m g l) is m g (1 + δ_m)((l + δ_x) cos θ − δ_y sin θ) − k (1 + δ_k) a h cos θ."""
+    import itertools
+
+    import numpy as np
+
+    robust = 'tolerances.rate = "10 %"\ntolerances.mass = { bob = "5 %" }\ntolerances.com = { bob = "1 mm" }'
+    band = design(_problem(folder, "mass_com", robust)).solution.robust.bands["nominal"]
+    m, g, l = 2.0, 9.81, 0.3
+    theta = np.linspace(-np.pi, np.pi, 10_001)
+    worst = 0.0
+    for dk, dm, dx, dy in itertools.product((-0.1, 0.1), (-0.05, 0.05), (-1e-3, 1e-3), (-1e-3, 1e-3)):
+        r = m * g * (1 + dm) * ((l + dx) * np.cos(theta) - dy * np.sin(theta)) - m * g * l * (1 + dk) * np.cos(theta)
+        worst = max(worst, float(np.abs(r).max()))
+    assert band["all"] == pytest.approx(worst / (m * g * l), abs=1e-9)
+    # the first-order sum misses the product term 0.05 × 1 mm/l cos θ at θ = 0 (1.7e-4)
+    assert band["all"] > 0.1 + 0.05 + 1e-3 / l + 1e-4
+
+
+CATALOGUE = """part_number,rate_N_per_m,free_length_m,initial_tension_N,max_load_N,max_length_m,outer_diameter_m,wire_diameter_m,material,mass_kg,price_eur,rate_tolerance,initial_tension_tolerance
+T-200,200,0.05,2,80,0.5,0.012,0.0015,music wire,0.01,1.5,0.1,0.2
+"""
+
+
+def test_catalogue_band_has_the_initial_tension_share_of_a_rate_error(folder):
+    """The pendulum balanced by one catalogue part behind a pulley (k = 200 N/m, F0 = 2 N, rate
+    ±10 %, initial tension ±20 %), no counter-mass, h = m g l/(k a) = 147.15 mm. The string is
+    set for the nominal part, so a part k + Δk, F0 + ΔF0 pulls k d + Δk (d − F0/k) + ΔF0 and
+    (∂d/∂θ = −a h cos θ/d) the rate alone leaves t_k a h |cos θ| (k − F0/d): evaluated here on a
+    fine grid of θ (about 0.0960 of m g l, not 0.1: the −Δk·F0/k term); the initial tension alone
+    t_F F0 a h |cos θ|/d, largest where sin θ = h/a, equal to t_F F0 h: ratio 0.01 exactly."""
+    import numpy as np
+
+    (folder / "parts.csv").write_text(CATALOGUE, encoding="utf-8")
+    text = PENDULUM % {"robust": "", "h_lower": "50 mm", "h_upper": "150 mm"}
+    text = text.replace("[robust]\n", "").replace('upper = "10 kg"', 'upper = "0 kg"').replace('stiffness = "k"', 'slot = "s"')
+    text = text.replace('[variables.k]\nlower = "0 N/m"\nupper = "2000 N/m"\n', '[catalogues.mine]\nfile = "parts.csv"\n\n[slots.s]\ncatalogue = "mine"\n')
+    path = folder / "part_band.toml"
+    path.write_text(text, encoding="utf-8")
+    result = design(load_problem(path))
+    assert result.optimal, result.message
+    k, f0, a, mgl = 200.0, 2.0, A, MGL
+    h = mgl / (k * a)
+    assert _values(result)["h"] == pytest.approx(h, rel=1e-9)
+    theta = np.linspace(-np.pi, np.pi, 2_000_001)
+    d = np.sqrt(a**2 + h**2 - 2 * a * h * np.sin(theta))
+    rate = 0.1 * a * h * np.abs(np.cos(theta)) * (k - f0 / d)
+    tension = 0.2 * f0 * a * h * np.abs(np.cos(theta)) / d
+    band = result.parts.tolerance
+    assert band.worst_rate == pytest.approx(rate.max() / mgl, rel=1e-6)
+    assert band.worst_rate < 0.0961  # the rate alone used to be reported as 0.1
+    assert band.worst_tension == pytest.approx(0.01, rel=1e-6)
+    assert band.worst == pytest.approx((rate + tension).max() / mgl, rel=1e-6)
+
+
+def test_ellipsoid_with_products_is_labelled_a_bound(folder):
+    """Over the ellipsoid Σ (δ_i/t_i)² ≤ 1 the product δ_m·δ_x is bounded, not exact: the figure
+    is labelled a bound. Its first-order part at θ is m g l ‖(0.1 cos θ, 0.05 cos θ,
+    (1 mm/l) cos θ, (1 mm/l) sin θ)‖ = m g l √(0.0125 cos² θ + (1 mm/l)²); the products
+    δ_m (δ_x cos θ − δ_y sin θ) are bounded by their largest value over the box,
+    0.05 × 1 mm/l × (|cos θ| + |sin θ|): the figure is the largest sum over θ. The bound holds:
+    it is at least the residual at 2,000 random points of the ellipsoid's surface."""
+    import numpy as np
+
+    robust = 'shape = "ellipsoid"\ntolerances.rate = "10 %"\ntolerances.mass = { bob = "5 %" }\ntolerances.com = { bob = "1 mm" }'
+    result = design(_problem(folder, "ellipse_bound", robust))
+    report = result.solution.robust
+    assert report.exactness.startswith("a bound over the ellipsoid")
+    assert "(a bound) over the tolerance ellipsoid" in result.message
+    m, g, l = 2.0, 9.81, 0.3
+    theta = np.linspace(-np.pi, np.pi, 10_001)
+    rng = np.random.default_rng(1)
+    u = rng.normal(size=(2_000, 4))
+    u /= np.linalg.norm(u, axis=1)[:, None]
+    dk, dm, dx, dy = (u * np.array([0.1, 0.05, 1e-3, 1e-3])).T
+    c, s = np.cos(theta), np.sin(theta)
+    near = np.abs(theta) <= 0.2  # the worst lies near θ = 0 (the rate and mass terms peak there)
+    r = m * g * (1 + dm[:, None]) * ((l + dx[:, None]) * c[near] - dy[:, None] * s[near]) - m * g * l * (1 + dk[:, None]) * c[near]
+    sampled = float(np.abs(r).max()) / (m * g * l)
+    figure = np.sqrt(0.0125 * c**2 + (1e-3 / l) ** 2) + 0.05 * 1e-3 / l * (np.abs(c) + np.abs(s))
+    assert report.bands["nominal"]["all"] == pytest.approx(float(figure.max()), rel=1e-9)
+    assert sampled <= report.bands["nominal"]["all"]

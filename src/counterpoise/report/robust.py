@@ -46,7 +46,8 @@ def tolerance_rows(result: DesignResult) -> list[Row]:
     rows: list[Row] = []
     for design, band in report.bands.items():
         rows.append({"design": design, "case": "nominal", "deviation": "", "residual_ratio": band["residual"]})
-        rows.append({"design": design, "case": "band", "deviation": _box(report), "residual_ratio": band["all"]})
+        label = "" if report.exactness == "exact" else f" ({report.exactness})"
+        rows.append({"design": design, "case": "band", "deviation": _box(report) + label, "residual_ratio": band["all"]})
         for kind, value in band.items():
             if kind not in ("residual", "all"):
                 rows.append({"design": design, "case": f"band_{kind}", "deviation": f"{kind} tolerances only", "residual_ratio": value})
@@ -138,6 +139,7 @@ def status_lines(result: DesignResult) -> str:
             f"robust: {design} design: worst-case residual ratio {band['all']:.4g} ({kinds}); "
             f"added mass {report.added_mass[design]:.6g} kg, objective {report.objective[design]:.6g} kg"
         )
+    lines.append(f"robust: the worst case over the tolerance box is {report.exactness}" if report.exactness == "exact" else f"robust: the worst-case figures are {report.exactness}")
     if report.lp_seconds:
         lines.append(f"robust: counterpart ({report.mode}, {report.shape}) solved by {report.solver} in {report.lp_seconds:.3g} s")
     units = {v.name: v.unit for v in result.problem.variables}

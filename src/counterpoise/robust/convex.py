@@ -13,8 +13,10 @@ cvxpy is imported here only, so that a problem without ``[robust]`` never loads 
 
 from __future__ import annotations
 
+import itertools
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -63,22 +65,53 @@ def solve_robust(
     constraints = [dz >= bounds[0], dz <= bounds[1]]
     if signs[0].size:
         constraints.append(signs[0] @ dz + signs[1] >= 0)
-    spread = 0
-    if n_dev:
-        # (M·n_dev) rows: each deviation's change, scaled like the residual
-        S0 = (rows.S0 * scale[:, None]).reshape(-1)
-        SB = (rows.SB * scale[:, None, None]).reshape(-1, n)
+    spread: Any = 0
+    m = rows.r0.size
+    single = ~rows.grouped if shape == "box" else np.ones(n_dev, dtype=bool)
+    n_single = int(single.sum())
+    if n_single:
+        # (M·n_single) rows: each deviation's change, scaled like the residual
+        S0 = (rows.S0[:, single] * scale[:, None]).reshape(-1)
+        SB = (rows.SB[:, single] * scale[:, None, None]).reshape(-1, n)
         s = S0 + SB @ dz if n else cp.Constant(S0)
-        m = rows.r0.size
         if shape == "box":
-            u = cp.Variable(m * n_dev)
+            u = cp.Variable(m * n_single)
             constraints += [u >= s, u >= -s]
-            spread = cp.reshape(u, (m, n_dev), order="C") @ np.ones(n_dev)
+            spread = cp.reshape(u, (m, n_single), order="C") @ np.ones(n_single)
         else:
-            spread = cp.norm(cp.reshape(s, (m, n_dev), order="C"), 2, axis=1)
-    e = cp.Variable(rows.r0.size)
-    constraints += [e >= r, e >= -r]
-    worst = e + spread + rows.tension * scale
+            spread = cp.norm(cp.reshape(s, (m, n_single), order="C"), 2, axis=1)
+    # an element with several deviations (products): its largest and least change over its
+    # vertices (box, exact), or the largest higher-order part (ellipsoid, a bound); affine.py
+    high: Any = 0
+    low: Any = 0
+    for grp in rows.groups:
+        n_v = grp.F.shape[1]
+        F = (grp.F * scale[:, None]).reshape(-1)
+        FB = (grp.FB * scale[:, None, None]).reshape(-1, n)
+        if shape != "box":  # F − Σ v_i s_i, the part beyond first order
+            vertices = np.array(list(itertools.product((-1.0, 1.0), repeat=len(grp.members))))
+            F = F - ((rows.S0[:, list(grp.members)] * scale[:, None]) @ vertices.T).reshape(-1)
+            FB = FB - np.einsum("mkj,vk->mvj", rows.SB[:, list(grp.members)] * scale[:, None, None], vertices).reshape(-1, n)
+        f = F + FB @ dz if n else cp.Constant(F)
+        top, bottom = cp.Variable(m), cp.Variable(m)
+        constraints += [cp.reshape(f, (m, n_v), order="C") <= cp.reshape(top, (m, 1), order="C") @ np.ones((1, n_v))]
+        constraints += [cp.reshape(f, (m, n_v), order="C") >= -cp.reshape(bottom, (m, 1), order="C") @ np.ones((1, n_v))]
+        if shape == "box":
+            high, low = high + top, low + bottom
+        else:  # |higher-order part| ≤ max(top, bottom)
+            bound = cp.Variable(m)
+            constraints += [bound >= top, bound >= bottom]
+            spread = spread + bound
+    tension = rows.tension * scale
+    if rows.groups and shape == "box":
+        # max(r + Σ|s| + Σ max F_g, −r + Σ|s| + Σ (−min F_g)) + tension, exact over the box
+        e = cp.Variable(m)
+        constraints += [e >= r + high, e >= -r + low]
+        worst = e + spread + tension
+    else:
+        e = cp.Variable(m)
+        constraints += [e >= r, e >= -r]
+        worst = e + spread + tension
     cost = objective[0] @ dz + objective[1] if n else cp.Constant(objective[1])
     slack = None
     if design_rows is not None and design_rows.g0.size:

@@ -88,6 +88,8 @@ class RobustReport:
     corners: tuple[Corner, ...] = ()
     tuning_range: Mapping[str, tuple[float, float]] = field(default_factory=dict)  # SI
     tuning_status: str = ""  # "" (no tune), "balanced" or the failure
+    #: how the bands are obtained: "exact" over the box, else what makes them a bound or first order
+    exactness: str = "exact"
 
     @property
     def tuned_residual(self) -> float:
@@ -224,7 +226,7 @@ class RobustMethod:
         if corner_values:
             design = replace(design, constraints=corner_values)
         solver = "" if spec.mode == "none" or out is None else ("IPOPT" if out.solver == "ipopt" else "cvxpy/Clarabel")
-        report = RobustReport(spec.mode, spec.shape, self.deviations, bands, added, objective, lp_ratio, lp_seconds, solver=solver)
+        report = RobustReport(spec.mode, spec.shape, self.deviations, bands, added, objective, lp_ratio, lp_seconds, solver=solver, exactness=self._exactness())
         breached = [v for v in corner_values if v.active == "violated"]
         if breached and status is Status.OPTIMAL:
             text = "; ".join(describe(self.perturbed, v) for v in breached[:3])
@@ -241,7 +243,8 @@ class RobustMethod:
             if report.tuning_status != "balanced":
                 status, message = Status.INFEASIBLE, report.tuning_status
         key = "robust" if "robust" in bands else "nominal"
-        text = f"{message}: worst-case residual ratio {bands[key]['all']:.4g} over the tolerance box"
+        bound = "" if report.exactness == "exact" else " (a bound)"
+        text = f"{message}: worst-case residual ratio {bands[key]['all']:.4g}{bound} over the tolerance {'box' if spec.shape == 'box' else 'ellipsoid'}"
         if key == "robust":
             text += f" (nominal design {bands['nominal']['all']:.4g}); added mass {added['robust']:.6g} kg (nominal design {added['nominal']:.6g} kg)"
         if report.corners and report.tuning_status == "balanced":
@@ -257,6 +260,18 @@ class RobustMethod:
         if key == "robust":
             return design.judged(status, text, "robust")  # the counterpart may leave the nominal unbalanced by choice
         return replace(design, message=text)  # the ordinary design: judged by its dense check as usual
+
+    def _exactness(self) -> str:
+        """What the bands are (docs/robust.md, "How the worst case is exact")."""
+        spec = self._spec()
+        notes = []
+        if spec.shape != "box" and self.decomposition.groups:
+            notes.append("a bound over the ellipsoid: the products of one element's deviations are bounded over its box")
+        points = {t.item for t in spec.tolerances if t.kind == "point" and t.amount > 0}
+        both = sorted(points & set(self.decomposition.tensions))
+        if both:
+            notes.append(f"first order in initial tension × point of spring{'s' if len(both) > 1 else ''} {', '.join(both)}")
+        return "; ".join(notes) or "exact"
 
     def _corner_constraints(self) -> CornerConstraints | None:
         """The design constraints at every tolerance corner (None: the problem has none); built once."""
@@ -381,8 +396,7 @@ class RobustMethod:
             overrides = {**base, **{d.parameter: s * d.half_width for d, s in zip(self.deviations, corner)}}
             solution = self._tuner.solve(parameters=overrides, bounds=held, certify=False)
             after = float(verify(solution).residual_ratio)
-            shifted = rows.r0 + rows.S0 @ np.array(corner, dtype=float) if rows.S0.shape[1] else rows.r0
-            before = float(np.max(np.abs(shifted) / rows.reference))
+            before = float(np.max(np.abs(rows.at(corner)) / rows.reference))
             values = solution.variable_values(self.problem.scenarios[0].name)
             out.append(Corner(corner_name("", corner), corner, corner_text(self.deviations, corner), before, after, tuple((t, values[t]) for t in spec.tune)))
         tuning_range = {t: (min(c.settings[i][1] for c in out), max(c.settings[i][1] for c in out)) for i, t in enumerate(spec.tune)}

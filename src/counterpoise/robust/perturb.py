@@ -11,11 +11,11 @@ name (``robust:<kind>:<item>[:<component>]``), written into the element's expres
 The energy Σ −m g·p + Σ ½ k |a − b|² is then affine in every single δ (a mass or a rate
 multiplies fixed geometry; a centre of mass enters −m g·R(c + δ) linearly; one end of a
 spring enters ½ k |a + Rδ − b|², whose term ½ k |δ|² does not depend on the configuration).
-Products of two deviations (δm·δc of one body, δa·δb of one spring's two ends, δk·δa) are
-second order: the worst case below keeps only the first-order terms, which is exact for
-rates, masses and centres of mass each alone, and for a point tolerance on one end of a
-spring (docs/robust.md). An initial tension ΔF0 is not a parameter here: behind the pulley
-it adds the force ΔF0 along the cable, ΔF0·∂d/∂q, which :mod:`.band` adds directly.
+Products of deviations of one element (δm·δc of one body, δa·δb of one spring's two ends,
+δk·δa) keep the residual multi-affine: :mod:`.affine` evaluates each such element's group
+at every vertex of its box, so the worst case over the box is exact (docs/robust.md). An
+initial tension ΔF0 is not a parameter here: behind the pulley it adds the force ΔF0 along
+the cable, ΔF0·∂d/∂q, which :mod:`.affine` adds directly.
 """
 
 from __future__ import annotations
