@@ -298,3 +298,39 @@ def test_ellipsoid_with_products_is_labelled_a_bound(folder):
     figure = np.sqrt(0.0125 * c**2 + (1e-3 / l) ** 2) + 0.05 * 1e-3 / l * (np.abs(c) + np.abs(s))
     assert report.bands["nominal"]["all"] == pytest.approx(float(figure.max()), rel=1e-9)
     assert sampled <= report.bands["nominal"]["all"]
+
+
+# -- the objective minimised and the free-geometry ellipsoid (issue 31 part 5) -------------------
+
+
+@pytest.mark.parametrize(("weight", "mass", "band"), [(30.0, 0.0, 0.1), (100.0, 6.0, 0.0)])
+def test_minimise_mode_reports_the_objective_it_minimised(folder, weight, mass, band):
+    """minimise mode minimises M + W ρ (docs/robust.md#pendulum: the spring alone, ρ = t = 0.1,
+    below W* = 60 kg; the mass alone, M = 6 kg and ρ = 0, above it): the objective reported is
+    M + W ρ = 3 kg and 6 kg, not the added mass alone."""
+    result = design(_problem(folder, f"objective_{weight:g}", f'mode = "minimise"\nweight = "{weight:g} kg"\ntolerances.rate = "10 %"'))
+    assert result.optimal, result.message
+    assert result.solution.objective == pytest.approx(mass + weight * band, abs=1e-6)
+    report = result.solution.robust
+    assert report.objective["robust"] == pytest.approx(mass + weight * band, abs=1e-6)
+    assert report.base_objective["robust"] == pytest.approx(mass, abs=1e-6)
+    # the nominal design (spring alone) under the same criterion: 0 + W × 0.1
+    assert report.objective["nominal"] == pytest.approx(weight * 0.1, rel=1e-6)
+
+
+def test_free_geometry_ellipsoid_is_the_ellipsoid_not_its_box(folder):
+    """Rate ±10 % and the bob's mass ±5 % over the ellipsoid: ρ = |e| + √((0.1 u)² + 0.05²)
+    (the mass scales the whole gravity torque). With ρ ≤ 0.08 every unit of budget is best
+    spent on u (its cost 0.01 u/√(…) < 1 of e's), so e = 0, u = √(0.08² − 0.05²)/0.1 = 0.62450,
+    M = 6 (1 − u) = 2.2530 kg, whether h is held (the SOCP) or free (the minimax NLP, k h only
+    matters). Treating the ellipsoid as its box gave 0.1 u + 0.05 ≤ 0.08, u = 0.3, M = 4.2 kg."""
+    import math
+
+    robust = 'mode = "limit"\nlimit = 0.08\nshape = "ellipsoid"\ntolerances.rate = "10 %"\ntolerances.mass = { bob = "5 %" }'
+    u = math.sqrt(0.08**2 - 0.05**2) / 0.1
+    for name, h in (("ellipse_socp", ("100 mm", "100 mm")), ("ellipse_nlp", ("50 mm", "150 mm"))):
+        result = design(_problem(folder, name, robust, h=h))
+        assert result.optimal, result.message
+        assert _values(result)["M"] == pytest.approx(ML_B * (1 - u), rel=1e-6), name
+        assert result.solution.robust.bands["robust"]["all"] == pytest.approx(0.08, rel=1e-6)
+    assert "minimax NLP over the tolerance ellipsoid" in result.message

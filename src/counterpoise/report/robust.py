@@ -135,11 +135,19 @@ def status_lines(result: DesignResult) -> str:
     lines = []
     for design, band in report.bands.items():
         kinds = ", ".join(f"{k} {v:.4g}" for k, v in band.items() if k not in ("residual", "all"))
+        if report.mode == "minimise":
+            minimised = (
+                f"objective minimised {report.objective[design]:.6g} kg = {report.base_objective.get(design, 0.0):.6g} kg "
+                f"+ weight × worst case ({report.weight:.6g} kg × {band['all']:.4g})"
+            )
+        else:
+            minimised = f"objective {report.objective[design]:.6g} kg"
         lines.append(
             f"robust: {design} design: worst-case residual ratio {band['all']:.4g} ({kinds}); "
-            f"added mass {report.added_mass[design]:.6g} kg, objective {report.objective[design]:.6g} kg"
+            f"added mass {report.added_mass[design]:.6g} kg, {minimised}"
         )
-    lines.append(f"robust: the worst case over the tolerance box is {report.exactness}" if report.exactness == "exact" else f"robust: the worst-case figures are {report.exactness}")
+    shape = "box" if report.shape == "box" else "ellipsoid"
+    lines.append(f"robust: the worst case over the tolerance {shape} is {report.exactness}" if report.exactness == "exact" else f"robust: the worst-case figures are {report.exactness}")
     if report.lp_seconds:
         lines.append(f"robust: counterpart ({report.mode}, {report.shape}) solved by {report.solver} in {report.lp_seconds:.3g} s")
     units = {v.name: v.unit for v in result.problem.variables}

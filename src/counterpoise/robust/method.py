@@ -90,6 +90,9 @@ class RobustReport:
     tuning_status: str = ""  # "" (no tune), "balanced" or the failure
     #: how the bands are obtained: "exact" over the box, else what makes them a bound or first order
     exactness: str = "exact"
+    #: minimise mode: the file's objective per design (``objective`` is it + weight × band)
+    base_objective: Mapping[str, float] = field(default_factory=dict)
+    weight: float = 0.0  # kg per unit of worst-case ratio (minimise)
 
     @property
     def tuned_residual(self) -> float:
@@ -149,6 +152,7 @@ class RobustMethod:
         bands = {"nominal": self._band(self.decomposition.rows(dense, z_nom, [], p))}
         added = {"nominal": nominal.added_mass}
         objective = {"nominal": nominal.objective}
+        base_objective: dict[str, float] = {}  # minimise: the file's objective, before weight × ρ
         lp_ratio, lp_seconds = float("nan"), 0.0
         design, z, status, message = nominal, z_nom, nominal.status, nominal.message
         cons = self._corner_constraints()
@@ -167,7 +171,7 @@ class RobustMethod:
 
                     if self._minimax is None:
                         try:
-                            self._minimax = RobustMinimax(self.decomposition, spec.mode, spec.weight, self.problem.settings.seed, cons)
+                            self._minimax = RobustMinimax(self.decomposition, spec.mode, spec.weight, self.problem.settings.seed, cons, spec.shape)
                         except ValueError as exc:  # too many corners
                             return design.judged(Status.FAILED, f"robust design with free geometry: {exc}; hold the geometry or tolerance fewer items", "robust")
                     mm = self._minimax.solve(z_nom, p, lbz, ubz, spec.limit)
@@ -176,10 +180,16 @@ class RobustMethod:
                     status = mm.status
                     out = SolverOutput(z, status, mm.solver_status, mm.iterations, mm.seconds, "ipopt")
                     why = "free geometry" if moving else f"the nonlinear constraint{'s' if len(nonlinear) > 1 else ''} {', '.join(nonlinear)}"
-                    message = f"robust design (minimax NLP over the tolerance corners, IPOPT; {why})"
+                    over = "the tolerance corners" if self._minimax.shape == "box" else "the tolerance ellipsoid"
+                    message = f"robust design (minimax NLP over {over}, IPOPT; {why})"
                     if status is not Status.OPTIMAL:
                         message = self._infeasible_text(mm.solver_status, cons) if status is Status.INFEASIBLE else f"robust minimax NLP: IPOPT {mm.solver_status}"
-                    summary = f"minimax over {len(self._minimax.offsets)} corners on sampled configurations"
+                    if self._minimax.shape == "ellipsoid":
+                        summary = "minimax of |r| + ‖s‖₂ (the ellipsoid) on sampled configurations"
+                    else:
+                        summary = f"minimax over {len(self._minimax.offsets)} corners on sampled configurations"
+                        if spec.shape == "ellipsoid":
+                            summary += " (the ellipsoid's bounding box: an element has several deviations)"
                 else:
                     z_ref = z_nom.copy()
                     z_ref[free] = 0.0
@@ -221,12 +231,18 @@ class RobustMethod:
             bands["robust"] = self._band(self.decomposition.rows(dense, np.clip(z, lbz, ubz), [], p))
             added["robust"] = design.added_mass
             objective["robust"] = design.objective
+            if spec.mode == "minimise":
+                # the objective minimised: the file's objective + weight × the worst-case ratio
+                # (the dense band, the figure reported), for both designs alike
+                base_objective = dict(objective)
+                objective = {key: value + spec.weight * bands[key]["all"] for key, value in objective.items()}
+                design = replace(design, objective=objective["robust"])
         elif cons is not None and nominal.status is Status.OPTIMAL:
             corner_values = cons.worst(replace(nominal, problem=self.problem), self.perturbed)
         if corner_values:
             design = replace(design, constraints=corner_values)
         solver = "" if spec.mode == "none" or out is None else ("IPOPT" if out.solver == "ipopt" else "cvxpy/Clarabel")
-        report = RobustReport(spec.mode, spec.shape, self.deviations, bands, added, objective, lp_ratio, lp_seconds, solver=solver, exactness=self._exactness())
+        report = RobustReport(spec.mode, spec.shape, self.deviations, bands, added, objective, lp_ratio, lp_seconds, solver=solver, exactness=self._exactness(), base_objective=base_objective, weight=spec.weight)
         breached = [v for v in corner_values if v.active == "violated"]
         if breached and status is Status.OPTIMAL:
             text = "; ".join(describe(self.perturbed, v) for v in breached[:3])
