@@ -61,7 +61,7 @@ def tolerance_rows(result: DesignResult) -> list[Row]:
                 "deviation": c.deviation,
                 "residual_ratio": c.before,
                 "adjusted_residual_ratio": c.after,
-                "adjustment": "; ".join(f"{t} {units[t].from_si(v):.6g} {units[t].label}" for t, v in c.settings),
+                "adjustment": "; ".join(f"{t} {units[_variable(t)].from_si(v):.6g} {units[_variable(t)].label}" for t, v in c.settings),
             }
         )
     if report.corners:
@@ -83,8 +83,14 @@ def tuning_columns(result: DesignResult) -> list[str]:
         return []
     units = {v.name: v.unit for v in result.problem.variables}
     devs = [d.parameter.split(":", 1)[1] for d in report.deviations]
-    tune = [f"{t} [{units[t].label}]" for t in result.problem.robust.tune]  # type: ignore[union-attr]  # called only for a [robust] problem
+    names = [t for t, _ in report.corners[0].settings] if report.corners else list(result.problem.robust.tune)  # type: ignore[union-attr]  # called only for a [robust] problem
+    tune = [f"{t} [{units[_variable(t)].label}]" for t in names]
     return ["corner", *devs, *tune, "residual_ratio_before", "residual_ratio_after"]
+
+
+def _variable(name: str) -> str:
+    """The variable of a tuning column: 'h', or 'x' of a payload's adjustment 'x@camera_8kg'."""
+    return name.split("@", 1)[0]
 
 
 def tuning_rows(result: DesignResult) -> list[Row]:
@@ -99,7 +105,7 @@ def tuning_rows(result: DesignResult) -> list[Row]:
         for d, sign, column in zip(report.deviations, c.signs, columns[1:]):
             row[column] = sign * d.half_width
         for (t, v), column in zip(c.settings, columns[1 + len(report.deviations) :]):
-            row[column] = units[t].from_si(v)
+            row[column] = units[_variable(t)].from_si(v)
         rows.append(row)
     return rows
 

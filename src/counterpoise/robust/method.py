@@ -34,7 +34,7 @@ from ..designer.solution import Solution, build_solution
 from ..errors import ProblemFileError
 from ..formulation.constraints import MAX_ROUNDS, ConstraintValue, describe, scale, violations
 from ..formulation.layout import Gravity3, Slot
-from ..model.problem import Problem
+from ..model.problem import Problem, bound_side
 from ..model.robust import RobustSpec
 from ..solvers.base import SolverOutput, Status
 from .affine import LP_CONFIGURATIONS, Decomposition, Rows, worst
@@ -52,6 +52,8 @@ BAND_CONFIGURATIONS = 10_000
 ZERO_EFFECT = 1e-12
 #: configurations per (subsystem, corner) on which the tuned corners are verified
 TUNE_VERIFY_SAMPLES = 2_000
+#: a payload range: rounds of reserving an adjustment's travel for the tuning
+RESERVE_ROUNDS = 3
 
 
 #: the positional arguments of :func:`.convex.solve_robust` (rows, objective, signs, bounds,
@@ -68,7 +70,9 @@ class Corner:
     deviation: str
     before: float  # worst residual ratio at this corner with the factory setting
     after: float  # after tuning (dense verification)
-    settings: tuple[tuple[str, float], ...]  # (tune variable, SI value)
+    settings: tuple[tuple[str, float], ...]  # (tune variable, SI value); a payload range's adjustments as "x@<setting>"
+    #: a corner that cannot be re-balanced: the scenario (payload sample) where the residual stays
+    scenario: str = ""
 
 
 @dataclass(frozen=True)
@@ -107,12 +111,24 @@ class RobustMethod:
             raise ValueError(f"{problem.name}: no [robust] table")
         self.problem = problem
         self.inner = inner
-        self.perturbed, self.deviations = perturbed(problem)
-        self.decomposition = Decomposition(self.perturbed, self.deviations, problem)
+        self._source_key: tuple[Any, ...] = ()
+        self._prepare(problem)
+
+    def _prepare(self, source: Problem) -> None:
+        """The perturbed problem and its decomposition for ``source``: the problem itself, or
+        (a payload range) the sampled problem the inner method designed, one scenario per
+        payload sample. Built once per set of samples; the solvers built on it are reset."""
+        key = tuple((s.name, tuple(sorted(s.parameters.items()))) for s in source.scenarios)
+        if key == self._source_key:
+            return
+        self._source_key = key
+        self.perturbed, self.deviations = perturbed(source)
+        self.decomposition = Decomposition(self.perturbed, self.deviations, source)
         self._nonnegative: Any = None  # a CasADi Function (casadi ships no type information)
         self._tuner: Designer | None = None  # the designer of the tuning, built on first use
         self._minimax: RobustMinimax | None = None  # the minimax NLP (free geometry), built on first use
         self._constraints: CornerConstraints | None = None  # the constraints at every corner, built on first use
+        self._held_values: dict[Slot, float] = {}  # the tuning's held variables (SI), of its last design
 
     def with_spec(self, spec: RobustSpec) -> "RobustMethod":
         """The same method (its inner method and decomposition shared) for another ``[robust]``
@@ -137,6 +153,8 @@ class RobustMethod:
         spec = self._spec()
         held: dict[Slot | str, tuple[float, float]] = {**(bounds or {})}
         held.update({name: (self.problem.variable[name].initial, self.problem.variable[name].initial) for name in spec.tune})
+        if self.problem.payloads:
+            return self._solve_payloads(parameters, held, initial, certify)
         f = self.decomposition.formulation
         d = f.design
         p = f.parameters.values(parameters)
@@ -277,6 +295,126 @@ class RobustMethod:
             return design.judged(status, text, "robust")  # the counterpart may leave the nominal unbalanced by choice
         return replace(design, message=text)  # the ordinary design: judged by its dense check as usual
 
+    def _solve_payloads(
+        self, parameters: Mapping[str, float] | None, held: dict["Slot | str", tuple[float, float]], initial: Mapping[Slot, float] | None, certify: bool
+    ) -> Solution:
+        """[robust] over a payload range (mode "none"): the design for the range (the inner
+        payload method, the tune variables at their factory setting), its worst case over the
+        tolerance box at every payload sample, and the tuning: at every corner one setting of
+        the tune variables for all payloads, and each payload's adjustments within their travel
+        (one designer of the sampled problem, the corner's deviations as parameters). When a
+        corner needs an adjustment beyond its limit, that much travel is reserved: the range is
+        designed again with the adjustment's bounds narrowed by it (at most RESERVE_ROUNDS
+        times); what remains is infeasible, the corner, the payload and the limit named."""
+        spec = self._spec()
+        payload = self.problem.payloads[0]
+        reserve: dict[Slot | str, tuple[float, float]] = {}
+        nominal: Solution | None = None
+        report: RobustReport | None = None
+        for round_ in range(RESERVE_ROUNDS + 1):
+            nominal = self.inner.solve(parameters, {**held, **reserve}, initial, certify=certify)
+            verdict = nominal.verdict
+            if (verdict.status if verdict is not None else nominal.status) is not Status.OPTIMAL:
+                return nominal  # the range cannot be designed: the payload layer says why
+            self._prepare(nominal.problem)
+            f = self.decomposition.formulation
+            d = f.design
+            p = f.parameters.values(parameters)
+            z = d.to_z(d.vector(nominal.values))
+            dense = self.decomposition.configurations(BAND_CONFIGURATIONS, self.problem.settings.seed)
+            bands = {"nominal": self._band(self.decomposition.rows(dense, z, [], p))}
+            report = RobustReport("none", spec.shape, self.deviations, bands, {"nominal": nominal.added_mass}, {"nominal": nominal.objective}, exactness=self._exactness())
+            setting_mass = {sc.setting or "": sc.parameters[payload.name] for sc in nominal.problem.scenarios}
+            adjustments: dict[Slot, tuple[float, float]] = {}
+            for slot in nominal.values:
+                v = self.problem.variable[slot.variable]
+                if v.adjustable and slot.scenario is not None:
+                    at_nominal = setting_mass.get(slot.scenario) == payload.nominal
+                    if at_nominal and v.nominal is not None:
+                        adjustments[slot] = (v.nominal, v.nominal)  # pinned by the file at the nominal payload
+                    elif at_nominal and spec.tune:
+                        # the technician tunes with the nominal payload and the adjustment where the
+                        # design puts it: the tune variables alone re-balance there (a unique setting)
+                        adjustments[slot] = (nominal.values[slot], nominal.values[slot])
+                    else:
+                        adjustments[slot] = v.adjusted_bounds()
+            if not spec.tune and not adjustments:
+                break
+            report = self._tune(nominal, z, p, dense, report, parameters, adjustments)
+            if report.tuning_status == "balanced" or round_ == RESERVE_ROUNDS:
+                break
+            more = self._excess(report, adjustments, parameters)
+            if not more:
+                break  # not a matter of travel: the tune variables or the deviations' kind
+            grown = False
+            for name, (low, high) in more.items():
+                lo, hi = reserve.get(name, self.problem.variable[name].adjusted_bounds())
+                lo, hi = lo + low, hi - high
+                if lo >= hi:
+                    grown = False
+                    break
+                reserve[name] = (lo, hi)
+                grown = True
+            if not grown:
+                break
+        if nominal is None or report is None:  # pragma: no cover - the loop runs at least once
+            raise RuntimeError("robust payload design: no round ran")
+        masses = sorted(set(setting_mass.values()))
+        unit = payload.unit
+        reserved = "; ".join(_reserved_text(self.problem.variable[str(name)], lo, hi) for name, (lo, hi) in reserve.items())
+        design = replace(nominal, robust=report)
+        base = nominal.verdict.message if nominal.verdict is not None else nominal.message
+        where = f"at every payload sample ({', '.join(f'{unit.from_si(m):g}' for m in masses)} {unit.label})"
+        if report.tuning_status not in ("", "balanced"):
+            text = report.tuning_status + (f" ({reserved}, the most {RESERVE_ROUNDS} rounds allow)" if reserved else "")
+            return design.judged(Status.INFEASIBLE, text, "robust")
+        text = f"{base}; worst-case residual ratio {report.bands['nominal']['all']:.4g} over the tolerance {'box' if spec.shape == 'box' else 'ellipsoid'} {where}"
+        if report.corners:
+            text += f"; tuned at {len(report.corners)} corners {where}, largest residual ratio after tuning {report.tuned_residual:.2g}"
+        if reserved:
+            text += f"; {reserved}"
+        return design.judged(Status.OPTIMAL, text, "robust")
+
+    def _excess(self, report: RobustReport, adjustments: Mapping[Slot, tuple[float, float]], parameters: Mapping[str, float] | None) -> dict[str, tuple[float, float]]:
+        """How far beyond its limits each adjustment goes at the corners that fail, when its
+        limits are lifted (not a pinned one): name -> (below the lower, above the upper), SI."""
+        if self._tuner is None:
+            return {}
+        tolerance = self.problem.settings.verify_tolerance
+        out: dict[str, tuple[float, float]] = {}
+        for c in report.corners:
+            if c.after <= tolerance:
+                continue
+            wide: dict[Slot | str, tuple[float, float]] = {}
+            for slot, (lo, hi) in adjustments.items():
+                span = self.problem.variable[slot.variable].upper - self.problem.variable[slot.variable].lower
+                wide[slot] = (lo, hi) if lo == hi else (lo - span, hi + span)
+            held: dict[Slot | str, tuple[float, float]] = {slot: (v, v) for slot, v in self._held_values.items()}
+            held.update(wide)
+            overrides = {**(parameters or {}), **{d.parameter: s * d.half_width for d, s in zip(self.deviations, c.signs)}}
+            solution = self._tuner.solve(parameters=overrides, bounds=held, certify=False)
+            from ..verify.check import verify
+
+            if not verify(solution).residual_ratio <= tolerance:
+                return {}  # not re-balanced even with more travel: the tune variables' bounds or the kind of deviation
+            for slot, (lo, hi) in adjustments.items():
+                value = solution.values.get(slot)
+                if value is None or lo == hi:
+                    continue
+                below, above = out.get(slot.variable, (0.0, 0.0))
+                out[slot.variable] = (max(below, lo - value), max(above, value - hi))
+        return {name: (max(a, 0.0), max(b, 0.0)) for name, (a, b) in out.items() if a > 0 or b > 0}
+
+    def _payload_text(self, scenario: str) -> str:
+        """' at camera = 8 kg': the payload of a scenario of the sampled problem ("" without one)."""
+        if not self.problem.payloads or not scenario:
+            return ""
+        payload = self.problem.payloads[0]
+        own = next((s for s in self.perturbed.scenarios if s.name == scenario), None)
+        if own is None or payload.name not in own.parameters:
+            return ""
+        return f" at {payload.name} = {payload.unit.from_si(own.parameters[payload.name]):.6g} {payload.unit.label}"
+
     def _exactness(self) -> str:
         """What the bands are (docs/robust.md, "How the worst case is exact")."""
         spec = self._spec()
@@ -374,7 +512,14 @@ class RobustMethod:
         return f"robust design failed: cvxpy/Clarabel returned {lp_status}"
 
     def _tune(
-        self, design: Solution, z: np.ndarray, p: np.ndarray, dense: list[np.ndarray], report: RobustReport, parameters: Mapping[str, float] | None
+        self,
+        design: Solution,
+        z: np.ndarray,
+        p: np.ndarray,
+        dense: list[np.ndarray],
+        report: RobustReport,
+        parameters: Mapping[str, float] | None,
+        adjustments: Mapping[Slot, tuple[float, float]] | None = None,
     ) -> RobustReport:
         """Re-solve the tune variables at every corner of the box, the other variables held.
 
@@ -397,7 +542,12 @@ class RobustMethod:
             for i, sign in zip(active, signs):
                 full[i] = sign
             corners.append(tuple(full))
-        held: dict[Slot | str, tuple[float, float]] = {slot: (value, value) for slot, value in design.values.items() if slot.variable not in spec.tune}
+        # the other variables held at the design's; a payload range's adjustments re-set per
+        # payload (and corner) within their travel: ``adjustments``
+        held: dict[Slot | str, tuple[float, float]] = {
+            slot: (adjustments or {}).get(slot, (value, value)) for slot, value in design.values.items() if slot.variable not in spec.tune
+        }
+        self._held_values = {slot: value for slot, value in design.values.items() if slot.variable not in spec.tune and slot not in (adjustments or {})}
         if self._tuner is None:
             width = {d.parameter: d.half_width for d in self.deviations}
             built = replace(
@@ -411,25 +561,48 @@ class RobustMethod:
         for corner in corners:
             overrides = {**base, **{d.parameter: s * d.half_width for d, s in zip(self.deviations, corner)}}
             solution = self._tuner.solve(parameters=overrides, bounds=held, certify=False)
-            after = float(verify(solution).residual_ratio)
             before = float(np.max(np.abs(rows.at(corner)) / rows.reference))
-            values = solution.variable_values(self.problem.scenarios[0].name)
-            out.append(Corner(corner_name("", corner), corner, corner_text(self.deviations, corner), before, after, tuple((t, values[t]) for t in spec.tune)))
+            check = verify(solution)
+            after = float(check.residual_ratio)
+            values = solution.variable_values(self.perturbed.scenarios[0].name)
+            settings = tuple((t, values[t]) for t in spec.tune)
+            settings += tuple((f"{slot.variable}@{slot.scenario}", v) for slot, v in solution.values.items() if adjustments and slot in adjustments)
+            worst = check.worst()
+            where = worst.scenario if worst is not None and not after <= self.problem.settings.verify_tolerance else ""
+            out.append(Corner(corner_name("", corner), corner, corner_text(self.deviations, corner), before, after, settings, where))
         tuning_range = {t: (min(c.settings[i][1] for c in out), max(c.settings[i][1] for c in out)) for i, t in enumerate(spec.tune)}
         tolerance = self.problem.settings.verify_tolerance
         failed = [c for c in out if not c.after <= tolerance]
         if failed:
             c = max(failed, key=lambda c: c.after)
-            at = [f"{t} at its {self.problem.variable[t].bound_side(v)} bound" for t, v in c.settings if self.problem.variable[t].bound_side(v)]
+            at = []
+            for name, v in c.settings:
+                variable, _, setting = name.partition("@")
+                if adjustments and setting and c.scenario and self.perturbed.setting(c.scenario) != setting:
+                    continue  # another payload's adjustment
+                bounds = adjustments.get(Slot(variable, setting)) if adjustments and setting else None
+                lo, hi = bounds if bounds is not None else (self.problem.variable[variable].lower, self.problem.variable[variable].upper)
+                side = bound_side(v, lo, hi)
+                if side:
+                    u = self.problem.variable[variable].unit
+                    at.append(f"{variable} at its {side} {'limit' if setting else 'bound'} {u.from_si(hi if side == 'upper' else lo):.6g} {u.label}")
             reason = (
                 f"the bounds of {', '.join(spec.tune)} are too narrow ({', '.join(at)})"
                 if at
                 else f"{', '.join(spec.tune)} cannot re-balance this corner (the deviation changes the residual in a way the tuning does not reach)"
             )
-            status = f"tuning infeasible: corner {c.name} ({c.deviation}) keeps a residual ratio of {c.after:.3g} after tuning (> {tolerance:g}); {reason}"
+            payload = self._payload_text(c.scenario)
+            status = f"tuning infeasible: corner {c.name} ({c.deviation}){payload} keeps a residual ratio of {c.after:.3g} after tuning (> {tolerance:g}); {reason}"
         else:
             status = "balanced"
         return replace(report, corners=tuple(out), tuning_range=tuning_range, tuning_status=status)
+
+
+def _reserved_text(v: Any, lo: float, hi: float) -> str:
+    """'travel reserved for tuning: x 10.5 mm at its lower end and 0 mm at its upper end'."""
+    a, b = v.adjusted_bounds()
+    u = v.unit
+    return f"travel reserved for tuning: {v.name} {u.from_si(lo - a):.4g} {u.label} at its lower end and {u.from_si(b - hi):.4g} {u.label} at its upper end"
 
 
 def _without_deviations(

@@ -50,9 +50,15 @@ def robust(
     if spec is None:
         return None
     key = "robust"
-    for section in ("payloads", "slots", "loops"):
+    for section in ("slots", "loops"):
         if getattr(ctx.spec, section):
-            raise ctx.fail(key, f"[robust] cannot be combined with [{section}] yet (docs/robust.md)")
+            raise ctx.fail(key, f"not combinable yet: [robust] with [{section}] (docs/robust.md#not-done)")
+    if ctx.spec.payloads and spec.mode != "none":
+        raise ctx.fail(
+            f"{key}.mode",
+            f"not combinable yet: mode = \"{spec.mode}\" with [payloads]; a payload range is designed as usual and its tolerance corners "
+            "tuned at every payload (mode = \"none\" with tune, docs/robust.md#payload-ranges)",
+        )
     if spec.tolerances == {}:
         raise ctx.fail(f"{key}.tolerances", "missing: give at least one tolerance, e.g. rate = \"10 %\"")
     # a body's or a counter-mass's name; a kind-wide value applies to every one but the payloads
@@ -64,7 +70,7 @@ def robust(
     trees.update({("mass", c.name): c.mass for c in counter_masses})
     direct = [s.name for s in springs if s.direct is not None]
     if direct:
-        raise ctx.fail(key, f"[robust] needs pulley-mounted springs; '{direct[0]}' is attached directly")
+        raise ctx.fail(key, f"not combinable yet: [robust] with directly attached springs ('{direct[0]}'; docs/robust.md#not-done)")
     tolerances: list[Tolerance] = []
     for kind, raw in spec.tolerances.items():
         kkey = f"{key}.tolerances.{kind}"
