@@ -172,7 +172,8 @@ class Decomposition:
             out.append(grid(np.array([c.lower for c in coords]), np.array([c.upper for c in coords]), count, rng))
         return out
 
-    def _map(self, b: int, n: int, which: str = "residual") -> Any:
+    def mapped(self, b: int, n: int, which: str = "residual") -> Any:
+        """Block ``b``'s residual (or ``which`` function) mapped over ``n`` columns, built once."""
         key = (b, n, which)
         if key not in self._maps:
             self._maps[key] = getattr(self.formulation.blocks[b], which).map(n)
@@ -214,7 +215,7 @@ class Decomposition:
         for b, block in enumerate(f.blocks):
             qb = q[b]
             n = len(qb)
-            fn = self._map(b, n)
+            fn = self.mapped(b, n)
 
             def value(z: np.ndarray, dev: int | None, fn: Any = fn, qb: np.ndarray = qb, at: np.ndarray | None = None) -> np.ndarray:
                 pv = self.p_with(p, dev) if at is None else at
@@ -244,7 +245,7 @@ class Decomposition:
                         FB[:, k, j] = (shifted[j + 1] - base[j + 1]) - F[:, k]
                 blocks_groups[g][0].append(F)
                 blocks_groups[g][1].append(FB)
-            torque = np.abs(np.array(self._map(b, n, "gravity_torque")(qb.T, z_ref, p)).T.reshape(-1))
+            torque = np.abs(np.array(self.mapped(b, n, "gravity_torque")(qb.T, z_ref, p)).T.reshape(-1))
             kinds = np.tile([self.problem.coordinate[c].unit.dimension == "" for c in block.coordinates], n)
             blocks_r0.append(r0)
             blocks_A.append(A)

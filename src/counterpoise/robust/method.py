@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import copy
 import itertools
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
@@ -43,6 +43,9 @@ from .perturb import Deviation, corner_name, corner_text, perturbed
 
 if TYPE_CHECKING:
     from ..designer.designer import Designer
+    from .law import Check, Law
+    from .limits import Envelope as LimitEnvelope
+    from .limits import Margin, PulleySpring
     from .minimax import RobustMinimax
 
 #: configurations per block on which the worst case of a design is measured
@@ -54,6 +57,9 @@ ZERO_EFFECT = 1e-12
 TUNE_VERIFY_SAMPLES = 2_000
 #: a payload range: rounds of reserving an adjustment's travel for the tuning
 RESERVE_ROUNDS = 3
+#: random as-built machines the tuning law is checked on, and configurations per block for each
+LAW_SAMPLES = 1000
+LAW_CONFIGURATIONS = 500
 
 
 #: the positional arguments of :func:`.convex.solve_robust` (rows, objective, signs, bounds,
@@ -97,6 +103,15 @@ class RobustReport:
     #: minimise mode: the file's objective per design (``objective`` is it + weight × band)
     base_objective: Mapping[str, float] = field(default_factory=dict)
     weight: float = 0.0  # kg per unit of worst-case ratio (minimise)
+    #: per free-stiffness pulley spring: what it must serve over every tuned corner (robust/limits.py)
+    envelope: "Mapping[str, LimitEnvelope]" = field(default_factory=dict)
+    #: per such spring: the spring as designed for the envelope (its F0, L0, allowable load, cable)
+    springs: "Mapping[str, PulleySpring]" = field(default_factory=dict)
+    #: per tuned corner: each spring's margins to its limits
+    margins: "Mapping[str, tuple[Margin, ...]]" = field(default_factory=dict)
+    #: the tuning law and its check at random as-built machines (robust/law.py)
+    law: "Law | None" = None
+    law_check: "Check | None" = None
 
     @property
     def tuned_residual(self) -> float:
@@ -558,9 +573,11 @@ class RobustMethod:
             self._tuner = Designer(built)
         base = dict(parameters or {})
         out = []
+        tuned: list[tuple[tuple[int, ...], Solution]] = []
         for corner in corners:
             overrides = {**base, **{d.parameter: s * d.half_width for d, s in zip(self.deviations, corner)}}
             solution = self._tuner.solve(parameters=overrides, bounds=held, certify=False)
+            tuned.append((corner, solution))
             before = float(np.max(np.abs(rows.at(corner)) / rows.reference))
             check = verify(solution)
             after = float(check.residual_ratio)
@@ -595,7 +612,99 @@ class RobustMethod:
             status = f"tuning infeasible: corner {c.name} ({c.deviation}){payload} keeps a residual ratio of {c.after:.3g} after tuning (> {tolerance:g}); {reason}"
         else:
             status = "balanced"
-        return replace(report, corners=tuple(out), tuning_range=tuning_range, tuning_status=status)
+        report = replace(report, corners=tuple(out), tuning_range=tuning_range, tuning_status=status)
+        if status != "balanced":
+            return report
+        report = self._hardware(design, tuned, report)
+        if report.tuning_status != "balanced" or not spec.tune:
+            return report
+        return self._law(design, z, p, report)
+
+    def _law(self, design: Solution, z: np.ndarray, p: np.ndarray, report: RobustReport) -> RobustReport:
+        """The tuning law (:mod:`.law`) of the design and its check at random as-built machines."""
+        from . import law as tuning_law
+
+        spec = self._spec()
+        scenario = self._law_scenario()
+        spans = {t: hi - lo for t, (lo, hi) in report.tuning_range.items()}
+        law = tuning_law.build(self.decomposition, z, p, spec.tune, scenario, spans, steps=dict(spec.steps))
+        if len(law.readings) < len(law.tune):
+            return replace(report, law=law, tuning_status=f"no tuning law: the tune variables {', '.join(spec.tune)} move fewer readings than there are variables")
+        pretension = {name: spring.initial_tension for name, spring in report.springs.items()}
+        check = tuning_law.check(law, self.decomposition, z, p, LAW_SAMPLES, self.problem.settings.seed + 31, LAW_CONFIGURATIONS, pretension)
+        return replace(report, law=law, law_check=check)
+
+    def _law_scenario(self) -> str:
+        """The scenario the technician tunes in: the nominal payload's (a payload range), else the first."""
+        if self.problem.payloads:
+            payload = self.problem.payloads[0]
+            for sc in self.perturbed.scenarios:
+                if sc.parameters.get(payload.name) == payload.nominal:
+                    return sc.name
+        return self.perturbed.scenarios[0].name
+
+    def _hardware(self, design: Solution, tuned: Sequence[tuple[tuple[int, ...], Solution]], report: RobustReport) -> RobustReport:
+        """Every tuned corner against the hardware limits of its springs (:mod:`.limits`): the
+        distances of each free-stiffness pulley spring's ends at the tuned settings (the dense
+        sample designed springs are checked on), its rate at the corner; the envelope over the
+        corners, the spring designed for it (the cable as long as the longest distance), and
+        each corner's margins. A limit broken at a corner makes the tuning infeasible, named."""
+        from ..mechanics import Mechanics
+        from ..springs import Envelope as Space
+        from ..springs import Requirement, design as wind
+        from ..springs.workspace import SEED_OFFSET, distances, free_springs, sample
+        from .limits import Envelope as LimitEnvelope
+        from .limits import Margin, PulleySpring, breaches, envelope, pulley_margins
+
+        problem = self.perturbed
+        springs = [sp for sp in free_springs(problem) if sp.direct is None]
+        if not springs:
+            return report
+        scenario = self._law_scenario()
+        gravity, base0 = design.scenario_parameters.get(scenario, next(iter(design.scenario_parameters.values())))
+        q = sample(problem, {**base0, **{d.parameter: 0.0 for d in self.deviations}}, problem.settings.verify_samples, problem.settings.seed + SEED_OFFSET)
+        names = [v.name for v in problem.variables]
+        per_corner: dict[str, dict[str, tuple[float, float, float]]] = {}
+        for signs, solution in tuned:
+            values = solution.variable_values(scenario)
+            devs = self.decomposition.values_at(signs)
+            variables = {n: np.array([[values[n]]]) for n in names}
+            lengths = distances(problem, springs, q, variables, {**base0, **devs}, gravity)
+            mech = Mechanics(problem, {**base0, **devs}, values, {c.name: c.home for c in problem.coordinates}, gravity)
+            per_corner[corner_name("", signs)] = {sp.name: (float(mech.value(sp.stiffness)), float(lengths[sp.name].min()), float(lengths[sp.name].max())) for sp in springs}
+        tension = {t.item: t.amount for t in self._spec().tolerances if t.kind == "initial_tension"}
+        envelopes: dict[str, LimitEnvelope] = {}
+        made_springs: dict[str, PulleySpring] = {}
+        margins: dict[str, list[Margin]] = {}
+        failures: list[str] = []
+        for sp in springs:
+            uses = [at[sp.name] for at in per_corner.values()]
+            env = envelope(uses)
+            k = float(Mechanics(problem, {**base0, **self.decomposition.values_at([0] * len(self.deviations))}, design.variable_values(scenario), {c.name: c.home for c in problem.coordinates}, gravity).value(sp.stiffness))
+            if not k > 0:
+                continue
+            need = Requirement(rate=k, force_min=max(env.force_min - tension.get(sp.name, 0.0), 0.0), force_max=env.force_max)
+            o = sp.design
+            made = wind(need, o.material, Space(o.max_outer_diameter, o.max_body_length), o.rate_tolerance, o.min_safety_factor)
+            envelopes[sp.name] = replace(env, force_min=need.force_min)
+            if not made.ok:
+                worst = max(per_corner, key=lambda c: per_corner[c][sp.name][0] * per_corner[c][sp.name][2])
+                failures.append(f"no spring {sp.name} can be wound for every tuned corner ({'; '.join(made.reasons)}); corner {worst} needs {env.force_max:.4g} N")
+                continue
+            made_springs[sp.name] = PulleySpring(k, made.initial_tension, made.free_length, env.distance_max, made.max_force, made.max_length)
+            for name, at in per_corner.items():
+                rate, d_min, d_max = at[sp.name]
+                built = PulleySpring(rate, made.initial_tension + tension.get(sp.name, 0.0), made.free_length, env.distance_max, made.max_force, made.max_length)
+                margins.setdefault(name, []).extend(pulley_margins(sp.name, built, d_min, d_max))
+        broken = breaches(margins)
+        if broken:
+            where, m = min(broken, key=lambda cm: cm[1].margin)
+            text = {"slack": "its cable goes slack", "cable": "its end reaches the pulley (the cable is too short)", "load": "it is loaded beyond its allowable load", "length": "it is stretched beyond its longest length"}[m.limit]
+            failures.append(f"corner {where}: spring {m.spring}: {text} by {m.margin * (-1 if m.limit == 'load' else -1e3):.4g} {'N' if m.limit == 'load' else 'mm'}")
+        status = report.tuning_status
+        if failures:
+            status = "tuning infeasible: the tuned settings break the hardware: " + "; ".join(failures)
+        return replace(report, envelope=envelopes, springs=made_springs, margins={c: tuple(ms) for c, ms in margins.items()}, tuning_status=status)
 
 
 def _reserved_text(v: Any, lo: float, hi: float) -> str:

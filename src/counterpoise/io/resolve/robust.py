@@ -130,7 +130,29 @@ def robust(
         )
     if spec.tune and all(t.kind == "initial_tension" for t in tolerances):
         raise ctx.fail(f"{key}.tune", "tuning re-balances rate, mass, centre-of-mass and point corners; only initial tensions are toleranced")
-    return RobustSpec(tuple(tolerances), mode, weight, limit, spec.shape, tuple(spec.tune), spec.description)
+    steps = _per_tune(ctx, spec.step, spec.tune, f"{key}.step", "trial turn")
+    pitch = _per_tune(ctx, spec.pitch, spec.tune, f"{key}.pitch", "screw pitch", length_only=True)
+    return RobustSpec(tuple(tolerances), mode, weight, limit, spec.shape, tuple(spec.tune), spec.description, steps, pitch)
+
+
+def _per_tune(ctx: Context, table: dict[str, Any], tune: Sequence[str], key: str, what: str, length_only: bool = False) -> tuple[tuple[str, float], ...]:
+    """A table keyed by tune variables of quantities in each variable's unit (a pitch: a
+    length, for a variable that is a length), positive and finite."""
+    out = []
+    for name, raw in table.items():
+        k = f"{key}.{name}"
+        if name not in tune:
+            raise ctx.fail(k, f"'{name}' is not a tune variable{suggest(name, list(tune))} (robust.tune = [{', '.join(tune)}])")
+        q = ctx.literal(raw, k)
+        unit = ctx.symbol_unit[name]
+        if length_only and unit.dimension != LENGTH:
+            raise ctx.fail(k, f"a {what} is for a tune variable that is a length (a screw position); '{name}' is not")
+        with ctx.at(k):
+            check_dimension(q.dimension, unit.dimension, f"'{raw}'")
+        if not (math.isfinite(q.si) and q.si > 0):
+            raise ctx.fail(k, f"a {what} must be positive and finite, got '{raw}'")
+        out.append((name, q.si))
+    return tuple(out)
 
 
 def _tolerance(ctx: Context, kind: str, item: str, value: Any, key: str) -> Tolerance:
