@@ -236,6 +236,7 @@ MANIFEST: dict[str, Expect] = {
     "robust_weight_too_large.toml": Expect("robust.weight", "'1e308 kg' is too large: weights above 1e+09 kg"),
     "robust_tune_duplicated.toml": Expect("robust.tune.1", "'M_a' is listed twice (first as robust.tune.0)"),
     "robust_com_tolerance_too_large.toml": Expect("robust.tolerances.com.tip", "a com tolerance of '5 m' is beyond 1 m"),
+    "robust_pitch_not_a_tune_variable.toml": Expect("robust.pitch.M_b", "'M_b' is not a tune variable"),
     # every error of a file, one line each
     "frame_two_unknown_parents.toml": Expect(
         "frames.link_b.parent",

@@ -128,3 +128,31 @@ def test_pulley_margins_by_hand():
     assert (env.distance_min, env.distance_max, env.force_min, env.force_max) == pytest.approx((0.02, 0.28, 4.0, 56.0))
     assert not pulley_margins("s", PulleySpring(200.0), 0.02, 0.28)  # nothing known, nothing claimed
     assert math.isnan(PulleySpring(1.0).cable)
+
+
+def test_no_spring_for_the_tuning_range_is_infeasible_naming_the_corner(tmp_path):
+    """The pendulum's spring confined to 6 mm × 40 mm: the tuned corner +10 % (h = 90.909 mm,
+    the cable's longest distance a + h = 290.9 mm) needs k'·d = 1.1 × 294.3 N/m × 0.2909 m =
+    94.18 N, which no spring in that envelope carries: infeasible, the corner named."""
+    text = PENDULUM % {"robust": 'tune = ["h"]\ntolerances.rate = "10 %"', "h_lower": "50 mm", "h_upper": "150 mm"}
+    text = text.replace('[springs.s]\nstiffness = "k"', '[springs.s]\nstiffness = "k"\nmax_outer_diameter = "6 mm"\nmax_body_length = "40 mm"')
+    path = tmp_path / "small_spring.toml"
+    path.write_text(text, encoding="utf-8")
+    result = design(load_problem(path))
+    assert not result.optimal
+    assert "tuning infeasible: the tuned settings break the hardware: no spring s can be wound for every tuned corner" in result.message
+    assert f"corner corner_p needs {1.1 * K_SPRING_ONLY * (0.2 + 0.1 / 1.1):.4g} N" in result.message
+
+
+def test_step_and_pitch_set_the_procedure(tmp_path):
+    """robust.step = 5 mm and robust.pitch = 0.5 mm: the trial turn is 5 mm, 10 turns."""
+    text = PENDULUM % {"robust": 'tune = ["h"]\nstep = { h = "5 mm" }\npitch = { h = "0.5 mm" }\ntolerances.rate = "10 %"', "h_lower": "50 mm", "h_upper": "150 mm"}
+    path = tmp_path / "pitch.toml"
+    path.write_text(text, encoding="utf-8")
+    problem = load_problem(path)
+    assert dict(problem.robust.steps) == {"h": pytest.approx(0.005)} and dict(problem.robust.pitch) == {"h": pytest.approx(0.0005)}
+    from counterpoise.report.robust import procedure_rows
+
+    result = design(problem)
+    actions = " ".join(r["action"] for r in procedure_rows(result))
+    assert "Turn h by +5 mm (10 turns of a 0.5 mm pitch screw)" in actions
