@@ -156,3 +156,27 @@ def test_step_and_pitch_set_the_procedure(tmp_path):
     result = design(problem)
     actions = " ".join(r["action"] for r in procedure_rows(result))
     assert "Turn h by +5 mm (10 turns of a 0.5 mm pitch screw)" in actions
+
+
+def test_without_tuning_the_built_design_is_checked_at_the_corners(tmp_path):
+    """No tune: the ordinary design (k = 294.3 N/m, h = 100 mm) built with a rate 10 % high pulls
+    1.1 × 294.3 N/m × 0.3 m = 97.12 N at θ = −90°: no spring of 6 mm × 40 mm carries it, the
+    corner named (the spring made serves every corner of its rate, not the nominal alone)."""
+    text = PENDULUM % {"robust": 'tolerances.rate = "10 %"', "h_lower": "100 mm", "h_upper": "100 mm"}
+    text = text.replace('[springs.s]\nstiffness = "k"', '[springs.s]\nstiffness = "k"\nmax_outer_diameter = "6 mm"\nmax_body_length = "40 mm"')
+    path = tmp_path / "as_built.toml"
+    path.write_text(text, encoding="utf-8")
+    result = design(load_problem(path))
+    assert not result.optimal
+    assert "the design as built breaks the hardware at a tolerance corner: no spring s can be wound" in result.message
+    assert f"corner corner_p needs {1.1 * K_SPRING_ONLY * 0.3:.4g} N" in result.message
+    # with a spring that can be made, the one made serves the +10 % corner
+    ok = design(load_problem(_write(tmp_path, PENDULUM % {"robust": 'tolerances.rate = "10 %"', "h_lower": "100 mm", "h_upper": "100 mm"})))
+    assert ok.optimal, ok.message
+    assert ok.solution.robust.envelope["s"].force_max == pytest.approx(1.1 * K_SPRING_ONLY * 0.3, rel=1e-6)
+
+
+def _write(folder, text: str):
+    path = folder / "plain.toml"
+    path.write_text(text, encoding="utf-8")
+    return path

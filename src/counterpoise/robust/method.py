@@ -57,6 +57,11 @@ ZERO_EFFECT = 1e-12
 TUNE_VERIFY_SAMPLES = 2_000
 #: a payload range: rounds of reserving an adjustment's travel for the tuning
 RESERVE_ROUNDS = 3
+#: a spring whose largest force times its longest distance is below this share of the largest
+#: gravity torque carries nothing (a rate left at rounding level): it is not checked or built
+UNUSED_SPRING = 1e-6
+#: corners of the spring deviations checked against the hardware without tuning, at most
+MAX_HARDWARE_CORNERS = 256
 #: random as-built machines the tuning law is checked on, and configurations per block for each
 LAW_SAMPLES = 1000
 LAW_CONFIGURATIONS = 500
@@ -144,6 +149,7 @@ class RobustMethod:
         self._minimax: RobustMinimax | None = None  # the minimax NLP (free geometry), built on first use
         self._constraints: CornerConstraints | None = None  # the constraints at every corner, built on first use
         self._held_values: dict[Slot, float] = {}  # the tuning's held variables (SI), of its last design
+        self._torque = 0.0  # the largest gravity torque of the bands' rows (the scale of an unused spring)
 
     def with_spec(self, spec: RobustSpec) -> "RobustMethod":
         """The same method (its inner method and decomposition shared) for another ``[robust]``
@@ -290,6 +296,12 @@ class RobustMethod:
         if spec.tune and status is Status.OPTIMAL:
             report = self._tune(design, z, p, dense, report, parameters)
             if report.tuning_status != "balanced":
+                status, message = Status.INFEASIBLE, report.tuning_status
+        elif status is Status.OPTIMAL:
+            # no tuning: the design as built, at every corner of the deviations that move a
+            # spring's force or ends, within its springs' hardware limits
+            report = self._hardware(design, self._spring_corners(), report, tuned=False)
+            if report.tuning_status:
                 status, message = Status.INFEASIBLE, report.tuning_status
         key = "robust" if "robust" in bands else "nominal"
         bound = "" if report.exactness == "exact" else " (a bound)"
@@ -490,6 +502,7 @@ class RobustMethod:
         return self.problem.robust
 
     def _band(self, rows: Rows) -> dict[str, float]:
+        self._torque = max(self._torque, float(np.max(rows.reference, initial=0.0)))
         zero = np.zeros(rows.A.shape[1])
         out = {"residual": float(np.max(np.abs(rows.r0) / rows.reference)), "all": float(np.max(worst(rows, zero, self._spec().shape)))}
         for kind in dict.fromkeys([d.tolerance.kind for d in self.deviations] + (["initial_tension"] if self.decomposition.tensions else [])):
@@ -615,7 +628,7 @@ class RobustMethod:
         report = replace(report, corners=tuple(out), tuning_range=tuning_range, tuning_status=status)
         if status != "balanced":
             return report
-        report = self._hardware(design, tuned, report)
+        report = self._hardware(design, tuned, report)  # the tuned corners' settings
         if report.tuning_status != "balanced" or not spec.tune:
             return report
         return self._law(design, z, p, report)
@@ -643,7 +656,21 @@ class RobustMethod:
                     return sc.name
         return self.perturbed.scenarios[0].name
 
-    def _hardware(self, design: Solution, tuned: Sequence[tuple[tuple[int, ...], Solution]], report: RobustReport) -> RobustReport:
+    def _spring_corners(self) -> list[tuple[tuple[int, ...], None]]:
+        """The corners of the deviations that change a spring (its rate, its ends), at most
+        MAX_HARDWARE_CORNERS (the rates alone beyond), each with no tuned design."""
+        idx = [i for i, d in enumerate(self.deviations) if d.tolerance.kind in ("rate", "point")]
+        if 2 ** len(idx) > MAX_HARDWARE_CORNERS:
+            idx = [i for i in idx if self.deviations[i].tolerance.kind == "rate"][: int(np.log2(MAX_HARDWARE_CORNERS))]
+        out: list[tuple[tuple[int, ...], None]] = []
+        for signs in itertools.product((-1, 1), repeat=len(idx)):
+            full = [0] * len(self.deviations)
+            for i, sign in zip(idx, signs):
+                full[i] = sign
+            out.append((tuple(full), None))
+        return out
+
+    def _hardware(self, design: Solution, corners: Sequence[tuple[tuple[int, ...], Solution | None]], report: RobustReport, *, tuned: bool = True) -> RobustReport:
         """Every tuned corner against the hardware limits of its springs (:mod:`.limits`): the
         distances of each free-stiffness pulley spring's ends at the tuned settings (the dense
         sample designed springs are checked on), its rate at the corner; the envelope over the
@@ -665,8 +692,8 @@ class RobustMethod:
         q = sample(problem, {**base0, **{d.parameter: 0.0 for d in self.deviations}}, problem.settings.verify_samples, problem.settings.seed + SEED_OFFSET)
         names = [v.name for v in problem.variables]
         per_corner: dict[str, dict[str, tuple[float, float, float]]] = {}
-        for signs, solution in tuned:
-            values = solution.variable_values(scenario)
+        for signs, solution in corners:
+            values = (solution or design).variable_values(scenario)
             devs = self.decomposition.values_at(signs)
             variables = {n: np.array([[values[n]]]) for n in names}
             lengths = distances(problem, springs, q, variables, {**base0, **devs}, gravity)
@@ -680,6 +707,8 @@ class RobustMethod:
         for sp in springs:
             uses = [at[sp.name] for at in per_corner.values()]
             env = envelope(uses)
+            if env.force_max * env.distance_max <= UNUSED_SPRING * self._torque:
+                continue  # the balance does not use it (a rate at rounding level): nothing to build
             k = float(Mechanics(problem, {**base0, **self.decomposition.values_at([0] * len(self.deviations))}, design.variable_values(scenario), {c.name: c.home for c in problem.coordinates}, gravity).value(sp.stiffness))
             if not k > 0:
                 continue
@@ -703,7 +732,8 @@ class RobustMethod:
             failures.append(f"corner {where}: spring {m.spring}: {text} by {m.margin * (-1 if m.limit == 'load' else -1e3):.4g} {'N' if m.limit == 'load' else 'mm'}")
         status = report.tuning_status
         if failures:
-            status = "tuning infeasible: the tuned settings break the hardware: " + "; ".join(failures)
+            what = "tuning infeasible: the tuned settings break the hardware" if tuned else "infeasible: the design as built breaks the hardware at a tolerance corner"
+            status = f"{what}: " + "; ".join(failures)
         return replace(report, envelope=envelopes, springs=made_springs, margins={c: tuple(ms) for c, ms in margins.items()}, tuning_status=status)
 
 
