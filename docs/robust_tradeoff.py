@@ -36,7 +36,7 @@ def main() -> None:
         solution = method.with_spec(replace(spec, limit=float(limit))).solve()
         report = solution.robust
         band = report.bands.get("robust", report.bands["nominal"])
-        rows.append((float(limit), band["all"], band["rate"], band["mass"], report.added_mass.get("robust", float("nan")), solution.verdict[0].value))
+        rows.append((float(limit), band["all"], band["rate"], band["mass"], report.added_mass.get("robust", float("nan")), (solution.verdict.status if solution.verdict is not None else solution.status).value))
     print("limit,worst_case_ratio,rate_part,mass_part,added_mass_kg,status")
     for r in rows:
         print(",".join(f"{x:.4g}" if isinstance(x, float) else str(x) for x in r))

@@ -252,8 +252,20 @@ MANIFEST: dict[str, Expect] = {
     "constraint_inconsistent_units.toml": Expect("constraints.cap.expression", "inconsistent units in 'M_a + b_a'"),
     "constraint_total_with_argument.toml": Expect("constraints.cap.expression", "added_mass() takes no argument"),
     # [robust]
-    "robust_unknown_body.toml": Expect("robust.tolerances.mass.tipp", "unknown body 'tipp' (did you mean 'tip'?)"),
+    "robust_unknown_body.toml": Expect("robust.tolerances.mass.tipp", "unknown body or counter-mass 'tipp' (did you mean 'tip'?)"),
     "robust_limit_missing.toml": Expect("robust.limit", 'mode = "limit" needs a limit'),
+    # tolerances and weights out of range (issue 31 part 6, issue 32 item 12)
+    "robust_relative_tolerance_100_percent.toml": Expect("robust.tolerances.mass", "a relative tolerance must be below 100 %"),
+    "robust_absolute_tolerance_beyond_nominal.toml": Expect(
+        "robust.tolerances.mass.tip", "an absolute mass tolerance of '1 kg' is not below the nominal mass (at most 0.4 kg within the bounds)"
+    ),
+    "robust_absolute_tolerance_counter_mass_beyond_bounds.toml": Expect(
+        "robust.tolerances.mass.M_a", "an absolute mass tolerance of '1e308 kg' is not below the nominal mass (at most 20 kg within the bounds)"
+    ),
+    "robust_weight_too_large.toml": Expect("robust.weight", "'1e308 kg' is too large: weights above 1e+09 kg"),
+    "robust_tune_duplicated.toml": Expect("robust.tune.1", "'M_a' is listed twice (first as robust.tune.0)"),
+    "robust_com_tolerance_too_large.toml": Expect("robust.tolerances.com.tip", "a com tolerance of '5 m' is beyond 1 m"),
+    "robust_pitch_not_a_tune_variable.toml": Expect("robust.pitch.M_b", "'M_b' is not a tune variable"),
     # every error of a file, one line each
     "frame_two_unknown_parents.toml": Expect(
         "frames.link_b.parent",

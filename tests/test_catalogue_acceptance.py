@@ -107,7 +107,13 @@ def test_essomba_position_three_modes(position):
     # the tolerance report is present, with the rate corners re-adjusted
     texts = report_texts(r)
     assert "tolerance.csv" in texts and "band," in texts["tolerance.csv"]
-    assert r.parts.tolerance.worst_rate == pytest.approx(0.1, rel=1e-6)  # every spring carries the whole gravity load
+    # every spring carries the whole gravity load of its joint, k d ∂d/∂q = τ_g: a rate error of
+    # ±10 % acts on the extension beyond the initial tension, d − F0/k (the string is set for the
+    # nominal part, docs/catalogues.md), so its term t (k d − F0)|∂d/∂q| = t |τ_g| (1 − F0/(k d))
+    # lies between t (1 − F0/(k d_min)) |τ_g| and t |τ_g| (it was t |τ_g| = 0.1 before the −Δk·F0/k
+    # term, issue 31)
+    floor = min(1 - u.initial_tension / u.force_min for u in r.parts.springs)
+    assert 0.1 * floor <= r.parts.tolerance.worst_rate < 0.1
     assert len(r.parts.corners) == 4
 
 

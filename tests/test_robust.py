@@ -153,7 +153,7 @@ def test_tuning_range_and_table(folder, capsys):
         main(["solve", str(path), "--out", str(folder / "out")])
     assert stop.value.code == 0, capsys.readouterr()
     reports = folder / "out" / "robust_pendulum"
-    table = (reports / "tuning.csv").read_text().splitlines()
+    table = (reports / "tuning_corners.csv").read_text().splitlines()
     assert table[0] == "corner,rate:s,h [mm],residual_ratio_before,residual_ratio_after"
     rows = {line.split(",")[0]: [float(x) for x in line.split(",")[1:]] for line in table[1:]}
     assert rows["corner_p"][1] == pytest.approx(100 / 1.1, rel=1e-7)

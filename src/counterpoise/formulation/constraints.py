@@ -252,6 +252,9 @@ class ConstraintValue:
     #: an infeasible constrained design: how much (SI) the elastic problem relaxed this
     #: constraint by, in the design reported (0: not relaxed)
     relaxed: float = 0.0
+    #: a [robust] design: the tolerance corner where the constraint is closest to (or beyond)
+    #: its bounds, as text ("rate spring_1 +10 %"; "nominal"); "" for a design without [robust]
+    corner: str = ""
 
 
 def _extreme(problem: Problem, spring: ZeroFreeLengthSpring, quantity: str, side: str, base: Mapping[str, float], gravity: Sequence[float],
@@ -443,6 +446,8 @@ def describe(problem: Problem, v: ConstraintValue) -> str:
     if v.configuration:
         at = ", ".join(f"{n}={problem.coordinate[n].unit.from_si(x):.4g} {problem.coordinate[n].unit.label}".rstrip() for n, x in v.configuration.items())
         text += f" (at {at})"
+    if v.corner:
+        text += f" at the tolerance corner {v.corner}"
     if len(problem.scenarios) > 1:
         text += f" in scenario '{v.scenario}'"
     return text

@@ -367,6 +367,9 @@ class RobustSpec(_Table):
     #: kind = value (every item of the kind) or kind = { item = value }
     tolerances: dict[str, ToleranceValue] = Field(default_factory=dict)
     tune: tuple[Name, ...] = ()
+    #: the tuning law's trial turn per tune variable, and the screw pitch (length per turn)
+    step: dict[str, Value] = Field(default_factory=dict)
+    pitch: dict[str, Value] = Field(default_factory=dict)
     description: str = ""
 
 

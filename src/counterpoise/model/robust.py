@@ -42,3 +42,11 @@ class RobustSpec:
     #: variables re-set on the built balancer (an anchor screw) to re-balance every corner
     tune: tuple[str, ...] = ()
     description: str = ""
+    #: the tuning law's trial turn of each tune variable (SI; default a round quarter of its tuning range)
+    steps: tuple[tuple[str, float], ...] = ()
+    #: the screw pitch of each tune variable that is a length (m per turn; default PITCH)
+    pitch: tuple[tuple[str, float], ...] = ()
+
+
+#: the screw pitch the procedure states turns for when the file gives none (m per turn; M6 coarse)
+PITCH = 1e-3

@@ -186,6 +186,9 @@ def realisations(result: DesignResult, mech: Mechanics | None = None) -> dict[st
             l0, f0 = designed[s.name].free_length, designed[s.name].initial_tension
         use = uses.get(s.name)
         distances = (use.distance_min, use.distance_max) if use is not None else extremes[s.name]
+        tuning = getattr(getattr(result.solution, "robust", None), "envelope", {}).get(s.name)
+        if tuning is not None:  # [robust] tune: the cable serves every tuned corner (robust/limits.py)
+            distances = (min(distances[0], tuning.distance_min), max(distances[1], tuning.distance_max))
         out[s.name] = (realise_spring(mech, s, distances, l0, f0), part)
     return out
 

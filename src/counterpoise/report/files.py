@@ -176,7 +176,8 @@ def report_texts(result: DesignResult, warnings: Sequence[str] | None = None) ->
     problem substitutes a body; payload problems add ``schedule.csv``; problems with
     catalogue parts ``springs.csv`` and ``tolerance.csv``; problems with free-stiffness
     springs ``springs.csv``; problems with springs or counter-masses ``build.csv``, :mod:`.build`;
-    ``[robust]`` problems ``tolerance.csv`` and, with ``tune``, ``tuning.csv``: :mod:`.robust`).
+    ``[robust]`` problems ``tolerance.csv`` and, with ``tune``, ``tuning.csv`` (the procedure)
+    and ``tuning_corners.csv`` (the corners): :mod:`.robust`).
 
     ``warnings``: the problem's degeneracy warnings as already found
     (:func:`~counterpoise.formulation.assumptions.degeneracies`; the CLI finds them at load);
@@ -204,10 +205,13 @@ def report_texts(result: DesignResult, warnings: Sequence[str] | None = None) ->
         from . import robust
 
         texts["design.csv"] = csv_text(design_rows(result) + robust.design_rows(result), DESIGN_COLUMNS)
-        texts["status.txt"] += robust.status_lines(result)
+        texts["status.txt"] += robust.status_lines(result) + robust.law_status_lines(result)
         texts["tolerance.csv"] = csv_text(robust.tolerance_rows(result), robust.TOLERANCE_COLUMNS)
         if result.problem.robust is not None and result.problem.robust.tune:
-            texts["tuning.csv"] = csv_text(robust.tuning_rows(result), robust.tuning_columns(result))
+            texts["tuning_corners.csv"] = csv_text(robust.tuning_rows(result), robust.tuning_columns(result))
+            procedure = robust.procedure_rows(result)
+            if procedure:
+                texts["tuning.csv"] = csv_text(procedure, robust.PROCEDURE_COLUMNS)
     if result.parts is not None or result.springs:
         texts["springs.csv"] = csv_text(parts.springs_rows(result), parts.SPRINGS_COLUMNS)
     if result.parts is not None:

@@ -158,6 +158,8 @@ def constraint_rows(result: DesignResult) -> list[Row]:
         if v.relaxed > 0:
             relaxed = f"relaxed by {u.from_si(v.relaxed):.4g} {u.label}".rstrip() + " in this design (the elastic design of the conflict)"
             text = f"{text}; {relaxed}" if text else relaxed
+        if v.corner:  # a [robust] design: the value at the constraint's worst tolerance corner
+            text = f"{text}; worst tolerance corner: {v.corner}" if text else f"worst tolerance corner: {v.corner}"
         rows.append(
             {
                 "name": c.name,

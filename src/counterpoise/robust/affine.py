@@ -16,6 +16,22 @@ residual is affine in each. The worst case over the tolerance box is then
     |r(q; z, 0)| + ‖(b_i(q) + B_i(q) z)_i‖₂     (ellipsoid Σ (δ_i/h_i)² ≤ 1)
 
 plus, for toleranced initial tensions, Σ ΔF0 |∂d/∂q| (the cable's force along its length).
+
+**Products of deviations of one element.** A body whose mass and centre of mass are both
+toleranced has m(1 + δ_m)(c + δ_c): the residual has the term δ_m δ_c; a spring with a rate
+and a point tolerance (or both ends) has δ_k δ_a, δ_a δ_b, δ_k δ_a δ_b. The residual is still
+*multi-affine* (affine in each deviation, the others fixed: a squared end shift ½ k |δ|² does
+not depend on the configuration), and the deviations of different elements never multiply.
+So the deviations are grouped by element; a group of several is evaluated at each of its 2ⁿ
+vertices (its change F_g(v) from r₀, exact), and since the groups are independent the worst
+case over the box is, exactly,
+
+    max( r + Σ_g max_v F_g(v),  −r − Σ_g min_v F_g(v) )
+
+(for a group of one, max = |s_i| = −min: the formula above). The extreme of a multi-affine
+function over a box lies at a vertex. Over the ellipsoid the products are bounded: the
+first-order part ‖s‖₂ plus, per group, the largest |F_g(v) − Σ_i v_i s_i| over its box's
+vertices (which contain the ellipsoid): a bound, labelled so.
 """
 
 from __future__ import annotations
@@ -23,6 +39,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
+
+import itertools
 
 import numpy as np
 
@@ -47,12 +65,71 @@ class Rows:
     kinds: np.ndarray  # (n_dev,) the tolerance kind of each deviation ("rate", "mass", ...)
     block: np.ndarray  # (M,) index of the row's block
     q: list[np.ndarray]  # configurations of each block
+    #: elements with several deviations (their products are not first order): each group's
+    #: change at every vertex of its own box, exact
+    groups: tuple["Group", ...] = ()
 
     def residual(self, dz: np.ndarray) -> np.ndarray:
         return self.r0 + self.A @ dz
 
     def sensitivities(self, dz: np.ndarray) -> np.ndarray:
         return self.S0 + self.SB @ dz if self.SB.shape[2] else self.S0
+
+    @property
+    def grouped(self) -> np.ndarray:
+        """(n_dev,) True for the deviations that belong to a group of several."""
+        out = np.zeros(self.S0.shape[1], dtype=bool)
+        for g in self.groups:
+            out[list(g.members)] = True
+        return out
+
+    def at(self, signs: Sequence[float], dz: np.ndarray | None = None) -> np.ndarray:
+        """The residual at the corner ``signs`` (each ±1 or 0) of the box, exactly (products
+        within a group included), at the step ``dz`` (None: z_ref)."""
+        step = np.zeros(self.A.shape[1]) if dz is None else dz
+        s = np.asarray(signs, dtype=float)
+        single = ~self.grouped
+        out = self.residual(step) + self.sensitivities(step)[:, single] @ s[single]
+        for g in self.groups:
+            out = out + g.restricted(g.values(step), [bool(s[i]) for i in g.members])[:, g.vertex([s[i] for i in g.members if s[i]])]
+        return out
+
+
+@dataclass
+class Group:
+    """The deviations of one element (a body's mass and centre of mass, a spring's rate and
+    points): its change from r₀ at every vertex of its box, vertices in
+    ``itertools.product((-1, 1), repeat=n)`` order (the first member the slowest)."""
+
+    members: tuple[int, ...]
+    F: np.ndarray  # (M, 2ⁿ) change at each vertex, at z_ref
+    FB: np.ndarray  # (M, 2ⁿ, n_free) change of F per unit step of each free slot
+
+    def values(self, dz: np.ndarray) -> np.ndarray:
+        return self.F + self.FB @ dz if self.FB.shape[2] else self.F
+
+    def restricted(self, values: np.ndarray, keep: Sequence[bool]) -> np.ndarray:
+        """``values`` (M, 2ⁿ) with the members not kept at 0: the mean over their two signs
+        (the change is affine in each of them); (M, 2^kept)."""
+        n = len(self.members)
+        cube = values.reshape((values.shape[0],) + (2,) * n)
+        drop = tuple(1 + k for k in range(n) if not keep[k])
+        if drop:
+            cube = cube.mean(axis=drop)
+        return cube.reshape(values.shape[0], -1)
+
+    @staticmethod
+    def vertex(signs: Sequence[float]) -> int:
+        """The index of the vertex with these signs (±1) among its group's vertices."""
+        index = 0
+        for s in signs:
+            index = 2 * index + (1 if s > 0 else 0)
+        return index
+
+    def linear(self, values: np.ndarray) -> np.ndarray:
+        """The first-order coefficients (M, n): c_i = mean_v v_i F(v) (the change at δ_i = +h)."""
+        signs = np.array(list(itertools.product((-1.0, 1.0), repeat=len(self.members))))
+        return values @ signs / len(signs)
 
 
 def grid(lower: np.ndarray, upper: np.ndarray, count: int, rng: np.random.Generator) -> np.ndarray:
@@ -78,6 +155,12 @@ class Decomposition:
         self.deviations = tuple(deviations)
         self.formulation = Formulation(perturbed)
         self._maps: dict[tuple[int, int, str], Any] = {}  # (block, configurations, function) -> mapped CasADi function
+        #: the elements with several deviations (their indices), whose products are evaluated exactly
+        by_element: dict[tuple[str, str], list[int]] = {}
+        for i, d in enumerate(self.deviations):
+            element = "spring" if d.tolerance.kind in ("rate", "point", "initial_tension") else "body"
+            by_element.setdefault((element, d.tolerance.item), []).append(i)
+        self.groups: tuple[tuple[int, ...], ...] = tuple(tuple(m) for m in by_element.values() if len(m) > 1)
         spec = original.robust
         self.tensions = {t.item: t.amount for t in (spec.tolerances if spec else ()) if t.kind == "initial_tension" and t.amount > 0}
 
@@ -89,7 +172,8 @@ class Decomposition:
             out.append(grid(np.array([c.lower for c in coords]), np.array([c.upper for c in coords]), count, rng))
         return out
 
-    def _map(self, b: int, n: int, which: str = "residual") -> Any:
+    def mapped(self, b: int, n: int, which: str = "residual") -> Any:
+        """Block ``b``'s residual (or ``which`` function) mapped over ``n`` columns, built once."""
         key = (b, n, which)
         if key not in self._maps:
             self._maps[key] = getattr(self.formulation.blocks[b], which).map(n)
@@ -99,13 +183,26 @@ class Decomposition:
         """``p`` with deviation ``deviation`` at +h in every scenario (None: unchanged)."""
         if deviation is None:
             return p
+        signs = [0] * len(self.deviations)
+        signs[deviation] = 1
+        return self.p_at(p, signs)
+
+    def parameter_index(self, deviation: int) -> list[int]:
+        """The entries of the parameter vector that hold deviation ``deviation`` (one per scenario)."""
         layout = self.formulation.parameters
-        d = self.deviations[deviation]
-        i = layout.base_names.index(d.parameter)
-        out = p.copy()
-        for c in range(len(self.problem.scenarios)):
-            out[c * layout.stride + 3 + i] = d.half_width
+        i = layout.base_names.index(self.deviations[deviation].parameter)
+        return [c * layout.stride + 3 + i for c in range(len(self.problem.scenarios))]
+
+    def p_at(self, p: np.ndarray, signs: Sequence[float]) -> np.ndarray:
+        """``p`` with every deviation i at ``signs[i]`` × its half width, in every scenario."""
+        out = np.array(p, dtype=float, copy=True)
+        for i, (d, s) in enumerate(zip(self.deviations, signs)):
+            out[self.parameter_index(i)] = s * d.half_width
         return out
+
+    def values_at(self, signs: Sequence[float]) -> dict[str, float]:
+        """The deviation parameters' values (SI) at a corner: name -> ``signs[i]`` × half width."""
+        return {d.parameter: float(s) * d.half_width for d, s in zip(self.deviations, signs)}
 
     def rows(self, q: list[np.ndarray], z_ref: np.ndarray, free: Sequence[int], p: np.ndarray) -> Rows:
         """The rows at configurations ``q`` (one array per block), around ``z_ref``, for
@@ -114,13 +211,15 @@ class Decomposition:
         n_dev, n_free = len(self.deviations), len(free)
         blocks_r0, blocks_A, blocks_S0, blocks_SB, blocks_T, blocks_ref, ids, revolute = [], [], [], [], [], [], [], []
         designs = [z_ref] + [z_ref + np.eye(z_ref.size)[j] for j in free]
+        blocks_groups: list[tuple[list[np.ndarray], list[np.ndarray]]] = [([], []) for _ in self.groups]
         for b, block in enumerate(f.blocks):
             qb = q[b]
             n = len(qb)
-            fn = self._map(b, n)
+            fn = self.mapped(b, n)
 
-            def value(z: np.ndarray, dev: int | None, fn: Any = fn, qb: np.ndarray = qb) -> np.ndarray:
-                return np.array(fn(qb.T, z, self.p_with(p, dev))).T.reshape(-1)  # (n · n_q,), configuration-major
+            def value(z: np.ndarray, dev: int | None, fn: Any = fn, qb: np.ndarray = qb, at: np.ndarray | None = None) -> np.ndarray:
+                pv = self.p_with(p, dev) if at is None else at
+                return np.array(fn(qb.T, z, pv)).T.reshape(-1)  # (n · n_q,), configuration-major
 
             base = [value(z, None) for z in designs]
             r0 = base[0]
@@ -132,7 +231,21 @@ class Decomposition:
                 S0[:, i] = shifted[0] - r0
                 for j in range(n_free):
                     SB[:, i, j] = (shifted[j + 1] - base[j + 1]) - S0[:, i]
-            torque = np.abs(np.array(self._map(b, n, "gravity_torque")(qb.T, z_ref, p)).T.reshape(-1))
+            for g, members in enumerate(self.groups):
+                vertices = list(itertools.product((-1, 1), repeat=len(members)))
+                F = np.zeros((r0.size, len(vertices)))
+                FB = np.zeros((r0.size, len(vertices), n_free))
+                for k, v in enumerate(vertices):
+                    signs = np.zeros(n_dev)
+                    signs[list(members)] = v
+                    at = self.p_at(p, signs.tolist())
+                    shifted = [value(z, None, at=at) for z in designs]
+                    F[:, k] = shifted[0] - r0
+                    for j in range(n_free):
+                        FB[:, k, j] = (shifted[j + 1] - base[j + 1]) - F[:, k]
+                blocks_groups[g][0].append(F)
+                blocks_groups[g][1].append(FB)
+            torque = np.abs(np.array(self.mapped(b, n, "gravity_torque")(qb.T, z_ref, p)).T.reshape(-1))
             kinds = np.tile([self.problem.coordinate[c].unit.dimension == "" for c in block.coordinates], n)
             blocks_r0.append(r0)
             blocks_A.append(A)
@@ -160,6 +273,7 @@ class Decomposition:
             np.array([d.tolerance.kind for d in self.deviations]),
             np.concatenate(ids),
             list(q),
+            tuple(Group(members, np.concatenate(F), np.concatenate(FB)) for members, (F, FB) in zip(self.groups, blocks_groups)),
         )
 
     def _tension(self, block: Any, qb: np.ndarray, z: np.ndarray, p: np.ndarray) -> np.ndarray:
@@ -183,11 +297,35 @@ class Decomposition:
 
 def worst(rows: Rows, dz: np.ndarray, shape: str = "box", kinds: Sequence[str] | None = None) -> np.ndarray:
     """Worst-case residual ratio per row at the step ``dz`` (deviations of ``kinds`` only;
-    None: all, initial tensions included)."""
-    r = np.abs(rows.residual(dz))
+    None: all, initial tensions included): exact over the box (the module docstring), a
+    bound over the ellipsoid when an element has several deviations."""
+    r = rows.residual(dz)
     s = rows.sensitivities(dz)
-    if kinds is not None:
-        s = s[:, np.isin(rows.kinds, list(kinds))] if rows.kinds.size else s
-    spread = np.abs(s).sum(axis=1) if shape == "box" else np.sqrt((s**2).sum(axis=1))
+    chosen = np.isin(rows.kinds, list(kinds)) if kinds is not None and rows.kinds.size else np.ones(s.shape[1], dtype=bool)
     tension = rows.tension if kinds is None or "initial_tension" in kinds else 0.0
-    return (r + spread + tension) / rows.reference
+    if shape != "box":  # first order over the ellipsoid, plus a bound of each group's products
+        spread = np.sqrt((s[:, chosen] ** 2).sum(axis=1))
+        for g in rows.groups:
+            keep = [bool(chosen[i]) for i in g.members]
+            if sum(keep) > 1:
+                values = g.restricted(g.values(dz), keep)
+                linear = s[:, [i for i, k in zip(g.members, keep) if k]]
+                signs = np.array(list(itertools.product((-1.0, 1.0), repeat=sum(keep))))
+                spread = spread + np.abs(values - linear @ signs.T).max(axis=1)
+        return (np.abs(r) + spread + tension) / rows.reference
+    single = chosen & ~rows.grouped
+    spread = np.abs(s[:, single]).sum(axis=1)
+    high, low = r + spread, r - spread
+    for g in rows.groups:
+        keep = [bool(chosen[i]) for i in g.members]
+        if any(keep):
+            values = g.restricted(g.values(dz), keep)
+            high = high + values.max(axis=1)
+            low = low + values.min(axis=1)
+    return (np.maximum(high, -low) + tension) / rows.reference
+
+
+def has_products(rows: Rows, shape: str) -> bool:
+    """Whether the worst case of ``rows`` over the shape is a bound rather than exact: an
+    ellipsoid with an element of several deviations (over the box every product is exact)."""
+    return shape != "box" and bool(rows.groups)

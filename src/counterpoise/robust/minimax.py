@@ -11,7 +11,8 @@ deviation parameters (:mod:`.perturb`):
 
 At each sampled configuration the residual is affine in the deviations, so its largest
 absolute value over the box lies at a corner: the corners make the worst case exact (box
-shape; an ellipsoid is treated as its bounding box here). Initial-tension tolerances are
+shape). An ellipsoid holds |r₀| + ‖s‖₂ ≤ ρ T instead (first order, exact without products
+of one element's deviations; with them, its bounding box, said so). Initial-tension tolerances are
 not in the NLP (their term depends on the geometry through |∂d/∂q|); the reported band,
 measured afterwards, includes them. A local optimum, started from the nominal design.
 """
@@ -26,11 +27,15 @@ import numpy as np
 from ..solvers.base import Bounds, Status
 from ..solvers.ipopt import IPOPT_DEFAULTS, IpoptBackend
 from .affine import Decomposition
+from .constraints import CornerConstraints
 
 #: configurations per coordinate and block in the NLP (× corners: its rows)
 SAMPLES_PER_COORDINATE = 48
 #: corners enumerated at most (2ⁿ for n deviations)
 MAX_CORNERS = 1024
+#: the ellipsoid's ‖s‖₂ is √(Σ s² + (ELLIPSOID_FLOOR·T)²): differentiable where every change
+#: vanishes, conservative by at most this share of the reference torque
+ELLIPSOID_FLOOR = 1e-9
 
 
 @dataclass(frozen=True)
@@ -46,24 +51,32 @@ class MinimaxResult:
 class RobustMinimax:
     """The minimax NLP of a decomposition (built once per mode)."""
 
-    def __init__(self, decomposition: Decomposition, mode: str, weight: float, seed: int) -> None:
+    def __init__(
+        self, decomposition: Decomposition, mode: str, weight: float, seed: int, constraints: CornerConstraints | None = None, shape: str = "box"
+    ) -> None:
+        """``constraints``: the design constraints, held at every tolerance corner. ``shape``:
+        ``ellipsoid`` holds |r₀| + ‖s‖₂ ≤ ρ T at each sampled configuration (s_i the change at
+        δ_i = +t_i, exact for an affine residual) instead of every corner, when no element has
+        several deviations (their products would need the box: it is used then, and said)."""
         import casadi as ca
 
         f = decomposition.formulation
         devs = decomposition.deviations
-        if 2 ** len(devs) > MAX_CORNERS:
+        #: the worst case held: "ellipsoid" (first order, exact without products) or "box" (every corner)
+        self.shape = "ellipsoid" if shape == "ellipsoid" and not decomposition.groups else "box"
+        if self.shape == "box" and 2 ** len(devs) > MAX_CORNERS:
             raise ValueError(f"{len(devs)} deviations: {2 ** len(devs)} corners is more than {MAX_CORNERS} for the minimax NLP")
         self.f = f
         layout = f.parameters
         offsets = []
-        for signs in itertools.product((-1, 1), repeat=len(devs)):
+        for signs in itertools.product((-1, 1), repeat=len(devs) if self.shape == "box" else 0):
             off = np.zeros(layout.size)
             for d, s in zip(devs, signs):
                 i = layout.base_names.index(d.parameter)
                 for c in range(len(decomposition.problem.scenarios)):
                     off[c * layout.stride + 3 + i] = s * d.half_width
             offsets.append(off)
-        self.offsets = offsets
+        self.offsets = offsets if self.shape == "box" else []
         # per block: coordinates sampled on a grid of about SAMPLES_PER_COORDINATE × n_q points
         self.q = [decomposition.configurations(SAMPLES_PER_COORDINATE * len(b.coordinates), seed)[k] for k, b in enumerate(f.blocks)]
         self.rho = ca.SX.sym("rho")
@@ -72,6 +85,8 @@ class RobustMinimax:
         self._decomposition = decomposition
         self._backend: IpoptBackend | None = None
         self._reference: np.ndarray | None = None
+        self.constraints = constraints
+        self._lbg_c = self._ubg_c = np.zeros(0)
 
     def _build(self, z0: np.ndarray, p: np.ndarray) -> None:
         import casadi as ca
@@ -90,6 +105,15 @@ class RobustMinimax:
         for b, block in enumerate(f.blocks):
             qb = self.q[b]
             mapped = block.residual.map(len(qb))
+            if self.shape == "ellipsoid":
+                r0 = mapped(ca.DM(qb.T), f.z, f.p)
+                changes = [mapped(ca.DM(qb.T), f.z, f.p + ca.DM(self._decomposition.p_at(np.zeros(f.p.numel()), unit))) - r0 for unit in np.eye(len(self._decomposition.deviations)).tolist()]
+                for j in range(len(block.coordinates)):
+                    scale = reference[kinds[i + j]]
+                    spread = ca.sqrt(sum(c[j, :].T ** 2 for c in changes) + (ELLIPSOID_FLOOR * scale) ** 2) if changes else 0
+                    rows += [self.rho - (r0[j, :].T + spread) / scale, self.rho - (spread - r0[j, :].T) / scale]
+                i += len(block.coordinates)
+                continue
             for off in self.offsets:
                 r = mapped(ca.DM(qb.T), f.z, f.p + ca.DM(off))  # (n_q, N)
                 for j in range(len(block.coordinates)):
@@ -97,8 +121,12 @@ class RobustMinimax:
                     rows += [self.rho - scaled, self.rho + scaled]
             i += len(block.coordinates)
         self.n_rows = int(sum(r.numel() for r in rows))
-        g = ca.vertcat(*rows, f.nonnegative)
         self.n_signs = int(f.nonnegative.numel())
+        if self.constraints is not None:
+            g_c, self._lbg_c, self._ubg_c = self.constraints.symbolic_rows()
+        else:
+            g_c, self._lbg_c, self._ubg_c = ca.SX(0, 1), np.zeros(0), np.zeros(0)
+        g = ca.vertcat(*rows, f.nonnegative, g_c)
         objective = f.objective + (self.weight * self.rho if self.mode == "minimise" else 0)
         options = {**IPOPT_DEFAULTS, "tol": 1e-9}
         self._backend = IpoptBackend({"x": ca.vertcat(f.z, self.rho), "p": f.p, "f": objective, "g": g}, options, "robust_minimax")
@@ -113,8 +141,8 @@ class RobustMinimax:
         b = Bounds(
             np.concatenate([lbz, [0.0]]),
             np.concatenate([ubz, [upper]]),
-            np.zeros(self.n_rows + self.n_signs),
-            np.full(self.n_rows + self.n_signs, np.inf),
+            np.concatenate([np.zeros(self.n_rows + self.n_signs), self._lbg_c]),
+            np.concatenate([np.full(self.n_rows + self.n_signs, np.inf), self._ubg_c]),
         )
         start = upper if np.isfinite(upper) else 1.0
         out = backend.solve(np.concatenate([z0, [start]]), p, b)

@@ -11,11 +11,11 @@ name (``robust:<kind>:<item>[:<component>]``), written into the element's expres
 The energy Σ −m g·p + Σ ½ k |a − b|² is then affine in every single δ (a mass or a rate
 multiplies fixed geometry; a centre of mass enters −m g·R(c + δ) linearly; one end of a
 spring enters ½ k |a + Rδ − b|², whose term ½ k |δ|² does not depend on the configuration).
-Products of two deviations (δm·δc of one body, δa·δb of one spring's two ends, δk·δa) are
-second order: the worst case below keeps only the first-order terms, which is exact for
-rates, masses and centres of mass each alone, and for a point tolerance on one end of a
-spring (docs/robust.md). An initial tension ΔF0 is not a parameter here: behind the pulley
-it adds the force ΔF0 along the cable, ΔF0·∂d/∂q, which :mod:`.band` adds directly.
+Products of deviations of one element (δm·δc of one body, δa·δb of one spring's two ends,
+δk·δa) keep the residual multi-affine: :mod:`.affine` evaluates each such element's group
+at every vertex of its box, so the worst case over the box is exact (docs/robust.md). An
+initial tension ΔF0 is not a parameter here: behind the pulley it adds the force ΔF0 along
+the cable, ΔF0·∂d/∂q, which :mod:`.affine` adds directly.
 """
 
 from __future__ import annotations
@@ -68,6 +68,7 @@ def perturbed(problem: Problem) -> tuple[Problem, tuple[Deviation, ...]]:
         return problem, ()
     deviations: list[Deviation] = []
     bodies = {b.name: b for b in problem.bodies}
+    masses = {c.name: c for c in problem.counter_masses}
     springs = {s.name: s for s in problem.springs}
     for t in spec.tolerances:
         if t.amount == 0 or t.kind == "initial_tension":
@@ -78,11 +79,17 @@ def perturbed(problem: Problem) -> tuple[Problem, tuple[Deviation, ...]]:
             deviations.append(Deviation(name, t, "", t.amount))
         elif t.kind == "mass":
             name = _name("mass", t.item)
-            bodies[t.item] = replace(bodies[t.item], mass=_scaled(bodies[t.item].mass, name, t.relative))
+            if t.item in masses:  # a counter-mass: its (designed) mass as made
+                masses[t.item] = replace(masses[t.item], mass=_scaled(masses[t.item].mass, name, t.relative))
+            else:
+                bodies[t.item] = replace(bodies[t.item], mass=_scaled(bodies[t.item].mass, name, t.relative))
             deviations.append(Deviation(name, t, "", t.amount))
         elif t.kind == "com":
             names = tuple(_name("com", t.item, a) for a in AXES)
-            bodies[t.item] = replace(bodies[t.item], com=_shifted(bodies[t.item].com, names))  # type: ignore[arg-type]  # a point of three coordinates stays one
+            if t.item in masses:  # a counter-mass: where its centre of mass sits on the link
+                masses[t.item] = replace(masses[t.item], position=_shifted(masses[t.item].position, names))  # type: ignore[arg-type]  # a point of three coordinates stays one
+            else:
+                bodies[t.item] = replace(bodies[t.item], com=_shifted(bodies[t.item].com, names))  # type: ignore[arg-type]  # a point of three coordinates stays one
             deviations += [Deviation(n, t, a, t.amount) for n, a in zip(names, AXES)]
         elif t.kind == "point":
             spring = springs[t.item]
@@ -98,6 +105,7 @@ def perturbed(problem: Problem) -> tuple[Problem, tuple[Deviation, ...]]:
         problem,
         parameters=problem.parameters + extra,
         bodies=tuple(bodies[b.name] for b in problem.bodies),
+        counter_masses=tuple(masses[c.name] for c in problem.counter_masses),
         springs=tuple(springs[s.name] for s in problem.springs),
     )
     return out, tuple(deviations)

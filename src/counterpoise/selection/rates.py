@@ -7,7 +7,8 @@ these designs evaluates in one numpy pass per scenario, for every part of the wi
 
 - its three limit margins (:mod:`counterpoise.catalogue.limits`) over sampled configurations;
 - its tolerance sensitivity: max over configurations and coordinates of
-  Σ_springs t_k·k·|d ∂d/∂q_j| + t_F·F0·|∂d/∂q_j| (the tolerance band's terms, without the
+  Σ_springs t_k·(k·d − F0)·|∂d/∂q_j| + t_F·F0·|∂d/∂q_j| (the tolerance band's terms: the rate
+  error acts on the extension d − F0/k beyond the initial tension; without the
   nominal residual, which exact balance makes zero), which ranks parts that tie on the
   objective the way ``selection.prefer`` does.
 
@@ -123,7 +124,8 @@ def screen_rates(search: Any, name: str, rates: np.ndarray, kept: np.ndarray, ot
             sens_f = np.hstack([sens_f, tension_term.reshape(len(used), -1)])
     tk = np.nan_to_num(slot.rate_tolerance)
     tf = np.nan_to_num(slot.initial_tension_tolerance)
-    sensitivity = (tk * part["rate"][ok, None] * sens_k[local] + tf * part["initial_tension"][ok, None] * sens_f[local]).max(axis=1, initial=0.0)
+    # t_k (k d − F0)|∂d/∂q| + t_F F0 |∂d/∂q| summed over the slot's springs (selection/tolerance.py)
+    sensitivity = (tk * part["rate"][ok, None] * sens_k[local] + (tf - tk) * part["initial_tension"][ok, None] * sens_f[local]).max(axis=1, initial=0.0)
     price = np.nan_to_num(a["price"][kept][ok], nan=np.inf)
     keys = {"objective": np.round(objective[at[ok]], 9), "robust": sensitivity, "price": price}
     order_of = {"objective": ("objective", "robust", "price"), "robust": ("robust", "objective", "price"), "price": ("price", "objective", "robust")}

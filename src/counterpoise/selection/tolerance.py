@@ -1,14 +1,16 @@
 """How much a built balancer can be off: the worst case over the parts' tolerance band.
 
 A part's rate scatters by ±t_k and its initial tension by ±t_F (fractions; each spring
-independently). Behind its string a spring pulls with F = k·d + ΔF0 (the string is set for
-the nominal F0), so its energy is ½ k d² + ΔF0·d and the balance residual is *linear* in
+independently). Behind its string the spring's length is L = d + L0 − F0/k (the string is set
+for the nominal part), so a part with k + Δk and F0 + ΔF0 pulls with
+F0 + ΔF0 + (k + Δk)(d − F0/k) = k·d + Δk (d − F0/k) + ΔF0: the rate error acts on the
+extension d − F0/k beyond the initial tension, not on d. The balance residual is *linear* in
 every spring's Δk and ΔF0:
 
-    r_j(q) = r_j,nominal(q) + Σ_i Δk_i · ½ ∂(d_i²)/∂q_j + Σ_i ΔF0_i · ∂(d_i²)/∂q_j / (2 d_i).
+    r_j(q) = r_j,nominal(q) + Σ_i Δk_i (d_i − F0_i/k_i) ∂d_i/∂q_j + Σ_i ΔF0_i ∂d_i/∂q_j.
 
 Its worst case over the box |Δk_i| ≤ t_k k_i, |ΔF0_i| ≤ t_F F0_i is therefore exact without
-enumerating corners: |r_j,nominal| + Σ_i t_k k_i ½|∂(d_i²)/∂q_j| + Σ_i t_F F0_i |∂(d_i²)/∂q_j| / (2 d_i),
+enumerating corners: |r_j,nominal| + Σ_i t_k k_i |d_i − F0_i/k_i| |∂d_i/∂q_j| + Σ_i t_F F0_i |∂d_i/∂q_j|,
 maximised over the checked configurations and divided by the same reference as the
 verification's ``residual_ratio`` (the largest unbalanced gravity torque of any revolute
 coordinate, gravity force for sliders).
@@ -52,8 +54,9 @@ def tolerance_band(
 ) -> ToleranceBand:
     """Ratios for the springs named in ``tension`` (their part's F0, N) and tolerances (fractions).
 
-    ``offsets``: for directly attached springs, cable + free length (m): the spring's
-    extension is then x = d − offset instead of d, and the rate term is t_k·k·|x|·|∂d/∂q|.
+    The rate term is t_k·k·|x|·|∂d/∂q| with x the extension the rate acts on: behind a pulley
+    x = d − F0/k (the string set for the nominal part, see the module docstring);
+    ``offsets``: for directly attached springs, cable + free length (m), x = d − offset.
     """
     offsets = offsets or {}
     rows: list[tuple[bool, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
@@ -75,7 +78,10 @@ def tolerance_band(
                 grad = along_manifold(problem, sub.name, qs, base, grad)
                 k = float(mech.value(spring.stiffness))
                 slope = np.abs(grad) / (2 * np.maximum(length, 1e-12))[:, None]  # |∂d/∂q|
-                extension = np.abs(length - offsets.get(spring.name, 0.0))[:, None]
+                # behind a pulley the rate acts on d − F0/k (a part's rate error times F0/k is a
+                # constant force along the string, −Δk·F0/k); attached directly on d − cable − L0
+                offset = offsets.get(spring.name, tension[spring.name] / k if spring.direct is None and k > 0 else 0.0)
+                extension = np.abs(length - offset)[:, None]
                 rate_term += rate_tolerance[spring.name] * k * extension * slope
                 tension_term += tension_tolerance[spring.name] * tension[spring.name] * slope
             for j, name in enumerate(independent_names(problem, sub.name)):

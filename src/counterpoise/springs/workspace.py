@@ -258,6 +258,7 @@ def designed_springs(solution: Any) -> tuple[DesignedSpring, ...]:
             first = next(iter(needs.values()))
             rows[ALL] = (first.rate, min(v[1] for v in rows.values()), max(v[2] for v in rows.values()), *next(iter(rows.values()))[3:])
             needs[ALL] = replace(first, force_min=min(r.force_min for r in needs.values()), force_max=max(r.force_max for r in needs.values()))
+        _widen_for_tuning(solution, s.name, needs, rows)
         rates = [r.rate for r in needs.values()]
         o = s.design
         made = design(needs.get(ALL, first_of(needs)), o.material, envelope(o, size, next(iter(rows.values()))[6]), o.rate_tolerance, o.min_safety_factor)
@@ -266,6 +267,20 @@ def designed_springs(solution: Any) -> tuple[DesignedSpring, ...]:
             made = SpringDesign(made.material, made.requirement, reasons=(why,), rate_tolerance=made.rate_tolerance)
         out.extend(_use(s, name, rows[name], needs[name], made) for name in rows)
     return tuple(out)
+
+
+def _widen_for_tuning(solution: Any, name: str, needs: dict[str, Requirement], rows: dict[str, tuple[float, ...]]) -> None:
+    """A [robust] design with ``tune``: the spring that is made serves every tuned corner
+    (its forces and distances there: the robust report's envelope, counterpoise.robust.limits),
+    so the requirement of the spring made (and its distances: the cable) is widened to it."""
+    envelope = getattr(getattr(solution, "robust", None), "envelope", {}).get(name)
+    if envelope is None:
+        return
+    key = ALL if ALL in needs else next(iter(needs))
+    need = needs[key]
+    needs[key] = replace(need, force_min=min(need.force_min, envelope.force_min), force_max=max(need.force_max, envelope.force_max))
+    row = rows[key]
+    rows[key] = (row[0], min(row[1], envelope.distance_min), max(row[2], envelope.distance_max), *row[3:])
 
 
 def first_of(needs: dict[str, Requirement]) -> Requirement:

@@ -80,7 +80,7 @@ def _resolve(ctx: Context) -> Problem:
     objective = quantities.objective(ctx)
     reports = report.report(ctx, subsystems, by_name)
     design_constraints = constraints.constraints(ctx, subsystems, by_name, springs, counter_masses)
-    robust_spec = robust.robust(ctx, bodies, springs)
+    robust_spec = robust.robust(ctx, bodies, springs, counter_masses, [b.name for b in payload_bodies])
     synthesis_spec = synthesis.synthesis(ctx, by_name)
     meta = spec.problem
     return Problem(
