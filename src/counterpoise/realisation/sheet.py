@@ -240,8 +240,9 @@ def slack_spring(made: Any) -> Any:
     return design(replaced(need, force_min=need.force_max), made.material, made.envelope, made.rate_tolerance, made.min_safety_factor)
 
 
-def _spring_rows(problem: Problem, mech: Mechanics, s: ZeroFreeLengthSpring, made: Made, found: Mapping[str, Extreme]) -> list[Row]:
-    """The rows of spring ``s`` in one scenario: anchor points, pulley and the spring as made."""
+def _spring_rows(problem: Problem, mech: Mechanics, s: ZeroFreeLengthSpring, made: Made, found: Mapping[str, Extreme], tuned: Any = None) -> list[Row]:
+    """The rows of spring ``s`` in one scenario: anchor points, pulley and the spring as made
+    (``tuned``: a [robust] design's envelope of the spring over its tuned corners)."""
     from ..mechanics.cable import spring_quantities
 
     k = made.rate
@@ -251,6 +252,10 @@ def _spring_rows(problem: Problem, mech: Mechanics, s: ZeroFreeLengthSpring, mad
     b = _point_row(mech, "spring_to", f"{s.name}.to", s.ends[1], s.subsystem)
     d_lo, d_hi = min(found["length"].low, home["length"]), max(found["length"].high, home["length"])
     p_lo, p_hi = min(found["path"].low, home["path"]), max(found["path"].high, home["path"])
+    if tuned is not None:  # [robust] tune: the cable serves every tuned corner (counterpoise.robust.limits)
+        wraps = home["path"] - home["length"]  # a pin's constant wraps; 0 for a point pulley or a direct mount
+        d_lo, d_hi = min(d_lo, tuned.distance_min), max(d_hi, tuned.distance_max)
+        p_lo, p_hi = min(p_lo, tuned.distance_min + wraps), max(p_hi, tuned.distance_max + wraps)
     f0, l0 = made.initial_tension, made.free_length
     spring: Row = {
         "kind": "spring", "name": s.name, "subsystem": s.subsystem or "", "part_number": made.part,
@@ -332,6 +337,7 @@ def sheet_rows(solution: Any, designed: Sequence[Any] = (), parts: Any = None, f
         head.append({"kind": "tilt", "name": t.description or "tilt", "axis_x": t.axis[0], "axis_y": t.axis[1], "axis_z": t.axis[2], "range_min": t.lower, "range_max": t.upper,
                      "unit": "rad", "note": "a tilt of the base about this axis, over this range"})
     checked = checked_solution(solution)
+    tuned = getattr(getattr(solution, "robust", None), "envelope", None) or {}
     per_scenario: dict[str, list[Row]] = {}
     for scenario in problem.scenarios:
         mech = mechanics_at(solution, scenario.name)
@@ -340,7 +346,7 @@ def sheet_rows(solution: Any, designed: Sequence[Any] = (), parts: Any = None, f
             if not made[s.name].rate > 0.0:  # stiffness 0: the design leaves it out, nothing to build
                 continue
             extremes_of = _spring_extremes(found, s.name, scenario.name, checked)
-            rows += _spring_rows(problem, mech, s, made[s.name], extremes_of)
+            rows += _spring_rows(problem, mech, s, made[s.name], extremes_of, tuned.get(s.name))
         for c in problem.counter_masses:
             row = _point_row(mech, "counter_mass", c.name, c.position, c.subsystem)
             mass = _f(mech.value(c.mass))

@@ -2,7 +2,7 @@
 
 A small boundary of its own (issue 31): the robust layer checks every tuned setting against
 the limits a built spring has, from per-spring figures only, so that the realisation model
-(mechanics/realisation.py, springs/) can later be pointed at it without the robust layer
+(counterpoise.realisation, springs/) can later be pointed at it without the robust layer
 changing. All figures SI.
 
 A pulley mount (docs/catalogues.md, "What a part must do"): a cable of length C runs from the
