@@ -14,7 +14,8 @@ imports only from those before it): ``model`` (typed problem) → ``catalogue`` 
 catalogues) → ``mechanics`` (kinematics, energy) → ``io`` (files) → ``formulation``
 (symbols, exact conditions) → ``solvers`` (one backend per module) → ``designer`` →
 ``verify`` (dense check) → ``selection`` (catalogue parts) → ``payload`` (payload ranges,
-schedules) → ``robust`` (tolerances) → ``pipeline`` (solve, verify, judge) → ``report``
+schedules) → ``robust`` (tolerances) → ``realisation`` (the springs as built) → ``pipeline``
+(solve, verify, judge) → ``report``
 (CSV, HTML) → ``plots`` (PNG, matplotlib) → ``synthesis`` (the fewest elements that
 balance) → ``studies`` (many designs) → ``cli``.
 """

@@ -220,6 +220,8 @@ def report_texts(result: DesignResult, warnings: Sequence[str] | None = None) ->
         from ..realisation.sheet import COLUMNS, FLOAT_FORMAT
 
         texts["build.csv"] = csv_text(list(result.sheet), COLUMNS, FLOAT_FORMAT)
+    if not texts["status.txt"].endswith("\n"):  # each layer's lines start on a line of their own
+        texts["status.txt"] += "\n"
     texts["status.txt"] += realisation_status(result)
     if not texts["status.txt"].endswith("\n"):  # a text file ends with a newline, whichever layer wrote its last line
         texts["status.txt"] += "\n"
