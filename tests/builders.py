@@ -35,6 +35,12 @@ class Chain:
     ranges: list[tuple[float, float]] = field(default_factory=list)  # deg per joint
     inertia_weight: float = 0.0
     offset_bound: float = 5.0  # m, bound on the counter-masses' y offsets
+    #: the spring is ideal (the engine's exactness on the ideal model; tests/test_realisation.py
+    #: builds chains of real springs): its ends meet where link 1 points up
+    ideal: bool = True
+    #: the spring's anchor above the base pivot, as a multiple of its attachment distance f
+    #: (1: the ideal textbook spring, whose ends meet)
+    anchor_ratio: float = 1.0
 
     def required_masses(self) -> list[float]:
         """Counter-mass of each link that moves its subtree's centre of mass onto its joint
@@ -78,7 +84,9 @@ class Chain:
             f = self.spring_on_first
             b.variable("k", "0 N/m", "1e7 N/m", initial="100 N/m")
             # ZFL spring from a point above the base pivot (in the base frame) to link 1
-            b.spring("s", "k", from_=("base", (0, f"{f} m", 0)), to=("l0", (f"{f} m", 0, 0)))
+            b.spring("s", "k", from_=("base", (0, f"{f * self.anchor_ratio} m", 0)), to=("l0", (f"{f} m", 0, 0)))
+            if self.ideal:
+                b.settings(ideal_springs=True)
         b.objective(mass_weight=1, inertia_weight=f"{self.inertia_weight} 1/m^2")
         return b
 

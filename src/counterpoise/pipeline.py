@@ -176,10 +176,10 @@ def run(
     as_built = None
     if quantities and (solution.problem.springs or solution.problem.counter_masses):
         from .realisation.asbuilt import check as check_as_built
-        from .realisation.sheet import sheet_rows
+        from .realisation.sheet import as_written, sheet_rows
 
         with progress.phase(f"{solution.problem.name}: checking the balancer as built"):
-            sheet = tuple(sheet_rows(solution, springs, solution.parts))
+            sheet = tuple(as_written(sheet_rows(solution, springs, solution.parts)))  # the numbers build.csv holds
             as_built = check_as_built(sheet)
         final = judge_as_built(solution, final, as_built)
     return DesignResult(solution, verification, final, values, springs, realised, sheet, as_built)

@@ -70,9 +70,16 @@ def _num(row: Row, key: str, scale: float = 1.0) -> float:
     return float(v) * scale
 
 
+#: what a spreadsheet would run: a text cell starting so was written behind a ``'``
+_FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
+
+
 def _text(row: Row, key: str) -> str:
     v = row.get(key, "")
-    return "" if v is None or (isinstance(v, float) and math.isnan(v)) else str(v)
+    text = "" if v is None or (isinstance(v, float) and math.isnan(v)) else str(v)
+    if text.startswith("'") and text[1:].lstrip("'").startswith(_FORMULA_STARTS):
+        return text[1:]  # the CSV writer's guard against formulas (counterpoise.report.files.spreadsheet_cell)
+    return text
 
 
 def _vec(row: Row, prefix: str, suffix: str = "", scale: float = 1.0) -> tuple[float, float, float]:

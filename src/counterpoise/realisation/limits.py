@@ -47,6 +47,8 @@ TOLERANCE = 1e-7
 ABSOLUTE = 1e-12
 #: the link point counts as in the pulley's plane within this distance (m)
 PLANE_TOLERANCE = 1e-6
+#: a slack constraint asks this share more than the initial tension it must reach
+SLACK_HEADROOM = 1e-3
 #: the quantities measured per spring
 QUANTITIES = ("force", "length", "path", "wrap", "plane")
 
@@ -264,9 +266,11 @@ def _initial_tension(design: Any, use: Any) -> float | None:
     if design is None:
         return None
     made = design.design
-    value = getattr(made, "needed_tension", float("nan"))
-    if not math.isnan(value):
-        return float(value)
+    if not made.ok and math.isfinite(made.needed_distance):
+        # refused for slack alone: the smallest windable F0 of a spring that keeps every
+        # other rule, needed_distance = F0/k + margin (its rate: the design rate here)
+        need = made.requirement
+        return float(need.rate * (made.needed_distance - need.slack_margin))
     f0 = float(made.initial_tension)
     return None if math.isnan(f0) else f0
 
@@ -311,7 +315,10 @@ def constraints(problem: Problem, limits: Sequence[Limit]) -> tuple[Constraint, 
         elif lim.kind == "slack":
             expr = ex.BinOp("-", ex.Call("force_min", (me,)), ex.BinOp("*", s.stiffness, ex.Num(s.slack_margin)))
             old = next((c for c in problem.constraints if c.name == f"{s.name}.slack"), None)
-            bound = max(lim.bound, old.lower or 0.0) if old is not None else lim.bound
+            # a little headroom: the design then keeps the limit at the wound rate too, and
+            # a spring chosen at the edge of its band is still windable
+            bound = lim.bound * (1.0 + SLACK_HEADROOM)
+            bound = max(bound, old.lower or 0.0) if old is not None else bound
             out[f"{s.name}.slack"] = Constraint(f"{s.name}.slack", expr, bound, None, display_unit("N"),
                                               f"spring {s.name}: its least pull less k × slack_margin reaches its initial tension", REALISATION, s.name)
         elif lim.side == "lower":

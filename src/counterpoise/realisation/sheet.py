@@ -80,6 +80,12 @@ class Made:
     free_length: float
 
 
+def as_written(rows: Sequence[Row]) -> list[Row]:
+    """``rows`` with every float rounded as ``build.csv`` writes it (:data:`FLOAT_FORMAT`):
+    the as-built check of the sheet in memory is then the check of the file, to the bit."""
+    return [{k: (float(FLOAT_FORMAT % v) if isinstance(v, float) and math.isfinite(v) else v) for k, v in row.items()} for row in rows]
+
+
 def home_scenario(solution: Any) -> str:
     """The scenario home is taken in: the nominal payload's setting, else the first."""
     problem = solution.problem
