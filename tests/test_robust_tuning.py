@@ -92,7 +92,9 @@ def test_lamp_tuned_settings_within_the_hardware_limits(lamp):
     # the spring made (designed_springs) and the cable of the build sheet serve the envelope too
     made = {d.spring: d for d in lamp.springs if d.scenario != "all"}
     for name, env in report.envelope.items():
-        assert made[name].force_max == pytest.approx(env.force_max, rel=1e-9)
+        # the spring made pulls at its wound rate, a little off the design rate the envelope is at
+        wound = made[name].design.rate / made[name].design.design_rate
+        assert made[name].force_max == pytest.approx(env.force_max * wound, rel=1e-9)
         assert made[name].design.initial_tension == pytest.approx(report.springs[name].initial_tension, rel=1e-9)
 
 

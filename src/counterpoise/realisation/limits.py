@@ -39,6 +39,7 @@ from ..model.constraints import REALISATION, Constraint
 from ..model.elements import MIN_WRAP, ZeroFreeLengthSpring
 from ..model.problem import Problem
 from ..model.units import display_unit
+from ..springs.design import NEGLIGIBLE_FORCE
 
 #: a limit counts as met when it misses its bound by less than this share of the bound's
 #: (or the value's) size, plus ABSOLUTE (SI: m, N, rad): rounding, and the same extreme
@@ -222,8 +223,9 @@ def _spring_limits(problem: Problem, s: ZeroFreeLengthSpring, mine: Mapping[str,
     out: list[Limit] = []
     p = s.pulley
     margin = s.slack_margin
-    if not _rate(problem, s, solution, next(iter(mine))) > 0.0:
-        return out  # stiffness 0: the design leaves the spring out, nothing is built
+    f_max, _, _ = _worst(mine, "force", "high")
+    if not _rate(problem, s, solution, next(iter(mine))) > 0.0 or abs(f_max) < NEGLIGIBLE_FORCE:
+        return out  # stiffness 0 (to rounding): the design leaves the spring out, nothing is built
     if s.direct is not None:
         d_min, scenario, at = _worst(mine, "length", "low")
         cable_length, free = _direct_lengths(problem, s, solution, scenario)

@@ -117,7 +117,7 @@ class RealisationMethod:
         springs: tuple[Any, ...] = ()
         limits: tuple[Limit, ...] = ()
         while True:
-            if solution.status is not Status.OPTIMAL:
+            if not _ok(solution):
                 if forced:  # the realisation constraints made it infeasible: say which limits
                     return _unbuildable(solution, forced, springs, rounds)
                 return solution  # not balanced in the ideal model already: its own verdict stands
@@ -135,7 +135,7 @@ class RealisationMethod:
             rounds += 1
             solution = self._method(problem).solve(parameters, bounds, dict(solution.values), certify=certify)
         wound: dict[str, tuple[float, float]] = {}
-        if solution.status is Status.OPTIMAL and springs:
+        if _ok(solution) and springs:
             solution, springs, limits, wound = self._wound(problem, solution, springs, limits, parameters, bounds, certify)
         report = RealisationReport(limits, springs, tuple(added), rounds, wound)
         solution = solution.with_extra(report)
@@ -185,7 +185,7 @@ class RealisationMethod:
             problem = with_rates(problem, replaced)
             over: dict[Any, tuple[float, float]] = {**(bounds or {}), **{name: (k, k) for name, k in held.items()}}
             again = self._method(problem).solve(parameters, over, dict(solution.values), certify=certify)
-            if again.status is not Status.OPTIMAL:
+            if not _ok(again):
                 return None
             solution, springs = again, _same_springs(springs, designed_of(again))
         return (solution, tuple(springs)) if not wound_rates(problem, springs)[2] else None
@@ -247,7 +247,7 @@ def wound_rates(problem: Problem, springs: Sequence[Any]) -> tuple[dict[str, flo
             continue
         made = d.design
         design_rate, wound_rate = float(made.requirement.rate), float(made.rate)
-        if abs(wound_rate / design_rate - 1.0) <= SAME_RATE:
+        if abs(wound_rate / design_rate - 1.0) <= SAME_RATE or _toleranced(problem, d.spring, design_rate, wound_rate):
             continue
         s = by_spring[d.spring]
         changed[s.name] = (design_rate, wound_rate)
@@ -265,6 +265,25 @@ def wound_rates(problem: Problem, springs: Sequence[Any]) -> tuple[dict[str, flo
         if isinstance(k, ex.Name) and k.id in shared:
             replaced[name] = rate[1]
     return fixed, replaced, changed
+
+
+def _ok(solution: Solution) -> bool:
+    """The design is optimal by its solver and by every layer's own verdict."""
+    return solution.status is Status.OPTIMAL and (solution.verdict is None or solution.verdict.status is Status.OPTIMAL)
+
+
+def _toleranced(problem: Problem, spring: str, design_rate: float, wound_rate: float) -> bool:
+    """A [robust] design whose rate tolerance of ``spring`` covers the wound rate: the robust
+    layer's worst case (and its tuning) already answers for it; the design is not solved again."""
+    spec = problem.robust
+    if spec is None:
+        return False
+    for tol in spec.tolerances:
+        if tol.kind == "rate" and tol.item in (spring, "", "*"):
+            allowed = tol.amount * design_rate if tol.relative else tol.amount
+            if abs(wound_rate - design_rate) <= allowed:
+                return True
+    return False
 
 
 def _unbuildable(solution: Solution, forced: Sequence[Limit], springs: Sequence[Any], rounds: int) -> Solution:
@@ -286,8 +305,8 @@ def _judged(solution: Solution, report: RealisationReport) -> Solution:
     """``solution`` judged infeasible when a realisation limit is violated (the layer's own
     verdict), else as it is."""
     violated = report.violated
-    if not violated or solution.status is not Status.OPTIMAL:
-        return solution
+    if not violated or not _ok(solution):
+        return solution  # balanced and buildable, or an inner layer's own verdict stands
     problem = solution.problem
     text = "; ".join(lim.text(problem) for lim in violated[:3])
     more = f" (and {len(violated) - 3} more)" if len(violated) > 3 else ""

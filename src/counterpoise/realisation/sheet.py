@@ -349,7 +349,7 @@ def sheet_rows(solution: Any, designed: Sequence[Any] = (), parts: Any = None, f
         mech = mechanics_at(solution, scenario.name)
         rows = _mechanism_rows(problem, mech, scenario)
         for s in problem.springs:
-            if not made[s.name].rate > 0.0:  # stiffness 0: the design leaves it out, nothing to build
+            if not made[s.name].rate > 0.0 or _unused(found, s.name):  # stiffness 0: the design leaves it out
                 continue
             extremes_of = _spring_extremes(found, s.name, scenario.name, checked)
             rows += _spring_rows(problem, mech, s, made[s.name], extremes_of, tuned.get(s.name))
@@ -378,6 +378,14 @@ def _spring_extremes(found: Mapping[tuple[str, str], Mapping[str, Extreme]], spr
         hi = max(lows, key=lambda e: e.high)
         out[q] = Extreme(lo.low, hi.high, lo.at_low, hi.at_high)
     return out
+
+
+def _unused(found: Mapping[tuple[str, str], Mapping[str, Extreme]], spring: str) -> bool:
+    """Whether the spring pulls nothing anywhere (its largest force below NEGLIGIBLE_FORCE)."""
+    from ..springs.design import NEGLIGIBLE_FORCE
+
+    forces = [abs(v["force"].high) for (name, _), v in found.items() if name == spring]
+    return bool(forces) and max(forces) < NEGLIGIBLE_FORCE
 
 
 def _key(row: Row) -> tuple[Any, ...]:

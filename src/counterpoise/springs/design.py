@@ -41,6 +41,9 @@ MIN_BODY_COILS = 3.0
 RATE_ROUNDING = 0.005
 #: mean coil diameter rounding (m): coarse, then fine where coarse moves the rate too far
 DIAMETER_STEPS = (1e-5, 1e-6)
+#: a spring whose largest working force is below this (N) is one the design does not use
+#: (a stiffness at rounding level: nobody winds a spring of micro-newtons)
+NEGLIGIBLE_FORCE = 1e-6
 #: the rate tolerance written into a designed spring's spec unless the file gives one
 RATE_TOLERANCE = 0.10
 #: the smallest allowable/stress ratio at the largest working force of the rate's upper
@@ -347,7 +350,7 @@ def _needed(g: dict[str, np.ndarray], r: Requirement, rules: _Rules) -> float:
 def _invalid(r: Requirement) -> str | None:
     """Why the requirement asks for no spring (None: it asks for one)."""
     k, f_lo, f_hi = r.rate, r.force_min, r.force_max
-    if k == 0 or f_hi == 0:
+    if k == 0 or f_hi == 0 or (math.isfinite(f_hi) and abs(f_hi) < NEGLIGIBLE_FORCE):
         return "its stiffness is 0: the balance does not use this spring (leave it out)"
     if not (math.isfinite(k) and k > 0):
         return f"its rate {k:.4g} N/m is not positive"
