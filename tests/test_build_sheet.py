@@ -5,7 +5,7 @@ For every problem in problems/ with springs or counter-masses (each solved once 
 ``conftest.solved``), build.csv is written, read back as text, and the balancer is rebuilt
 from its rows ALONE (no problem file, no design: :func:`counterpoise.realisation.asbuilt.check`):
 its dense residual ratio must be the design's ``residual_ratio_as_built`` to 1e-6, relative
-(the sheet keeps 12 significant digits). And a shipped design that claims exact balance
+(the sheet keeps 15 significant digits). And a shipped design that claims exact balance
 (optimal, real springs) must balance as built to 1e-6 with no spring slack anywhere; any
 other design must say why not (a declared paper reproduction says IDEAL and gives its
 as-built figure; the rest are infeasible or not balanced, naming a limit).

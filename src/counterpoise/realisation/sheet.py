@@ -28,8 +28,8 @@ One row per item, in this order (``kind``):
 Rows that differ between scenarios (a payload's mass, an adjustment's setting, a working
 mode's gravity) are written once per scenario (``scenario`` names it); every other row has
 an empty ``scenario`` and holds in all. Lengths in mm, forces in N, rates in N/mm, angles in
-rad, masses in kg: 12 significant digits, so that the sheet alone rebuilds the design's
-energy to ~1e-11 (:mod:`.asbuilt` does, and every shipped design is checked that way).
+rad, masses in kg: 15 significant digits, so that the sheet alone rebuilds the design's
+energy to ~1e-14 (:mod:`.asbuilt` does, and every shipped design is checked that way).
 """
 
 from __future__ import annotations
@@ -62,8 +62,8 @@ COLUMNS = [
     "length_home_mm", "length_min_mm", "length_max_mm", "force_home_N", "force_min_N", "force_max_N",
     "note",
 ]  # fmt: skip
-#: build.csv keeps 12 significant digits (the other reports 10)
-FLOAT_FORMAT = "%.12g"
+#: build.csv keeps 15 significant digits (the other reports 10): a long chain amplifies rounding
+FLOAT_FORMAT = "%.15g"
 MM = 1e3
 #: an expression counts as affine in the coordinates when a random point agrees to this (relative)
 AFFINE_TOLERANCE = 1e-10
