@@ -1,5 +1,8 @@
 """Pulleys of radius > 0 (docs/build.md#pulleys), once the problem is resolved.
 
+- Ideal springs (``[settings] ideal_springs``) keep no slack margin: no realisation limit
+  applies to them (the minimax designer's and the part search's margins included).
+
 - A cable wrapped onto a pin (``pin = true``) makes the spring pull k·d exactly only while
   the pin's frame keeps the pulley frame's orientation: checked on sampled configurations
   of the workspace (on the configuration manifold for closed loops), at the variables'
@@ -35,6 +38,9 @@ ZERO_LENGTH = "zero_length"
 def finish(ctx: Context, problem: Problem) -> Problem:
     """``problem`` with each pin checked and a zero-force length variable per cable to a point
     over a pulley of radius > 0 (a problem without such pulleys is returned as it is)."""
+    if problem.settings.ideal_springs and any(s.slack_margin for s in problem.springs):
+        # ideal springs (a paper's idealised design): no realisation limit, no slack margin either
+        problem = replace(problem, springs=tuple(replace(s, slack_margin=0.0) for s in problem.springs))
     springs = [s for s in problem.springs if s.pulley is not None and s.pulley.radius > 0.0]
     if not springs:
         return problem
