@@ -94,12 +94,14 @@ class Engine:
 
 
 def _design_values(problem):
+    """The design's values, and its problem: as built, each designed spring's stiffness is
+    the rate it is wound to (the design followed it), which the file's parameter is not."""
     result = design(problem)
     assert result.optimal, result.message
     assert result.verification.residual_ratio <= 1e-9
     values = dict(result.solution.variable_values(problem.scenarios[0].name))
     values.update({p.name: p.value for p in problem.parameters if p.value is not None})
-    return values
+    return result.problem, values
 
 
 def _check_grid(engine: Engine, problem, held: dict[str, float]) -> None:
@@ -121,8 +123,7 @@ UR5_HELD = {"wrist_1_joint": -math.pi / 2}
 
 
 def test_ur5_springs_balance_the_arm_in_mujoco():
-    problem = load_problem(PROBLEMS / "ur5_shoulder_elbow.toml")
-    values = _design_values(problem)
+    problem, values = _design_values(load_problem(PROBLEMS / "ur5_shoulder_elbow.toml"))
     model = mujoco_from_urdf(PROBLEMS / "robots" / "ur5.urdf")
     # lift_ref: fixed, shoulder_height above the base; elbow_ref: at the forearm's origin, base axes
     free = {"lift_ref": (None, np.array([0.0, 0.0, values["shoulder_height"]])), "elbow_ref": ("forearm_link", np.zeros(3))}
@@ -131,15 +132,13 @@ def test_ur5_springs_balance_the_arm_in_mujoco():
 
 
 def test_ur5_counter_masses_balance_the_arm_in_mujoco():
-    problem = load_problem(PROBLEMS / "ur5_shoulder_elbow_counter_mass.toml")
-    values = _design_values(problem)
+    problem, values = _design_values(load_problem(PROBLEMS / "ur5_shoulder_elbow_counter_mass.toml"))
     model = mujoco_from_urdf(PROBLEMS / "robots" / "ur5.urdf")
     _check_grid(Engine(model, problem, values, {}), problem, UR5_HELD)
 
 
 def test_mjcf_arm_balanced_in_mujoco():
-    problem = load_problem(PROBLEMS / "mjcf_arm.toml")
-    values = _design_values(problem)
+    problem, values = _design_values(load_problem(PROBLEMS / "mjcf_arm.toml"))
     model = mujoco.MjModel.from_xml_path(str(PROBLEMS / "robots" / "arm.xml"))
     free = {"shoulder_ref": (None, np.array([0.0, 0.0, 0.55])), "elbow_ref": ("upper_arm", np.array([0.4, 0.0, 0.0]))}
     _check_grid(Engine(model, problem, values, free), problem, {})
@@ -271,6 +270,6 @@ mass = "M_f"
 position = [0, 0, "-150 mm"]
 """
     problem = load_problem_text(text, "erd_ur5.toml")
-    values = _design_values(problem)
+    problem, values = _design_values(problem)
     model = mujoco_from_urdf(urdf)
     _check_grid(Engine(model, problem, values, {}), problem, UR5_HELD)

@@ -29,7 +29,7 @@ def lever_with_spring_and_counter_mass(stiffness_weight: str) -> ProblemBuilder:
     b.counter_mass("cm", frame="link", mass="M", position=("-arm", 0, 0))
     b.spring("s", "k", ("ground", (0, "f", 0)), ("link", ("f", 0, 0)))
     b.objective(stiffness_weight=stiffness_weight)
-    return b
+    return b.settings(ideal_springs=True)  # the textbook spring (its ends meet upright): ideal
 
 
 def test_without_stiffness_weight_the_spring_does_everything():
@@ -88,7 +88,7 @@ def test_dh_row_in_a_seed_file_gives_the_same_design():
     """spherical_chain_3r.toml writes links 2 and 3 as DH rows: h_i = m_i g/k_i still."""
     from conftest import solved, value
 
-    result = solved("spherical_chain_3r")
+    result = solved("spherical_chain_3r", (("settings.ideal_springs", "true"),))  # the paper's springs
     assert value(result, "h_2", "mm") == pytest.approx(7.848, rel=1e-6)
 
 
@@ -161,6 +161,7 @@ direction = [0, 0, -1]
 [subsystems.chain]
 description = "coordinates come from the repeat"
 [settings]
+ideal_springs = true
 verify_samples = 2000
 verify_tolerance = 1e-9
 [repeat.links]
