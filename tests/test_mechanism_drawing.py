@@ -79,17 +79,20 @@ def _csv(path):
 def _home_forces(folder):
     """Each spring's force at home from springs.csv and design.csv alone.
 
-    A pulley-mounted spring pulls k·d, so springs.csv's max_force_N / max_distance_mm is the
-    part's rate k (and min_force_N / min_distance_mm the same). The distance at home follows
-    from the lamp's geometry (problems/lamp_catalogue.toml, home q_lower = 65 deg,
-    q_upper = 0): the lower spring's pulley is h_1 = 60 mm above the shoulder pivot and its
-    string grips the lower arm at a_1, so d² = a_1² + h_1² − 2 a_1 h_1 sin 65°; the upper
-    spring's pulley is h_2 = 50 mm above the elbow and the upper arm is horizontal, so
-    d² = a_2² + h_2².
+    A pulley-mounted spring pulls k·d (a pin of the pulley's radius on a bracket that keeps
+    its orientation: exactly), so springs.csv's max_force_N / max_distance_mm is the part's
+    rate k (and min_force_N / min_distance_mm the same). The distance at home follows from
+    the lamp's geometry (problems/lamp_catalogue.toml, home q_lower = 65 deg, q_upper = 0):
+    the lower spring's pulley is h_1 = 60 mm above the shoulder pivot and its pin c_1 above
+    the elbow, on the elbow bracket (the base's axes), 350 mm along the arm, so
+    d = |(350 cos 65°, 350 sin 65° + c_1 − 60)|; the upper spring's pulley is h_2 = 50 mm above
+    the elbow and its pin c_2 above the head bracket's pivot, the upper arm horizontal (320 mm),
+    so d = |(320, c_2 − 50)|.
     """
     design = {r["name"]: float(r["value"]) for r in _csv(folder / "design.csv") if r["kind"] == "variable"}
-    a1, a2 = design["a_1"], design["a_2"]
-    distance = {"lower": math.sqrt(a1**2 + 60.0**2 - 2 * a1 * 60.0 * math.sin(math.radians(65))), "upper": math.hypot(a2, 50.0)}
+    c1, c2 = design["c_1"], design["c_2"]
+    home = math.radians(65)
+    distance = {"lower": math.hypot(350 * math.cos(home), 350 * math.sin(home) + c1 - 60.0), "upper": math.hypot(320.0, c2 - 50.0)}
     out = {}
     for row in _csv(folder / "springs.csv"):
         if row["kind"] != "spring":
@@ -292,7 +295,7 @@ def test_a_bare_zero_and_a_bare_number_for_a_length_keep_their_meaning():
     coordinates, _ = parse_at(problem, ["q_upper=0"])
     assert coordinates["q_upper"] == 0.0
     with pytest.raises(AtError, match="expected a length, got dimensionless"):
-        parse_at(problem, ["a_1=120"])
+        parse_at(problem, ["c_1=120"])
 
 
 def test_a_design_folder_of_another_problem_or_none_is_one_line_exit_2(lamp, tmp_path, capsys):

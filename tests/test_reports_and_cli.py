@@ -24,7 +24,7 @@ def test_design_and_summary_columns(tmp_path):
     ] == DESIGN_COLUMNS
     assert list(summary.columns) == [
         "problem", "status", "objective", "added_mass_kg", "added_inertia_kg_m2", "max_residual_N_m",
-        "max_gravity_torque_N_m", "residual_ratio", "checked_configurations", "iterations", "solve_time_s", "solver",
+        "max_gravity_torque_N_m", "residual_ratio", "residual_ratio_as_built", "spring_model", "checked_configurations", "iterations", "solve_time_s", "solver",
         "max_residual_N", "max_gravity_force_N", "certificate_gap_kg", "starts_reaching_best", "worst_scenario",
         "lower_bound_ratio", "parts", "certificate",
     ] == SUMMARY_COLUMNS
