@@ -212,7 +212,8 @@ def test_the_dense_checks_evaluators_are_kept_after_their_first_check(cache_on, 
 
     file = PROBLEMS / "yasir2019_hybrid.toml"
     first = pipeline.design(load_problem(file))
-    assert len(list((cache_on / "built").glob("evaluators.*.pickle"))) == 1
+    # the design's evaluators, and those of its balancer as built (rebuilt from its build sheet)
+    assert len(list((cache_on / "built").glob("evaluators.*.pickle"))) == 2
     monkeypatch.setattr(check, "_cache", {})
 
     def no_build(self, *args, **kwargs):
@@ -270,7 +271,8 @@ def test_solve_twice_through_the_kept_designer_and_evaluators_writes_the_same_fi
         with pytest.raises(SystemExit) as stop:
             main(["solve", str(file), "--out", str(tmp_path / run)])
         assert stop.value.code == 0, capsys.readouterr().err
-    assert sorted(p.name.split(".")[0] for p in (cache_on / "built").glob("*.pickle")) == ["designer", "evaluators", "workspace"]
+    # the design's and the as-built balancer's evaluators and samples (realisation/asbuilt.py)
+    assert sorted(p.name.split(".")[0] for p in (cache_on / "built").glob("*.pickle")) == ["designer", "evaluators", "evaluators", "workspace", "workspace"]
     for name in ("design.csv", "springs.csv", "build.csv", "verification.csv"):
         first = (tmp_path / "first" / "yasir2019_hybrid" / name).read_bytes()
         assert (tmp_path / "second" / "yasir2019_hybrid" / name).read_bytes() == first, name

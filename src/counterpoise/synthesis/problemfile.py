@@ -189,6 +189,10 @@ def topology_data(
             del data[section]
     settings = data.setdefault("settings", {})
     settings["verify_tolerance"] = min(float(settings.get("verify_tolerance", 1e-8)), VERIFY_TOLERANCE)
+    # the synthesis proves exact balance of ideal elements (zero-free-length springs at their
+    # rates): a topology's file says so, and its status gives the as-built figure beside it
+    # (docs/synthesis.md#what-the-written-files-are; docs/build.md#ideal-springs)
+    settings["ideal_springs"] = True
     return Written(data, tuple(magnitudes), tuple(point_variables))
 
 
