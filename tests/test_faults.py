@@ -556,8 +556,8 @@ def test_no_csv_cell_runs_as_a_spreadsheet_formula(tmp_path, capsys):
     parts = {r["name"]: r["value"] for r in design if r["kind"] == "part"}
     assert parts and all(p.startswith("'") and p[1:].startswith(tuple(s[0] for s in INJECTIONS)) for p in parts.values()), parts
     assert any(r["description"].startswith("'=") for r in design), design
-    a_2 = next(r for r in design if r["name"] == "a_2")
-    assert float(a_2["value"]) < 0 and float(a_2["lower"]) == -250  # a negative number is written as a number
+    c_1 = next(r for r in design if r["name"] == "c_1")
+    assert float(c_1["value"]) < 0 and float(c_1["lower"]) == -150  # a negative number is written as a number
     with (folder / "build.csv").open(encoding="utf-8", newline="") as handle:
         build = [c for r in csv.reader(handle) for c in r]
     assert any(c.startswith("-") and float(c) < 0 for c in build)

@@ -81,3 +81,16 @@ def test_names_and_calls():
 def test_math_functions_take_one_argument(text):
     with pytest.raises(ex.ExpressionError, match="takes one argument"):
         ex.parse(text)
+
+
+def test_the_units_known_without_pint_are_pints():
+    """model.units.KNOWN_UNITS (read without importing pint: the as-built check reads its
+    sheet's mm, deg and kg through them) give pint's size and dimension for each symbol."""
+    from counterpoise.model import units
+
+    reg = units.ureg()
+    for symbol, known in units.KNOWN_UNITS.items():
+        base = reg.Quantity(1.0, symbol).to_base_units()
+        assert known.symbol == symbol
+        assert known.to_si == pytest.approx(float(base.magnitude), rel=1e-15)
+        assert known.dimension == units.dimensionality_of(base)

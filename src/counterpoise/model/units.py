@@ -147,12 +147,25 @@ class DisplayUnit:
 SI_DIMENSIONLESS = DisplayUnit("", 1.0, "")
 
 
+#: units the reports write themselves, known without pint (a solve read from the cache
+#: imports no pint: the as-built check reads its sheet's units through these)
+KNOWN_UNITS = {
+    "mm": DisplayUnit("mm", 1e-3, LENGTH),
+    "m": DisplayUnit("m", 1.0, LENGTH),
+    "deg": DisplayUnit("deg", math.pi / 180.0, DIMENSIONLESS),
+    "rad": DisplayUnit("rad", 1.0, DIMENSIONLESS),
+    "kg": DisplayUnit("kg", 1.0, MASS),
+}
+
+
 @lru_cache(maxsize=256)
 def display_unit(symbol: str) -> DisplayUnit:
     """Parse a unit such as ``"N/mm"`` (empty string or ``"1"`` for dimensionless)."""
     symbol = symbol.strip()
     if symbol in ("", "1", "-"):
         return SI_DIMENSIONLESS
+    if symbol in KNOWN_UNITS:
+        return KNOWN_UNITS[symbol]
     reg = ureg()
     try:
         unit = reg.Quantity(1.0, symbol)

@@ -187,6 +187,15 @@ class RealisationMethod:
             again = self._method(problem).solve(parameters, over, dict(solution.values), certify=certify)
             if not _ok(again):
                 return None
+            if again.sampled_ratio is None and again.verification is None:
+                # a solver may call a design held at a bound balanced to its own tolerance:
+                # the dense check says whether it follows the wound rate (and is kept for run())
+                from ..verify.check import check
+
+                verification = check(again, "dense")
+                if not verification.balanced:
+                    return None
+                again = replace(again, verification=verification)
             solution, springs = again, _same_springs(springs, designed_of(again))
         return (solution, tuple(springs)) if not wound_rates(problem, springs)[2] else None
 
