@@ -142,7 +142,7 @@ def cable(mech: "Mechanics", spring: "ZeroFreeLengthSpring", fixing: Vec | None 
 def spring_quantities(mech: "Mechanics", spring: "ZeroFreeLengthSpring") -> dict[str, Scalar]:
     """A spring's quantities at ``mech``'s configurations, in the design model: ``force``
     (its pull: k·d behind a pulley that pulls k·d, k·(ℓ − ℓ*) over a pulley of radius > 0,
-    F0 + k·(d − cable − L0) attached directly), ``length`` (the distance |a − b| between its
+    F0 + k·(d − cable − L0) attached directly), ``length`` (the distance ``|a − b|`` between its
     ends), ``path`` (what its extension follows: the cable's path over a pulley of radius
     > 0, else the distance) and ``wrap`` (the arc wrapped on a pulley of radius > 0, on the
     pulley for a pin; π where there is no such pulley)."""

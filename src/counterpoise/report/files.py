@@ -71,7 +71,7 @@ def cell_text(cell: str) -> str:
 
 
 class CsvWriter:
-    """``csv.writer`` (lines ending in ``\n``) whose every cell goes through
+    """``csv.writer`` (lines ending in a newline, ``\\n``) whose every cell goes through
     :func:`spreadsheet_cell`: the one way the tool writes CSV."""
 
     def __init__(self, handle: TextIO) -> None:
