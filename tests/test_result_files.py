@@ -147,3 +147,23 @@ def test_the_default_summary_fits_80_columns_and_names_the_parts():
     wide = io.StringIO()
     print_summary([row], wide=True, console=Console(file=wide, width=200))
     assert "configs" in wide.getvalue() and "solve (s)" in wide.getvalue()
+
+
+def test_the_summary_shows_the_balancer_as_built_and_says_ideal_springs():
+    """The table's "as built" column is summary.csv's residual_ratio_as_built; a paper's
+    idealised design (spring_model ideal) says so in its status cell."""
+    import io
+
+    from rich.console import Console
+
+    from counterpoise.cli.app import print_summary
+
+    row = {
+        "problem": "yasir2019_hybrid", "status": "optimal", "added_mass_kg": 5.753, "added_inertia_kg_m2": 0.0, "objective": 5.753,
+        "residual_ratio": 1.3e-15, "residual_ratio_as_built": 0.662, "spring_model": "ideal", "checked_configurations": 30024,
+        "solve_time_s": 0.01, "wall_s": 0.5, "parts": "", "folder": "results/x", "message": "",
+    }
+    buffer = io.StringIO()
+    print_summary([row], console=Console(file=buffer, width=80))
+    text = buffer.getvalue()
+    assert "as built" in text and "6.62e-01" in text and "optimal (ideal)" in text
