@@ -182,6 +182,10 @@ def run(
             sheet = tuple(as_written(sheet_rows(solution, springs, solution.parts)))  # the numbers build.csv holds
             as_built = check_as_built(sheet)
         final = judge_as_built(solution, final, as_built)
+        if realised is not None:
+            from .realisation.radius import radius_notes
+
+            realised = replace(realised, notes=(*realised.notes, *radius_notes(solution, verification)))
     return DesignResult(solution, verification, final, values, springs, realised, sheet, as_built)
 
 

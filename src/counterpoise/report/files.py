@@ -247,6 +247,7 @@ def realisation_status(result: DesignResult) -> str:
             lines.append(f"realisation limit: {lim.text(result.problem)}")
         if report.added:
             lines.append(f"realisation constraints added ({report.rounds} round{'s' if report.rounds != 1 else ''}): {', '.join(report.added)}")
+        lines += list(report.notes)
         for name, (design, wound) in report.wound.items():
             lines.append(f"spring {name}: designed for {design / 1e3:.6g} N/mm, wound to {wound / 1e3:.6g} N/mm; the design was solved again for the wound rate")
     return "".join(f"{line}\n" for line in lines)
