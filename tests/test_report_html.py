@@ -264,3 +264,15 @@ def test_printed_tables_fit_an_a4_page(which, request, tmp_path):
     assert seen["wide"] == [] and seen["small"] == []
     rows = list(csv.DictReader(io.StringIO((folder / "springs.csv").read_text(encoding="utf-8"))))
     assert [c for c in rows[0] if any(r[c] for r in rows) and c not in seen["columns"]] == []
+
+
+def test_the_header_gives_the_balancer_as_built_and_says_ideal_springs(tmp_path):
+    """summary.csv's residual_ratio_as_built beside residual_ratio, at the top of the page; a
+    paper's idealised design (yasir2019_hybrid: its springs declared ideal) says so there."""
+    ideal = write_reports(solved("yasir2019_hybrid"), tmp_path / "ideal", html=True)
+    text = (ideal / "report.html").read_text(encoding="utf-8")
+    header = text[: text.index("<nav>")]
+    assert "as built (rebuilt from build.csv with real springs)" in header and "IDEAL SPRINGS" in header
+    real = write_reports(solved("fourbar_springs"), tmp_path / "real", html=True)
+    header = (real / "report.html").read_text(encoding="utf-8").split("<nav>")[0]
+    assert "as built (rebuilt from build.csv with real springs)" in header and "IDEAL SPRINGS" not in header

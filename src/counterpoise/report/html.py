@@ -258,6 +258,26 @@ def _build_section(text: str) -> str:
     return "".join(parts)
 
 
+def _as_built_line(summary: str) -> str:
+    """The header's line on the balancer as built (summary.csv's residual_ratio_as_built, beside
+    the design's residual_ratio), and a banner when the springs are declared ideal."""
+    import csv
+    import io
+
+    rows = list(csv.DictReader(io.StringIO(summary)))
+    if not rows or not rows[0].get("residual_ratio_as_built"):
+        return ""
+    r = rows[0]
+    text = f"Residual ratio {r['residual_ratio']} as designed; as built (rebuilt from build.csv with real springs) {r['residual_ratio_as_built']}"
+    line = f'<p class="lead">{html.escape(text)}</p>'
+    if r.get("spring_model") == "ideal":
+        line = (
+            '<p class="status bad">IDEAL SPRINGS: a paper\'s idealised design (zero free length, exactly the design rate). '
+            "The status refers to that model; the hardware its build sheet specifies has the as-built figure.</p>" + line
+        )
+    return line
+
+
 def report_html(name: str, title: str, status: str, texts: Mapping[str, str], images: Mapping[str, bytes]) -> str:
     """The page of one design: ``texts`` are the report files' text (name -> text),
     ``images`` the PNG plots written beside them (name -> bytes)."""
@@ -296,6 +316,7 @@ def report_html(name: str, title: str, status: str, texts: Mapping[str, str], im
     nav = "".join(f'<a href="#{sid}">{html.escape(t)}</a>' for sid, t, _ in sections)
     body = "".join(f'<section id="{sid}"><h2>{html.escape(t)}</h2>{content}</section>' for sid, t, content in sections)
     badge = "ok" if status == "optimal" else "bad"
+    built = _as_built_line(texts.get("summary.csv", ""))
     return (
         "<!DOCTYPE html>\n"
         '<html lang="en"><head><meta charset="utf-8">'
@@ -304,5 +325,6 @@ def report_html(name: str, title: str, status: str, texts: Mapping[str, str], im
         f"<header><h1>{html.escape(title or name)}</h1>"
         f'<p class="lead">Problem <code>{html.escape(name)}</code> · design <span class="status {badge}">{html.escape(status)}</span></p>'
         + (f'<p class="note">{html.escape(message)}</p>' if message else "")
+        + built
         + f"<nav>{nav}</nav></header><main>{body}</main></body></html>\n"
     )
