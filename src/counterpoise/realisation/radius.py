@@ -88,7 +88,8 @@ def _slope(problem: Problem, s: ZeroFreeLengthSpring, k: float, base: Any, varia
     from ..springs.workspace import SEED_OFFSET, sample
 
     coords = problem.subsystem_coordinates(s.subsystem)  # type: ignore[arg-type]  # a spring in a subsystem
-    q = sample(problem, base, SAMPLES, problem.settings.seed + SEED_OFFSET)[s.subsystem][:SAMPLES]  # type: ignore[index]
+    # the realisation limits' sample (same size and seed: one cached draw), its first SAMPLES rows
+    q = sample(problem, base, problem.settings.verify_samples, problem.settings.seed + SEED_OFFSET)[s.subsystem][:SAMPLES]  # type: ignore[index]  # a spring in a subsystem
     point = replace(s, pulley=replace(s.pulley or Pulley(), radius=0.0))
     home = {c.name: c.home for c in problem.coordinates}
     g_rows, h_rows, scales = [], [], []
@@ -129,7 +130,7 @@ def _pin_frames(problem: Problem, s: ZeroFreeLengthSpring, base: Any, variables:
     from ..springs.workspace import SEED_OFFSET, sample
 
     coords = problem.subsystem_coordinates(s.subsystem)  # type: ignore[arg-type]  # a spring in a subsystem
-    q = sample(problem, base, SAMPLES, problem.settings.seed + SEED_OFFSET)[s.subsystem][:200]  # type: ignore[index]
+    q = sample(problem, base, problem.settings.verify_samples, problem.settings.seed + SEED_OFFSET)[s.subsystem][:200]  # type: ignore[index]  # a spring in a subsystem
     values: dict[str, Any] = {c.name: c.home for c in problem.coordinates}
     values.update({c.name: q[:, i] for i, c in enumerate(coords)})
     mech = Mechanics(problem, base, variables, values, gravity)
