@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import replace
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeGuard
 
 import numpy as np
 
@@ -49,6 +49,7 @@ from .constrained import (
 from .solution import Solution, build_solution
 
 if TYPE_CHECKING:
+    from ..io.cache import BuiltEntry
     from .minimax import MinimaxDesigner
 
 #: The compressed balance equalities (each coordinate's rows scaled to order one) hold when
@@ -109,7 +110,7 @@ class Designer:
         import casadi as ca
 
         limit_blas_threads()
-        kept = _kept_parts(problem, ipopt_options, backend, extra) if type(self) is Designer else None
+        kept = _kept_entry(problem, ipopt_options, backend, extra, self) if type(self) is Designer else None
         if kept is not None and self._restore(kept, problem):
             return
         self.problem = problem
@@ -140,33 +141,25 @@ class Designer:
         self._minimax: MinimaxDesigner | None = None  # the epigraph NLP of the closest design (built on first use)
         #: designers of this problem rebuilt for other loop geometries (:func:`for_geometry`)
         self.geometries = Geometries()
-        if kept is not None:
-            self._keep(kept)
+        if kept is not None:  # just built and not yet used: kept for a later counterpoise solve
+            kept.keep(dict(self.__dict__))
 
     # -- kept on disk by counterpoise solve (counterpoise.io.cache) -----------------------
-    def _restore(self, parts: tuple[str, ...], problem: Problem) -> bool:
+    def _restore(self, kept: BuiltEntry, problem: Problem) -> bool:
         """Take the state of a designer built from the same content, kept on disk by an
-        earlier ``counterpoise solve`` (:func:`counterpoise.io.cache.fetch_built`); False when
+        earlier ``counterpoise solve`` (:class:`counterpoise.io.cache.BuiltEntry`); False when
         there is none. Its CasADi expressions and functions are unpickled in one CasADi
         context (shared symbols stay shared), so they are the ones built: the same
         designs, bit for bit."""
-        import casadi as ca
 
-        from ..io.cache import fetch_built
+        def valid(found: object) -> TypeGuard[dict[str, Any]]:  # the state of a designer of this problem (put back in its place)
+            return isinstance(found, dict) and found.get("problem") is problem
 
-        state = fetch_built(KEPT_KIND, parts, {"problem": problem, "designer": self}, ca.global_unpickle_context)
-        if not isinstance(state, dict) or state.get("problem") is not problem:
+        state = kept.fetch(valid)
+        if state is None:
             return False
         self.__dict__.update(state)
         return True
-
-    def _keep(self, parts: tuple[str, ...]) -> None:
-        """Keep this designer's state, just built and not yet used, for a later ``counterpoise solve``."""
-        import casadi as ca
-
-        from ..io.cache import keep_built
-
-        keep_built(KEPT_KIND, parts, dict(self.__dict__), {"problem": self.problem, "designer": self}, _KEPT_REDUCERS, ca.global_pickle_context)
 
     def __reduce__(self) -> tuple[Any, ...]:
         """Pickle as a description; the worker rebuilds the CasADi objects."""
@@ -679,20 +672,21 @@ def _with_time(out: SolverOutput, seconds: float) -> SolverOutput:
 KEPT_KIND = "designer"
 
 
-def _kept_parts(problem: Problem, ipopt_options: Mapping[str, Any] | None, backend: str, extra: Extra | None) -> tuple[str, ...] | None:
-    """The key parts of a designer kept on disk (the problem's content, the options, the
-    CasADi version), or None when designers are not kept in this process (anything but the
+def _kept_entry(problem: Problem, ipopt_options: Mapping[str, Any] | None, backend: str, extra: Extra | None, designer: Designer) -> BuiltEntry | None:
+    """The disk entry of a designer (key: the problem's content, the options, the CasADi
+    version), or None when designers are not kept in this process (anything but the
     console script's ``solve``) or this one is not (a verification round's, with ``extra``)."""
-    from ..io.cache import built_parts
-
     if extra:
         return None
     import casadi as ca
 
+    from ..io.cache import built_entry
     from ..model.digest import digest
 
     version = str(getattr(ca, "__version__", ""))  # also in the entry's key by its installed version (io.cache.BUILT_LIBRARIES)
-    return built_parts(problem, digest(dict(ipopt_options or {})), backend, version)
+    return built_entry(
+        KEPT_KIND, problem, digest(dict(ipopt_options or {})), backend, version, shared={"problem": problem, "designer": designer}, reducers=_KEPT_REDUCERS, casadi=True
+    )
 
 
 def _reduce_numeric(f: NumericFunction) -> tuple[Any, ...]:

@@ -29,11 +29,14 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypeGuard
 
 import numpy as np
 
 from .design import Envelope, Requirement, SpringDesign, design
+
+if TYPE_CHECKING:
+    from ..io.cache import BuiltEntry
 
 #: the seed offset of the dense sample (the one catalogue parts are checked on)
 SEED_OFFSET = 11
@@ -119,13 +122,14 @@ def sample(problem: Any, base: Mapping[str, float], samples: int, seed: int) -> 
     ``counterpoise solve`` keeps the draws on disk (:mod:`counterpoise.io.cache`, kind
     :data:`KEPT_KIND`): its later runs of the same file read them instead of drawing them
     again (and of importing ``numpy.random``, ~10 ms)."""
-    parts = _kept_parts(problem, base, samples, seed)
-    if parts is not None:
-        from ..io.cache import fetch_built
+    entry = _kept_entry(problem, base, samples, seed)
 
-        kept = fetch_built(KEPT_KIND, parts, {})
-        if _valid(kept, problem, samples):
-            return kept  # type: ignore[return-value]  # checked by _valid
+    def valid(found: object) -> TypeGuard[dict[str, np.ndarray]]:
+        return _valid(found, problem, samples)
+
+    kept = entry.fetch(valid) if entry is not None else None
+    if kept is not None:
+        return kept
     from ..mechanics.closure import manifold_configurations
     from ..mechanics.sampling import configurations
 
@@ -136,10 +140,8 @@ def sample(problem: Any, base: Mapping[str, float], samples: int, seed: int) -> 
             out[s.name] = manifold_configurations(problem, s.name, samples, rng, base).q
         else:
             out[s.name] = configurations(problem, s.name, samples, rng)
-    if parts is not None:
-        from ..io.cache import keep_built
-
-        keep_built(KEPT_KIND, parts, out, {})
+    if entry is not None:
+        entry.keep(out)
     return out
 
 
@@ -147,18 +149,18 @@ def sample(problem: Any, base: Mapping[str, float], samples: int, seed: int) -> 
 KEPT_KIND = "workspace"
 
 
-def _kept_parts(problem: Any, base: Mapping[str, float], samples: int, seed: int) -> tuple[str, ...] | None:
-    """The key parts of a sample kept on disk, or None when built objects are not kept in
-    this process (anything but the console script's ``solve``). The geometry ``base``
-    counts only where the problem has closed loops (an open chain's draws do not use it)."""
-    from ..io.cache import built_parts
+def _kept_entry(problem: Any, base: Mapping[str, float], samples: int, seed: int) -> BuiltEntry | None:
+    """The disk entry of a sample, or None when built objects are not kept in this process
+    (anything but the console script's ``solve``). The geometry ``base`` counts only where
+    the problem has closed loops (an open chain's draws do not use it)."""
+    from ..io.cache import built_entry
     from ..model.digest import digest
 
     geometry = digest({str(k): float(v) for k, v in base.items()}) if problem.loops else ""
-    return built_parts(problem, str(samples), str(seed), geometry)
+    return built_entry(KEPT_KIND, problem, str(samples), str(seed), geometry)
 
 
-def _valid(kept: object, problem: Any, samples: int) -> bool:
+def _valid(kept: object, problem: Any, samples: int) -> TypeGuard[dict[str, np.ndarray]]:
     """Whether ``kept`` is a sample of ``problem``'s subsystems as :func:`sample` draws it."""
     if not isinstance(kept, dict) or list(kept) != [s.name for s in problem.subsystems]:
         return False
