@@ -204,8 +204,8 @@ def test_a_kept_designer_is_the_built_one(which, cache_on, monkeypatch):
     kept = module.Designer(problem)
     assert kept.problem is problem and kept.formulation.problem is problem
     a, b = built.solve(), kept.solve()
-    assert (a.status, a.values, a.objective, a.iterations) == (b.status, b.values, b.objective, b.iterations)
-    assert (which == "lp") == (a.solver == "clarabel")
+    assert (a.status, a.values, a.objective, a.stats.iterations) == (b.status, b.values, b.objective, b.stats.iterations)
+    assert (which == "lp") == (a.stats.solver == "clarabel")
 
 
 def test_designers_are_not_kept_outside_solve(tmp_path, monkeypatch):

@@ -101,7 +101,7 @@ def test_two_tips_closest_design_is_the_closed_form_minimax(two_tips):
     """Worst ratio 0.25 at M b = 0.45 kg·m (see TWO_TIPS), on the LP and on the NLP path."""
     kind, minimax, least = two_tips
     assert minimax.status is Status.INFEASIBLE
-    assert minimax.solution.solver == ("clarabel" if kind == "fixed_lever" else "ipopt")
+    assert minimax.solution.stats.solver == ("clarabel" if kind == "fixed_lever" else "ipopt")
     assert minimax.verification.residual_ratio == pytest.approx(0.25, rel=1e-6)
     assert _product(minimax) == pytest.approx(0.45, rel=1e-6)
     assert "minimax" in minimax.message

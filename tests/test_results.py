@@ -25,6 +25,8 @@ from counterpoise.io.loader import load_problem
 from counterpoise.pipeline import DesignResult, build_method, run
 from counterpoise.solvers.base import Status
 from counterpoise.verify.judge import judge, verdict
+from counterpoise.robust.result import RobustReport
+from counterpoise.selection.result import PartsReport
 
 
 def _snapshot(solution: Solution) -> dict[str, object]:
@@ -120,9 +122,9 @@ def test_designer_certify_returns_a_new_solution():
     before = _snapshot(raw)
     certified = method.certify(raw)
     assert certified is not raw
-    assert math.isnan(raw.certificate_gap)
+    assert math.isnan(raw.stats.certificate_gap)
     assert all(_same(before[name], value) for name, value in _snapshot(raw).items())
-    assert not math.isnan(certified.certificate_gap)
+    assert not math.isnan(certified.stats.certificate_gap)
 
 
 def test_multi_start_returns_a_new_solution_and_leaves_its_starts_alone():
@@ -132,9 +134,9 @@ def test_multi_start_returns_a_new_solution_and_leaves_its_starts_alone():
     best = method.solve()
     spy.check_untouched(best)
     assert len(spy.returned) == 3
-    assert best.starts[1] == 3
-    assert all(s.starts == (1, 1) for s, _ in spy.returned)  # each start's own value untouched
-    assert best.solve_time == pytest.approx(sum(s.solve_time for s, _ in spy.returned))
+    assert best.stats.starts[1] == 3
+    assert all(s.stats.starts == (1, 1) for s, _ in spy.returned)  # each start's own value untouched
+    assert best.stats.solve_time == pytest.approx(sum(s.stats.solve_time for s, _ in spy.returned))
     _mutation_raises(best)
 
 
@@ -175,8 +177,8 @@ def test_parts_layer_wraps_its_inner_design_and_its_verdict_names_the_part(tmp_p
     result, spy = _run_spied(problem, "PartsMethod")
     assert result.verdict.source == "parts"
     assert "; parts " in result.message and result.message.endswith(": GOOD")  # the layer's own line
-    assert result.parts is not None and result.parts is result.solution.parts
-    assert all(s.parts is None for s, _ in spy.returned)  # the inner design knows no parts
+    assert result.parts is not None and result.parts is result.solution.extra(PartsReport)
+    assert all(s.extra(PartsReport) is None for s, _ in spy.returned)  # the inner design knows no parts
     _mutation_raises(result.solution)
 
 
@@ -190,8 +192,8 @@ def test_robust_layer_wraps_the_nominal_design_and_its_verdict_is_the_counterpar
     problem = load_problem(_pendulum(tmp_path, "limit", 'mode = "limit"\nlimit = 0.04\ntolerances.rate = "10 %"'))
     result, spy = _run_spied(problem, "RobustMethod")
     assert result.verdict.source == "robust"
-    assert result.solution.robust is not None
-    assert all(s.robust is None and s.verdict is None for s, _ in spy.returned)
+    assert result.solution.extra(RobustReport) is not None
+    assert all(s.extra(RobustReport) is None and s.verdict is None for s, _ in spy.returned)
     assert "worst-case residual ratio" in result.message
 
 

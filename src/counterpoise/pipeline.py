@@ -25,20 +25,22 @@ from typing import TYPE_CHECKING, Any
 
 from .designer.designer import Designer
 from .designer.methods import DesignMethod, core_method
-from .designer.minimax import has_direct_springs
+from .designer.minimax import has_direct_springs, minimax_of
 from .designer.quantities import QuantityValue, evaluate_quantities
 from .designer.solution import Solution, Verdict
 from .formulation.layout import Slot
 from .model.problem import Problem
 from .solvers.base import Status
 from .verify.check import check as check_design
-from .verify.checks import Verification
+from .designer.checks import Verification
+from .payload.result import PayloadDesign
+from .robust.result import RobustReport
+from .selection.result import PartsReport
 from .verify.judge import verdict
 
 if TYPE_CHECKING:
     from .designer.minimax import MinimaxDesigner
-    from .payload import OperatorSettings, PayloadDesign
-    from .selection.parts import PartsReport
+    from .payload import OperatorSettings
     from .realisation.asbuilt import AsBuilt
     from .realisation.method import RealisationReport
     from .springs.workspace import DesignedSpring
@@ -82,12 +84,12 @@ class DesignResult:
     @property
     def payload(self) -> "PayloadDesign | None":
         """Payload problems: the schedule, samples and range."""
-        return self.solution.payload
+        return self.solution.extra(PayloadDesign)
 
     @property
     def parts(self) -> "PartsReport | None":
         """Problems with spring slots: the chosen catalogue parts."""
-        return self.solution.parts
+        return self.solution.extra(PartsReport)
 
     @property
     def optimal(self) -> bool:
@@ -179,7 +181,7 @@ def run(
         from .realisation.sheet import as_written, sheet_rows
 
         with progress.phase(f"{solution.problem.name}: checking the balancer as built"):
-            sheet = tuple(as_written(sheet_rows(solution, springs, solution.parts)))  # the numbers build.csv holds
+            sheet = tuple(as_written(sheet_rows(solution, springs, solution.extra(PartsReport))))  # the numbers build.csv holds
             as_built = check_as_built(sheet)
         final = judge_as_built(solution, final, as_built)
     return DesignResult(solution, verification, final, values, springs, realised, sheet, as_built)
@@ -198,8 +200,8 @@ def judge_as_built(solution: Solution, final: Verdict, as_built: "AsBuilt") -> V
         return replace(final, message=f"{final.message}; IDEAL SPRINGS (a paper's idealised design): as built, the residual ratio is {figure}")
     if final.status is not Status.OPTIMAL:
         return final
-    tolerance = problem.settings.minimax_tolerance if solution.sampled_ratio is not None else problem.settings.verify_tolerance
-    robust = getattr(solution, "robust", None)
+    tolerance = problem.settings.minimax_tolerance if minimax_of(solution) is not None else problem.settings.verify_tolerance
+    robust = solution.extra(RobustReport)
     if robust is not None:  # a robust design answers for its hardware with its worst case over the tolerances
         tolerance = max([tolerance, *(v for band in robust.bands.values() for v in band.values() if math.isfinite(v))])
     if math.isfinite(ratio) and ratio <= tolerance * (1 + 1e-9):
@@ -233,4 +235,4 @@ def operator_settings(problem: Problem, mass: float, method: DesignMethod | None
     from .payload import settings_for
 
     solution = (method or build_method(problem)).solve()
-    return settings_for(problem, mass, solution.payload)
+    return settings_for(problem, mass, solution.extra(PayloadDesign))

@@ -230,7 +230,7 @@ class Designer:
             start = dict(solution.values)
             return refined.solve(start, parameters, bounds, certify)
         if certify:
-            solution = replace(solution, certificate_gap=self._certificate_gap(solution, p, b))
+            solution = replace(solution, stats=replace(solution.stats, certificate_gap=self._certificate_gap(solution, p, b)))
         return solution
 
     def certify(self, solution: Solution, parameters: Mapping[str, float] | None = None, bounds: BoundsOverride | None = None) -> Solution:
@@ -245,7 +245,7 @@ class Designer:
         b = self.bounds(self.n_equalities, bounds)
         if solution.status is Status.INFEASIBLE and solution.closest == LEAST_SQUARES_CLOSEST:
             solution = self._upgrade_closest(solution, p, b)
-        return replace(solution, certificate_gap=self._certificate_gap(solution, p, b))
+        return replace(solution, stats=replace(solution.stats, certificate_gap=self._certificate_gap(solution, p, b)))
 
     def _upgrade_closest(self, solution: Solution, p: np.ndarray, b: Bounds) -> Solution:
         """``solution`` (a solve made with ``certify=False``) with its least-squares closest
@@ -254,7 +254,8 @@ class Designer:
         z, kind, seconds = self.closest_minimax(d.to_z(d.vector(solution.values)), p, b)
         if kind != LEAST_SQUARES_NO_CLOSER:
             z = self.polish_settings(z, p, b)
-        out = SolverOutput(z, solution.status, solution.solver_status, solution.iterations, solution.solve_time + seconds, solution.solver)
+        stats = solution.stats
+        out = SolverOutput(z, solution.status, stats.solver_status, stats.iterations, stats.solve_time + seconds, stats.solver)
         new = self._solution(z, p, b, out, solution.message, kind)
         return replace(
             solution,
@@ -264,7 +265,7 @@ class Designer:
             objective=new.objective,
             added_mass=new.added_mass,
             added_inertia=new.added_inertia,
-            solve_time=new.solve_time,
+            stats=replace(stats, solve_time=new.stats.solve_time),
             scenario_parameters=new.scenario_parameters,
             verdicts=new.verdicts,
             constraints=new.constraints,
@@ -279,7 +280,7 @@ class Designer:
 
     def _certificate_gap(self, solution: Solution, p: np.ndarray, b: Bounds) -> float:
         d = self.formulation.design
-        return self.certificate.gap(d.to_z(d.vector(solution.values)), p, b, solution.solver, solution.objective)
+        return self.certificate.gap(d.to_z(d.vector(solution.values)), p, b, solution.stats.solver, solution.objective)
 
     def _solve(self, z0: np.ndarray, p: np.ndarray, b: Bounds, bounds: BoundsOverride | None, minimax: bool = True) -> Solution:
         """``minimax``: report the minimax closest design of an infeasible problem (else the

@@ -84,6 +84,16 @@ class SampledMethod(Protocol):
         """The inner method of a sampled problem (built once per set of samples)."""
         ...
 
+    def scheduled(self, solution: Solution) -> Solution | None:
+        """``solution`` (one this method returned) on every sample its schedule covers, each
+        with its own adjustments: what a check that must hold over the whole range (a
+        part's limits) runs on; None when it has no schedule."""
+        ...
+
+    def sample_of(self, solution: Solution, scenario: str) -> float | None:
+        """The sample (a payload mass, SI) of a scenario of ``solution`` or of :meth:`scheduled`."""
+        ...
+
 
 class Core:
     """Shared by the innermost methods: a designer with a formulation and ``solve``."""
@@ -183,7 +193,7 @@ class MultiStart(Core):
         reached = sum(1 for s in optimal if s.status is best.status and abs(s.objective - best.objective) <= scale)
         if certify:
             best = self.inner.certify(best, parameters, bounds)
-        return replace(best, starts=(reached, self.starts), solve_time=sum(s.solve_time for s in solutions))
+        return replace(best, stats=replace(best.stats, starts=(reached, self.starts), solve_time=sum(s.stats.solve_time for s in solutions)))
 
     def certify(self, solution: Solution, parameters: Parameters | None = None, bounds: BoundsOverride | None = None) -> Solution:
         return self.inner.certify(solution, parameters, bounds)

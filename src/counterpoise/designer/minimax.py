@@ -16,7 +16,8 @@ parameter values): r_j and the gravity torque are then the generalized forces al
 independent coordinates, r_i = ∂V/∂q_i + (dq_d/dq_i)ᵀ ∂V/∂q_d, as in the dense check of
 :mod:`counterpoise.verify.manifold`, and the spring lengths are those of the assembled
 configurations. The design is then checked on the dense verification sample like any other:
-the residual ratio reported is the dense one; ``Solution.sampled_ratio`` is t.
+the residual ratio reported is the dense one; t is the design's :class:`MinimaxDesign` extra
+(``solution.extra(MinimaxDesign).sampled_ratio``), which also marks it a minimax design.
 Built once; :meth:`solve` takes parameters and bounds per call, like :class:`Designer`
 (and, like it, builds another for parameters that change a closed loop's geometry).
 """
@@ -24,7 +25,7 @@ Built once; :meth:`solve` takes parameters and bounds per call, like :class:`Des
 from __future__ import annotations
 
 from collections.abc import Collection, Mapping
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -42,6 +43,22 @@ from ..threads import limit_blas_threads
 from ..formulation.constraints import MAX_ROUNDS, ConstraintRows, Extra, build_rows, describe, merge, violations
 from .constrained import attach_constraints, rows_multipliers
 from .solution import Solution, build_solution
+
+@dataclass(frozen=True)
+class MinimaxDesign:
+    """The extra of a minimax design (:meth:`MinimaxDesigner.solve`): its worst residual
+    ratio ``t`` on the NLP's sampled configurations, and how many there were. Its presence
+    marks the design as a minimax one: judged by the minimax rule
+    (:func:`counterpoise.verify.judge.judge_minimax`), not by exact balance."""
+
+    sampled_ratio: float
+    samples: int
+
+
+def minimax_of(solution: Solution) -> MinimaxDesign | None:
+    """The minimax extra of ``solution``; None for a design of exact balance conditions."""
+    return solution.extra(MinimaxDesign)
+
 
 #: sampled configurations per (subsystem, scenario): SAMPLES_PER_COORDINATE × n_q (+ corners)
 SAMPLES_PER_COORDINATE = 96
@@ -239,7 +256,7 @@ class MinimaxDesigner:
         )
         design_out = SolverOutput(out.z[:-1], out.status, out.solver_status, out.iterations, out.solve_time, out.solver)
         summary = "epigraph rows on sampled configurations"
-        solution = build_solution(f, out.z[:-1], p, lbz, ubz, design_out, message, self.n_rows, summary, sampled_ratio=t)
+        solution = build_solution(f, out.z[:-1], p, lbz, ubz, design_out, message, self.n_rows, summary).with_extra(MinimaxDesign(t, self.n_samples))
         if rows is None:
             return solution
         solution = attach_constraints(solution, rows, rows_multipliers(out, rows))

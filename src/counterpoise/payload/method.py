@@ -2,8 +2,8 @@
 
 :class:`PayloadMethod` wraps the method of each sampled problem (one scenario per working
 mode and payload sample, :mod:`.scenarios`) and returns the shared design with its
-schedule (:func:`.design.design_payloads`): a new solution whose ``payload`` is the
-:class:`~.design.PayloadDesign` and whose verdict (source ``payload``) its status and message. Options act
+schedule (:func:`.design.design_payloads`): a new solution with the
+:class:`~.result.PayloadDesign` as its extra and whose verdict (source ``payload``) its status and message. Options act
 on the whole range: ``parameters`` on every sample and on every schedule payload,
 ``bounds`` on every sample (adjustments within their travel), ``initial`` on every sample.
 """
@@ -52,6 +52,14 @@ class PayloadMethod:
         p = payload_of(self.problem)
         return sampled_problem(self.problem, (p.lower, p.nominal, p.upper, *extra)).problem
 
+    def scheduled(self, solution: Solution) -> Solution | None:
+        outcome = solution.extra(PayloadDesign)
+        return outcome.schedule_solution() if outcome is not None and outcome.schedule is not None else None
+
+    def sample_of(self, solution: Solution, scenario: str) -> float | None:
+        outcome = solution.extra(PayloadDesign)
+        return outcome.mass_of(scenario) if outcome is not None else None
+
     def design(
         self,
         parameters: Mapping[str, float] | None = None,
@@ -70,7 +78,7 @@ class PayloadMethod:
         certify: bool = True,
     ) -> Solution:
         outcome = self.design(parameters, bounds, initial, certify)
-        return replace(outcome.solution, verification=outcome.verification, payload=outcome).judged(outcome.status, outcome.message, "payload")
+        return replace(outcome.solution, verification=outcome.verification).with_extra(outcome).judged(outcome.status, outcome.message, "payload")
 
     def __repr__(self) -> str:
         return f"PayloadMethod({self.problem.name})"

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from typing import Any
 
 from ..designer.methods import BoundsOverride, DesignMethod, Initial, Parameters
@@ -32,7 +32,10 @@ from ..designer.solution import Solution
 from ..model import expr as ex
 from ..model.problem import Problem
 from ..solvers.base import Status
-from .limits import Limit, constraints, evaluate
+from ..designer.minimax import minimax_of
+from ..selection.result import PartsReport
+from .limits import Limit, checked_solution, constraints, evaluate, tuned_envelope
+from .result import RealisationReport
 
 #: rounds of added realisation constraints, at most
 ROUNDS = 4
@@ -43,40 +46,19 @@ SAME_RATE = 1e-12
 WOUND_ROUNDS = 3
 
 
-@dataclass(frozen=True)
-class RealisationReport:
-    """What the realisation layer found of a design (an extra of its :class:`Solution`)."""
-
-    limits: tuple[Limit, ...]
-    #: the designed springs (:class:`~counterpoise.springs.workspace.DesignedSpring`)
-    springs: tuple[Any, ...] = ()
-    #: realisation constraints added to the problem before this design
-    added: tuple[str, ...] = ()
-    rounds: int = 0
-    #: per designed spring whose stiffness was re-solved: (design rate, wound rate) in N/m
-    wound: Mapping[str, tuple[float, float]] = field(default_factory=dict)
-    #: the springs are declared ideal: the limits are reported, not enforced
-    ideal: bool = False
-    notes: tuple[str, ...] = ()
-
-    @property
-    def violated(self) -> tuple[Limit, ...]:
-        return tuple(lim for lim in self.limits if not lim.met)
-
-
 def designed_of(solution: Solution) -> tuple[Any, ...]:
     """The designed springs of ``solution`` (free-stiffness springs; empty when none)."""
     if not any(s.slot is None for s in solution.problem.springs):
         return ()
     from ..springs.workspace import designed_springs
 
-    return designed_springs(solution)
+    return designed_springs(solution, checked_solution(solution), tuned_envelope(solution))
 
 
 def report_of(solution: Solution, ideal: bool = False) -> RealisationReport:
     """The realisation limits of ``solution`` as they stand (no rounds, no verdict)."""
     springs = designed_of(solution)
-    return RealisationReport(evaluate(solution, springs, solution.parts), springs, ideal=ideal)
+    return RealisationReport(evaluate(solution, springs, solution.extra(PartsReport)), springs, ideal=ideal)
 
 
 class RealisationMethod:
@@ -122,7 +104,7 @@ class RealisationMethod:
                     return _unbuildable(solution, forced, springs, rounds)
                 return solution  # not balanced in the ideal model already: its own verdict stands
             springs = designed_of(solution)
-            limits = evaluate(solution, springs, solution.parts)
+            limits = evaluate(solution, springs, solution.extra(PartsReport))
             if rounds >= ROUNDS:
                 break
             new = constraints(problem, limits)
@@ -164,7 +146,7 @@ class RealisationMethod:
                 final, made = followed
                 rates = {d.spring: float(d.design.rate) for d in made if d.ok}
                 wound = {n: (design, rates.get(n, first)) for n, (design, first) in changed.items()}
-                return final, made, evaluate(final, made, final.parts), wound
+                return final, made, evaluate(final, made, final.extra(PartsReport)), wound
         note = "; ".join(f"{n}: designed for {a / 1e3:.6g} N/mm, wound to {b / 1e3:.6g} N/mm" for n, (a, b) in changed.items())
         limit = Limit(next(iter(changed)), "spring", math.nan, math.nan, "lower", "", "", None,
                       f"no design balances the springs as wound ({note}), on either side of their design rates: "
@@ -187,7 +169,7 @@ class RealisationMethod:
             again = self._method(problem).solve(parameters, over, dict(solution.values), certify=certify)
             if not _ok(again):
                 return None
-            if again.sampled_ratio is None and again.verification is None:
+            if minimax_of(again) is None and again.verification is None:
                 # a solver may call a design held at a bound balanced to its own tolerance:
                 # the dense check says whether it follows the wound rate (and is kept for run())
                 from ..verify.check import check

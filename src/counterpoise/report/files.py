@@ -27,6 +27,7 @@ from typing import TextIO
 from .. import unfinished
 from ..filemodes import respect_umask
 from ..pipeline import DesignResult
+from ..robust.result import RobustReport
 from . import parts
 from .rows import (
     DESIGN_COLUMNS,
@@ -201,7 +202,7 @@ def report_texts(result: DesignResult, warnings: Sequence[str] | None = None) ->
         texts["status.txt"] += payload_status_lines(result)
         if result.payload.schedule is not None:
             texts["schedule.csv"] = csv_text(schedule_rows(result), schedule_columns(result))
-    if getattr(result.solution, "robust", None) is not None:
+    if result.solution.extra(RobustReport) is not None:
         from . import robust
 
         texts["design.csv"] = csv_text(design_rows(result) + robust.design_rows(result), DESIGN_COLUMNS)

@@ -13,13 +13,9 @@ the setting of each tune variable (its display unit) and the ratios before and a
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 from ..pipeline import DesignResult
+from ..robust.result import RobustReport
 from .rows import Row
-
-if TYPE_CHECKING:
-    from ..robust.method import RobustReport
 
 TOLERANCE_COLUMNS = ["design", "case", "deviation", "residual_ratio", "adjusted_residual_ratio", "adjustment"]
 #: report.html's caption of a [robust] problem's tolerance.csv (a catalogue's has its own)
@@ -35,7 +31,7 @@ def is_robust_tolerance(text: str) -> bool:
 
 
 def _report(result: DesignResult) -> "RobustReport | None":
-    report: RobustReport | None = getattr(result.solution, "robust", None)
+    report = result.solution.extra(RobustReport)
     return report
 
 

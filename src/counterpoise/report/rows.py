@@ -13,7 +13,7 @@ from ..formulation.constraints import ConstraintValue
 from ..pipeline import DesignResult
 from ..model.problem import Problem
 from ..verify.certificate import certificate_of
-from ..verify.checks import PRISMATIC, REVOLUTE, CoordinateCheck
+from ..designer.checks import PRISMATIC, REVOLUTE, CoordinateCheck
 
 Row = dict[str, Any]
 
@@ -180,6 +180,7 @@ def summary_row(result: DesignResult) -> Row:
     """The one-row summary. Revolute figures (N·m) and prismatic ones (N) are kept apart;
     a kind the problem does not have is left empty."""
     s, v = result.solution, result.verification
+    stats = s.stats
     return {
         "problem": result.problem.name,
         "status": result.status.value,
@@ -193,13 +194,13 @@ def summary_row(result: DesignResult) -> Row:
         "spring_model": "ideal" if result.problem.settings.ideal_springs else "real",
         "certificate": certificate_of(v),
         "checked_configurations": v.configurations,
-        "iterations": s.iterations,
-        "solve_time_s": s.solve_time,
-        "solver": s.solver,
+        "iterations": stats.iterations,
+        "solve_time_s": stats.solve_time,
+        "solver": stats.solver,
         "max_residual_N": v.max_residual(PRISMATIC),
         "max_gravity_force_N": v.max_gravity_torque(PRISMATIC),
-        "certificate_gap_kg": s.certificate_gap,
-        "starts_reaching_best": f"{s.starts[0]}/{s.starts[1]}",
+        "certificate_gap_kg": stats.certificate_gap,
+        "starts_reaching_best": f"{stats.starts[0]}/{stats.starts[1]}",
         "worst_scenario": worst.scenario if (worst := v.worst()) is not None else "",
         "lower_bound_ratio": result.parts.search.lower_bound_ratio if result.parts is not None else None,
         "parts": chosen_parts(result),
@@ -253,11 +254,12 @@ def verification_rows(result: DesignResult) -> list[Row]:
 
 def status_text(result: DesignResult) -> str:
     s = result.solution
+    stats = s.stats
     return (
         f"problem: {result.problem.name}\n"
         f"status: {result.status.value}\n"
         f"message: {result.message}\n"
-        f"solver: {s.solver} ({s.solver_status}), {s.iterations} iterations\n"
-        f"balance conditions: {s.conditions} ({s.condition_summary})\n"
-        + (f"closest design: {s.closest}\n" if result.status.value == "infeasible" and getattr(s, "closest", None) else "")
+        f"solver: {stats.solver} ({stats.solver_status}), {stats.iterations} iterations\n"
+        f"balance conditions: {stats.conditions} ({stats.condition_summary})\n"
+        + (f"closest design: {s.closest}\n" if result.status.value == "infeasible" and s.closest else "")
     )

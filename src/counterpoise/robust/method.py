@@ -22,7 +22,7 @@ from __future__ import annotations
 import copy
 import itertools
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -40,10 +40,10 @@ from ..solvers.base import SolverOutput, Status
 from .affine import LP_CONFIGURATIONS, Decomposition, Rows, worst
 from .constraints import CornerConstraints, LinearRows
 from .perturb import Deviation, corner_name, corner_text, perturbed
+from .result import Corner, RobustReport
 
 if TYPE_CHECKING:
     from ..designer.designer import Designer
-    from .law import Check, Law
     from .limits import Envelope as LimitEnvelope
     from .limits import Margin, PulleySpring
     from .minimax import RobustMinimax
@@ -70,57 +70,6 @@ LAW_CONFIGURATIONS = 500
 #: the positional arguments of :func:`.convex.solve_robust` (rows, objective, signs, bounds,
 #: mode, weight, limit, shape)
 LPArguments = tuple[Rows, tuple[np.ndarray, float], tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray], str, float, float, str]
-
-
-@dataclass(frozen=True)
-class Corner:
-    """One tolerance corner: its deviations, the tuning that re-balances it, residual ratios."""
-
-    name: str
-    signs: tuple[int, ...]
-    deviation: str
-    before: float  # worst residual ratio at this corner with the factory setting
-    after: float  # after tuning (dense verification)
-    settings: tuple[tuple[str, float], ...]  # (tune variable, SI value); a payload range's adjustments as "x@<setting>"
-    #: a corner that cannot be re-balanced: the scenario (payload sample) where the residual stays
-    scenario: str = ""
-
-
-@dataclass(frozen=True)
-class RobustReport:
-    """What ``robust.csv``, ``tolerance.csv`` and ``tuning.csv`` are written from."""
-
-    mode: str
-    shape: str
-    deviations: tuple[Deviation, ...]
-    #: per design ("nominal", "robust"): {kind or "all": worst-case ratio}, "residual": nominal ratio
-    bands: Mapping[str, Mapping[str, float]]
-    added_mass: Mapping[str, float]  # kg, per design
-    objective: Mapping[str, float]  # kg, per design
-    lp_ratio: float = float("nan")  # the worst case on the LP's rows
-    lp_seconds: float = 0.0
-    solver: str = ""  # of the counterpart: "cvxpy/Clarabel" (LP, SOCP) or "IPOPT" (minimax NLP)
-    corners: tuple[Corner, ...] = ()
-    tuning_range: Mapping[str, tuple[float, float]] = field(default_factory=dict)  # SI
-    tuning_status: str = ""  # "" (no tune), "balanced" or the failure
-    #: how the bands are obtained: "exact" over the box, else what makes them a bound or first order
-    exactness: str = "exact"
-    #: minimise mode: the file's objective per design (``objective`` is it + weight × band)
-    base_objective: Mapping[str, float] = field(default_factory=dict)
-    weight: float = 0.0  # kg per unit of worst-case ratio (minimise)
-    #: per free-stiffness pulley spring: what it must serve over every tuned corner (robust/limits.py)
-    envelope: "Mapping[str, LimitEnvelope]" = field(default_factory=dict)
-    #: per such spring: the spring as designed for the envelope (its F0, L0, allowable load, cable)
-    springs: "Mapping[str, PulleySpring]" = field(default_factory=dict)
-    #: per tuned corner: each spring's margins to its limits
-    margins: "Mapping[str, tuple[Margin, ...]]" = field(default_factory=dict)
-    #: the tuning law and its check at random as-built machines (robust/law.py)
-    law: "Law | None" = None
-    law_check: "Check | None" = None
-
-    @property
-    def tuned_residual(self) -> float:
-        return max((c.after for c in self.corners), default=float("nan"))
 
 
 class RobustMethod:
@@ -292,7 +241,7 @@ class RobustMethod:
                 )
             else:
                 status, message = Status.FAILED, f"constraint violated at a tolerance corner between the sampled configurations after the verification rounds: {text}"
-            return replace(design, robust=report).judged(status, message, "robust")
+            return design.with_extra(report).judged(status, message, "robust")
         if spec.tune and status is Status.OPTIMAL:
             report = self._tune(design, z, p, dense, report, parameters)
             if report.tuning_status != "balanced":
@@ -313,7 +262,7 @@ class RobustMethod:
         binding = [v for v in corner_values if v.active in ("upper", "lower")]
         if binding:
             text += "; binding: " + "; ".join(describe(self.perturbed, v) for v in binding)
-        design = replace(design, robust=report)
+        design = design.with_extra(report)
         if status is not Status.OPTIMAL:
             if key == "robust" or report.tuning_status not in ("", "balanced"):
                 return design.judged(status, message, "robust")  # the counterpart or the tuning failed: say which
@@ -389,7 +338,7 @@ class RobustMethod:
         masses = sorted(set(setting_mass.values()))
         unit = payload.unit
         reserved = "; ".join(_reserved_text(self.problem.variable[str(name)], lo, hi) for name, (lo, hi) in reserve.items())
-        design = replace(nominal, robust=report)
+        design = nominal.with_extra(report)
         base = nominal.verdict.message if nominal.verdict is not None else nominal.message
         where = f"at every payload sample ({', '.join(f'{unit.from_si(m):g}' for m in masses)} {unit.label})"
         if report.tuning_status not in ("", "balanced"):

@@ -9,11 +9,11 @@ or a payload-range design around one of them). Each :meth:`~PartsMethod.solve`:
    with the call's parameters and bounds applied;
 2. solves the inner method with the parts' parameters;
 3. checks every spring against its part's limits in every scenario of the design (a
-   payload range: at every payload of its schedule, ``PayloadDesign.schedule_solution``);
+   payload range: at every payload of its schedule, the inner method's ``scheduled``);
    a payload where a part leaves its limits joins the search's samples and the search
    runs again (at most :data:`REFINEMENTS` times).
 
-It returns a new solution whose ``parts`` is the :class:`.parts.PartsReport` and whose
+It returns a new solution with the :class:`.result.PartsReport` as its extra and whose
 verdict (source ``parts``) the status and message.
 """
 
@@ -124,13 +124,13 @@ class PartsMethod:
                 # the search designer of ``searched`` is built once (per content) and solved with the call's options
                 search, rows, _rates = parts.choose(with_options(searched, given, bounds), self._searches.of(searched, given), given, bounds)  # rows carry the rates
             solution = self.inner.solve({**given, **part_parameters(self.problem, rows)}, bounds, start, certify=certify)
-            outcome = solution.payload
-            checked = outcome.schedule_solution() if outcome is not None and outcome.schedule is not None else None
+            sampled = self.inner if isinstance(self.inner, SampledMethod) else None
+            checked = sampled.scheduled(solution) if sampled is not None else None  # a payload range: every payload of its schedule
             chosen = parts.report(solution.problem, self._designer_of(solution), solution, search, rows, checked, given)
             misfit = chosen.first_misfit()
-            if outcome is None or misfit is None or search.choice is None or checked is None:
+            if sampled is None or misfit is None or search.choice is None or checked is None:
                 break
-            mass = outcome.mass_of(misfit.scenario)
+            mass = sampled.sample_of(solution, misfit.scenario)
             if mass is None or mass in extra:
                 break
             extra = (*extra, mass)
@@ -149,7 +149,7 @@ class PartsMethod:
         elif status is Status.OPTIMAL:
             picked = ", ".join(f"{s.name}: {s.catalogue.part_number[rows[s.name]]}" for s in self.problem.slots)
             message = f"{message}; parts {picked}"
-        return replace(solution, verification=verification, parts=chosen).judged(status, message, "parts")
+        return replace(solution, verification=verification).with_extra(chosen).judged(status, message, "parts")
 
     def __repr__(self) -> str:
         return f"PartsMethod({self.inner!r})"

@@ -193,16 +193,18 @@ def distances(problem: Any, springs: list[Any], q: Mapping[str, np.ndarray], var
     return out
 
 
-def designed_springs(solution: Any) -> tuple[DesignedSpring, ...]:
-    """One :class:`DesignedSpring` per free-stiffness spring and scenario of ``solution``
-    (a payload design: per payload of its schedule), plus one per spring over ``all``
-    scenarios when there are several. Empty when the problem has no such spring."""
+def designed_springs(solution: Any, checked: Any = None, tuned: Mapping[str, Any] | None = None) -> tuple[DesignedSpring, ...]:
+    """One :class:`DesignedSpring` per free-stiffness spring and scenario of ``checked``
+    (the solution the working range is measured on: a payload design's schedule, one
+    scenario per payload; None: ``solution`` itself), plus one per spring over ``all``
+    scenarios when there are several. ``tuned``: per spring, the forces and distances it
+    must also serve (a [robust] design's tuned corners, :mod:`counterpoise.robust.limits`).
+    Empty when the problem has no such spring."""
     if not free_springs(solution.problem):
         return ()
     from ..mechanics import Mechanics
 
-    outcome = getattr(solution, "payload", None)
-    checked = outcome.schedule_solution() if outcome is not None and getattr(outcome, "schedule", None) is not None else solution
+    checked = solution if checked is None else checked
     problem = checked.problem
     springs = free_springs(problem)
     # per spring: scenario -> (rate, d_min, d_max, cable, F0, L0)
@@ -260,7 +262,7 @@ def designed_springs(solution: Any) -> tuple[DesignedSpring, ...]:
             first = next(iter(needs.values()))
             rows[ALL] = (first.rate, min(v[1] for v in rows.values()), max(v[2] for v in rows.values()), *next(iter(rows.values()))[3:])
             needs[ALL] = replace(first, force_min=min(r.force_min for r in needs.values()), force_max=max(r.force_max for r in needs.values()))
-        _widen_for_tuning(solution, s.name, needs, rows)
+        _widen_for_tuning((tuned or {}).get(s.name), needs, rows)
         rates = [r.rate for r in needs.values()]
         o = s.design
         made = design(needs.get(ALL, first_of(needs)), o.material, envelope(o, size, next(iter(rows.values()))[6]), o.rate_tolerance, o.min_safety_factor)
@@ -271,11 +273,10 @@ def designed_springs(solution: Any) -> tuple[DesignedSpring, ...]:
     return tuple(out)
 
 
-def _widen_for_tuning(solution: Any, name: str, needs: dict[str, Requirement], rows: dict[str, tuple[float, ...]]) -> None:
+def _widen_for_tuning(envelope: Any, needs: dict[str, Requirement], rows: dict[str, tuple[float, ...]]) -> None:
     """A [robust] design with ``tune``: the spring that is made serves every tuned corner
-    (its forces and distances there: the robust report's envelope, counterpoise.robust.limits),
+    (its forces and distances there, ``envelope``: the robust report's, counterpoise.robust.limits),
     so the requirement of the spring made (and its distances: the cable) is widened to it."""
-    envelope = getattr(getattr(solution, "robust", None), "envelope", {}).get(name)
     if envelope is None:
         return
     key = ALL if ALL in needs else next(iter(needs))

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any, TypeGuard
 import numpy as np
 
 from ..model.problem import Problem
-from .checks import PRISMATIC, REVOLUTE, CoordinateCheck, Verification
+from ..designer.checks import PRISMATIC, REVOLUTE, CoordinateCheck, Verification
 from ..model import expr as ex
 from ..model.tilt import tilt_extremes, tilted_directions
 from .manifold import ManifoldResiduals
