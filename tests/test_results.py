@@ -19,7 +19,7 @@ import math
 import pytest
 
 from builders import pendulum as plain_pendulum
-from counterpoise.designer.methods import MultiStart, Plain
+from counterpoise.designer.methods import MultiStart, Plain, SolveOptions
 from counterpoise.designer.solution import VERDICT_SOURCES, Solution, Verdict
 from counterpoise.io.loader import load_problem
 from counterpoise.pipeline import DesignResult, build_method, run
@@ -60,10 +60,13 @@ class Spy:
     def __getattr__(self, name: str) -> object:
         return getattr(self.inner, name)
 
-    def solve(self, *args: object, **kwargs: object) -> Solution:
-        solution = self.inner.solve(*args, **kwargs)
+    def solve_with(self, options: object) -> Solution:
+        solution = self.inner.solve_with(options)
         self.returned.append((solution, _snapshot(solution)))
         return solution
+
+    def solve(self, *args: object, **kwargs: object) -> Solution:
+        return self.solve_with(SolveOptions(*args, **kwargs))
 
     def check_untouched(self, outer: Solution) -> None:
         assert self.returned, "the inner method was not called"

@@ -46,6 +46,7 @@ from .constrained import (
     rows_multipliers,
     unmet_at,
 )
+from .options import BoundsOverride, SolveOptions
 from .solution import Solution, build_solution
 
 if TYPE_CHECKING:
@@ -77,7 +78,6 @@ POLISH_CONFIGURATIONS = 8
 #: a few thousand ulps of them is noise, not a worse balance (used when polishing onto bounds).
 ROUNDING_FLOOR = 1e-12
 
-BoundsOverride = Mapping["Slot | str", tuple[float, float]]
 
 #: A variable put on its bound in the minimax closest design may raise the worst sampled
 #: residual ratio by this much (absolute): rounding, not a worse design.
@@ -206,16 +206,21 @@ class Designer:
         multi-start) pass False (their probes get the least-squares closest design) and
         :meth:`certify` the one they report.
         """
+        return self.solve_with(SolveOptions(parameters, bounds, initial, certify))
+
+    def solve_with(self, options: SolveOptions) -> Solution:
+        """:meth:`solve` with its options in one :class:`~.options.SolveOptions`."""
+        parameters, bounds = options.parameters, options.bounds
         other = for_geometry(self, parameters, lambda problem: Designer(problem, self._ipopt_options, self.backend_choice), self.geometries)
         if other is not self:  # closed loops: a new geometry needs its own manifold equalities
-            return other.solve(initial, parameters, bounds, certify)
+            return other.solve_with(options)
         if self._refined is not None:  # a verification round added configurations
-            return self._refined.solve(initial, parameters, bounds, certify)
+            return self._refined.solve_with(options)
         d = self.formulation.design
         p = self.formulation.parameters.values(parameters) if parameters else self.parameters
         b = self.bounds(self.n_equalities, bounds)
-        z0 = np.clip(d.to_z(d.vector(initial or {})), b.lbz, b.ubz)
-        solution = self._solve(z0, p, b, bounds, certify)
+        z0 = np.clip(d.to_z(d.vector(options.initial or {})), b.lbz, b.ubz)
+        solution = self._solve(z0, p, b, bounds, options.certify)
         # rounds only for a design whose solver held its sampled rows (one the dense check
         # then failed between them): re-solving a failed or conflicting one with more rows
         # cannot help (a max_force of 1e-300 N took 5 elastic solves of 500 iterations)
@@ -227,9 +232,8 @@ class Designer:
             refined = Designer(self.problem, self._ipopt_options, self.backend_choice, extra)
             refined._round = self._round + 1
             self._refined = refined
-            start = dict(solution.values)
-            return refined.solve(start, parameters, bounds, certify)
-        if certify:
+            return refined.solve_with(replace(options, initial=dict(solution.values)))
+        if options.certify:
             solution = replace(solution, stats=replace(solution.stats, certificate_gap=self._certificate_gap(solution, p, b)))
         return solution
 

@@ -42,6 +42,7 @@ from ..solvers.ipopt import IPOPT_DEFAULTS, IpoptBackend
 from ..threads import limit_blas_threads
 from ..formulation.constraints import MAX_ROUNDS, ConstraintRows, Extra, build_rows, describe, merge, violations
 from .constrained import attach_constraints, rows_multipliers
+from .options import SolveOptions
 from .solution import Solution, build_solution
 
 @dataclass(frozen=True)
@@ -235,16 +236,23 @@ class MinimaxDesigner:
         parameters: Mapping[str, float] | None = None,
         bounds: Mapping[Slot | str, tuple[float, float]] | None = None,
     ) -> Solution:
+        """The smallest worst residual ratio with these initial values, base parameters and
+        bounds (SI, for this call; see :class:`~.options.SolveOptions`)."""
+        return self.solve_with(SolveOptions(parameters, bounds, initial))
+
+    def solve_with(self, options: SolveOptions) -> Solution:
+        """:meth:`solve` with its options in one :class:`~.options.SolveOptions` (``certify`` changes nothing here)."""
+        parameters, bounds = options.parameters, options.bounds
         other = for_geometry(self, parameters, lambda problem: MinimaxDesigner(problem, self._ipopt_options, coordinates=self._only[0], springs=self._only[1]), self.geometries)
         if other is not self:  # closed loops: a new geometry is sampled on its own manifold
-            return other.solve(initial, parameters, bounds)
+            return other.solve_with(options)
         if self._refined is not None:  # a verification round added configurations
-            return self._refined.solve(initial, parameters, bounds)
+            return self._refined.solve_with(options)
         f = self.formulation
         d = f.design
         p = f.parameters.values(parameters) if parameters else self.parameters
         lbz, ubz = d.bounds(bounds)
-        z0 = np.clip(d.to_z(d.vector(initial or {})), lbz, ubz)
+        z0 = np.clip(d.to_z(d.vector(options.initial or {})), lbz, ubz)
         rows = self.rows
         out = self.backend.solve(np.concatenate([z0, [INITIAL_RATIO]]), p, self._bounds(lbz, ubz, True))
         t = float(out.z[-1])
@@ -275,8 +283,7 @@ class MinimaxDesigner:
             refined = MinimaxDesigner(self.problem, self._ipopt_options, extra, coordinates=self._only[0], springs=self._only[1])
             refined._round = self._round + 1
             self._refined = refined
-            start = dict(solution.values)
-            return refined.solve(start, parameters, bounds)
+            return refined.solve_with(replace(options, initial=dict(solution.values)))
         return solution
 
     def _bounds(self, lbz: np.ndarray, ubz: np.ndarray, constraints: bool) -> Bounds:

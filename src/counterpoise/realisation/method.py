@@ -27,7 +27,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 from typing import Any
 
-from ..designer.methods import BoundsOverride, DesignMethod, Initial, Parameters
+from ..designer.methods import DesignMethod, SolveOptions
 from ..designer.solution import Solution
 from ..model import expr as ex
 from ..model.problem import Problem
@@ -61,7 +61,7 @@ def report_of(solution: Solution, ideal: bool = False) -> RealisationReport:
     return RealisationReport(evaluate(solution, springs, solution.extra(PartsReport)), springs, ideal=ideal)
 
 
-class RealisationMethod:
+class RealisationMethod(DesignMethod):
     """Design ``problem`` with the method ``build(problem)`` makes, within the realisation
     limits of its springs (see the module docstring). ``build`` is called again for the
     problem with realisation constraints added, once per round that needs one."""
@@ -88,9 +88,9 @@ class RealisationMethod:
             self._methods[key] = self._build(problem)
         return self._methods[key]
 
-    def solve(self, parameters: Parameters | None = None, bounds: BoundsOverride | None = None, initial: Initial | None = None, *, certify: bool = True) -> Solution:
+    def solve_with(self, options: SolveOptions) -> Solution:
         problem = self._problem
-        solution = self.inner.solve(parameters, bounds, initial, certify=certify)
+        solution = self.inner.solve_with(options)
         if not problem.springs:
             return solution
         added: list[str] = []
@@ -115,17 +115,16 @@ class RealisationMethod:
             problem = replace(problem, constraints=tuple(c for c in problem.constraints if c.name not in names) + new)
             added += [n for n in sorted(names) if n not in added]
             rounds += 1
-            solution = self._method(problem).solve(parameters, bounds, dict(solution.values), certify=certify)
+            solution = self._method(problem).solve_with(replace(options, initial=dict(solution.values)))
         wound: dict[str, tuple[float, float]] = {}
         if _ok(solution) and springs:
-            solution, springs, limits, wound = self._wound(problem, solution, springs, limits, parameters, bounds, certify)
+            solution, springs, limits, wound = self._wound(problem, solution, springs, limits, options)
         report = RealisationReport(limits, springs, tuple(added), rounds, wound)
         solution = solution.with_extra(report)
         return _judged(solution, report)
 
     def _wound(
-        self, problem: Problem, solution: Solution, springs: Sequence[Any], limits: tuple[Limit, ...],
-        parameters: Parameters | None, bounds: BoundsOverride | None, certify: bool,
+        self, problem: Problem, solution: Solution, springs: Sequence[Any], limits: tuple[Limit, ...], options: SolveOptions
     ) -> tuple[Solution, tuple[Any, ...], tuple[Limit, ...], dict[str, tuple[float, float]]]:
         """The design re-solved for the wound rates (see :func:`wound_rates`), with its
         springs' designs checked again for the new working range; as it was when no rate
@@ -137,11 +136,11 @@ class RealisationMethod:
         _, _, changed = wound_rates(problem, springs)
         if not changed:
             return solution, tuple(springs), limits, {}
-        options = [tuple(springs)] + [_other_side(springs, {n: changed[n]}) for n in changed]
+        tries = [tuple(springs)] + [_other_side(springs, {n: changed[n]}) for n in changed]
         if len(changed) > 1:
-            options.append(_other_side(springs, changed))
-        for option in options:
-            followed = self._follow(problem, solution, option, parameters, bounds, certify)
+            tries.append(_other_side(springs, changed))
+        for option in tries:
+            followed = self._follow(problem, solution, option, options)
             if followed is not None:
                 final, made = followed
                 rates = {d.spring: float(d.design.rate) for d in made if d.ok}
@@ -154,7 +153,7 @@ class RealisationMethod:
         return solution, tuple(springs), (*limits, limit), changed
 
     def _follow(
-        self, problem: Problem, solution: Solution, springs: Sequence[Any], parameters: Parameters | None, bounds: BoundsOverride | None, certify: bool,
+        self, problem: Problem, solution: Solution, springs: Sequence[Any], options: SolveOptions
     ) -> tuple[Solution, tuple[Any, ...]] | None:
         """The design solved again for these springs' wound rates (each spring kept as wound
         while the geometry follows it, :func:`_same_springs`); None when no design balances them."""
@@ -165,8 +164,8 @@ class RealisationMethod:
                 return solution, tuple(springs)
             held.update(fixed)
             problem = with_rates(problem, replaced)
-            over: dict[Any, tuple[float, float]] = {**(bounds or {}), **{name: (k, k) for name, k in held.items()}}
-            again = self._method(problem).solve(parameters, over, dict(solution.values), certify=certify)
+            over: dict[Any, tuple[float, float]] = {**(options.bounds or {}), **{name: (k, k) for name, k in held.items()}}
+            again = self._method(problem).solve_with(replace(options, bounds=over, initial=dict(solution.values)))
             if not _ok(again):
                 return None
             if minimax_of(again) is None and again.verification is None:

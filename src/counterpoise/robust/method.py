@@ -29,7 +29,7 @@ import numpy as np
 
 from ..designer.constrained import SLACK_TOLERANCE
 from ..designer.convex import geometric_variables
-from ..designer.methods import DesignMethod
+from ..designer.methods import DesignMethod, SolveOptions
 from ..designer.solution import Solution, build_solution
 from ..errors import ProblemFileError
 from ..formulation.constraints import MAX_ROUNDS, ConstraintValue, describe, scale, violations
@@ -72,13 +72,13 @@ LAW_CONFIGURATIONS = 500
 LPArguments = tuple[Rows, tuple[np.ndarray, float], tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray], str, float, float, str]
 
 
-class RobustMethod:
+class RobustMethod(DesignMethod):
     """Robust design of a problem with ``[robust]`` around its inner design method."""
 
     def __init__(self, problem: Problem, inner: DesignMethod) -> None:
         if problem.robust is None:
             raise ValueError(f"{problem.name}: no [robust] table")
-        self.problem = problem
+        self._problem = problem
         self.inner = inner
         self._source_key: tuple[Any, ...] = ()
         self._prepare(problem)
@@ -106,25 +106,23 @@ class RobustMethod:
         if spec.tolerances != self._spec().tolerances:
             raise ValueError("with_spec: the tolerances must stay the same")
         other = copy.copy(self)
-        other.problem = replace(self.problem, robust=spec)
+        other._problem = replace(self.problem, robust=spec)
         other._tuner = None if spec.tune != self._spec().tune else self._tuner
         other._minimax = None if (spec.mode, spec.weight) != (self._spec().mode, self._spec().weight) else self._minimax
         return other
 
+    @property
+    def problem(self) -> Problem:
+        return self._problem
+
     # -- the method ----------------------------------------------------------------
-    def solve(
-        self,
-        parameters: Mapping[str, float] | None = None,
-        bounds: Mapping["Slot | str", tuple[float, float]] | None = None,
-        initial: Mapping[Slot, float] | None = None,
-        *,
-        certify: bool = True,
-    ) -> Solution:
+    def solve_with(self, options: SolveOptions) -> Solution:
         spec = self._spec()
-        held: dict[Slot | str, tuple[float, float]] = {**(bounds or {})}
+        parameters = options.parameters
+        held: dict[Slot | str, tuple[float, float]] = {**(options.bounds or {})}
         held.update({name: (self.problem.variable[name].initial, self.problem.variable[name].initial) for name in spec.tune})
         if self.problem.payloads:
-            return self._solve_payloads(parameters, held, initial, certify)
+            return self._solve_payloads(options, held)
         f = self.decomposition.formulation
         d = f.design
         p = f.parameters.values(parameters)
@@ -134,7 +132,7 @@ class RobustMethod:
             given = build_solution(f, lbz, p, lbz, ubz, out0, "every variable is held: the design as given, judged by its dense check", 0, "no variable to solve for")
             nominal = replace(given, problem=self.problem, scenario_parameters=_without_deviations(given.scenario_parameters, self.deviations))
         else:
-            nominal = self.inner.solve(parameters, held, initial, certify=certify)
+            nominal = self.inner.solve_with(replace(options, bounds=held))
         z_nom = np.clip(d.to_z(d.vector(nominal.values)), lbz, ubz)
         dense = self.decomposition.configurations(BAND_CONFIGURATIONS, self.problem.settings.seed)
         bands = {"nominal": self._band(self.decomposition.rows(dense, z_nom, [], p))}
@@ -271,9 +269,7 @@ class RobustMethod:
             return design.judged(status, text, "robust")  # the counterpart may leave the nominal unbalanced by choice
         return replace(design, message=text)  # the ordinary design: judged by its dense check as usual
 
-    def _solve_payloads(
-        self, parameters: Mapping[str, float] | None, held: dict["Slot | str", tuple[float, float]], initial: Mapping[Slot, float] | None, certify: bool
-    ) -> Solution:
+    def _solve_payloads(self, options: SolveOptions, held: dict["Slot | str", tuple[float, float]]) -> Solution:
         """[robust] over a payload range (mode "none"): the design for the range (the inner
         payload method, the tune variables at their factory setting), its worst case over the
         tolerance box at every payload sample, and the tuning: at every corner one setting of
@@ -283,12 +279,13 @@ class RobustMethod:
         designed again with the adjustment's bounds narrowed by it (at most RESERVE_ROUNDS
         times); what remains is infeasible, the corner, the payload and the limit named."""
         spec = self._spec()
+        parameters = options.parameters
         payload = self.problem.payloads[0]
         reserve: dict[Slot | str, tuple[float, float]] = {}
         nominal: Solution | None = None
         report: RobustReport | None = None
         for round_ in range(RESERVE_ROUNDS + 1):
-            nominal = self.inner.solve(parameters, {**held, **reserve}, initial, certify=certify)
+            nominal = self.inner.solve_with(replace(options, bounds={**held, **reserve}))
             verdict = nominal.verdict
             if (verdict.status if verdict is not None else nominal.status) is not Status.OPTIMAL:
                 return nominal  # the range cannot be designed: the payload layer says why

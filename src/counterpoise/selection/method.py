@@ -23,7 +23,7 @@ from collections.abc import Collection, Mapping
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
-from ..designer.methods import BoundsOverride, DesignMethod, SampledMethod
+from ..designer.methods import BoundsOverride, DesignMethod, SampledMethod, SolveOptions
 from ..designer.solution import Solution
 from ..errors import ProblemFileError
 from ..formulation.layout import Slot
@@ -76,18 +76,22 @@ class _Given:
         return self.designer.solve(initial=initial, parameters=merged, bounds=bounds or self.bounds)
 
 
-class PartsMethod:
+class PartsMethod(DesignMethod):
     """Choose catalogue parts for the slots of ``problem``, then design with ``inner``."""
 
     #: what a solve is doing, for the progress line of a slow one (:func:`counterpoise.progress.phase`)
     phase = "searching catalogue parts"
 
     def __init__(self, problem: Problem, inner: DesignMethod, direct: bool) -> None:
-        self.problem = problem
+        self._problem = problem
         self.inner = inner
         self.direct = direct
         #: the part search's designers, one per searched problem's content (built once per worker)
         self._searches = SearchModels()
+
+    @property
+    def problem(self) -> Problem:
+        return self._problem
 
     def _search_problem(self, extra: tuple[float, ...]) -> Problem:
         return self.inner.search_problem_with(extra) if isinstance(self.inner, SampledMethod) else self.problem
@@ -99,22 +103,16 @@ class PartsMethod:
     def _designer_of(self, solution: Solution) -> Any:
         return self._method_of(solution.problem).designer
 
-    def solve(
-        self,
-        parameters: Mapping[str, float] | None = None,
-        bounds: BoundsOverride | None = None,
-        initial: Mapping[Slot, float] | None = None,
-        *,
-        certify: bool = True,
-    ) -> Solution:
-        given = dict(parameters or {})
+    def solve_with(self, options: SolveOptions) -> Solution:
+        given = dict(options.parameters or {})
+        bounds = options.bounds
         taken = sorted(set(given) & set(part_parameters(self.problem, {s.name: 0 for s in self.problem.slots})))
         if taken:
             raise ProblemFileError(self.problem.path, "parameters", f"'{taken[0]}' is set by the catalogue part chosen for its slot")
         extra: tuple[float, ...] = ()
         for _ in range(REFINEMENTS + 1):
             searched = self._search_problem(extra)
-            start = initial
+            start = options.initial
             if self.direct:
                 search = search_direct(searched, _Given(self._method_of(searched).designer, given, bounds))  # type: ignore[arg-type]  # _Given answers the designer calls search_direct makes
                 rows = dict(search.choice.parts) if search.choice else {s.name: 0 for s in self.problem.slots}
@@ -123,7 +121,7 @@ class PartsMethod:
             else:
                 # the search designer of ``searched`` is built once (per content) and solved with the call's options
                 search, rows, _rates = parts.choose(with_options(searched, given, bounds), self._searches.of(searched, given), given, bounds)  # rows carry the rates
-            solution = self.inner.solve({**given, **part_parameters(self.problem, rows)}, bounds, start, certify=certify)
+            solution = self.inner.solve_with(replace(options, parameters={**given, **part_parameters(self.problem, rows)}, initial=start))
             sampled = self.inner if isinstance(self.inner, SampledMethod) else None
             checked = sampled.scheduled(solution) if sampled is not None else None  # a payload range: every payload of its schedule
             chosen = parts.report(solution.problem, self._designer_of(solution), solution, search, rows, checked, given)
