@@ -27,7 +27,7 @@ from ..solvers.base import Bounds, SolverOutput, Status
 if TYPE_CHECKING:
     from ..solvers.convex import ConvexBackend
     from .designer import Designer
-    from .methods import BoundsOverride
+    from .options import BoundsOverride
 
 
 def geometric_variables(problem: Problem) -> set[str]:

@@ -24,7 +24,6 @@ reduction wraps the next) and rockit's method objects (a method attached to a pr
 from __future__ import annotations
 
 import abc
-from collections.abc import Mapping
 from dataclasses import replace
 from typing import TYPE_CHECKING, Protocol, runtime_checkable
 

@@ -39,7 +39,7 @@ from ..solvers.least_residual import least_residual_bound
 if TYPE_CHECKING:
     from ..formulation.layout import Slot
     from .designer import Designer
-    from .methods import BoundsOverride
+    from .options import BoundsOverride
 
 #: variables beyond which the 3^n bound patterns are not tried (the answer is then "solve it")
 MAX_VARIABLES = 6
