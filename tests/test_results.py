@@ -106,8 +106,9 @@ def test_plain_design_is_frozen_and_judged_by_the_dense_check():
     result = run(method)
     assert result.optimal, result.message
     _mutation_raises(result.solution)
-    assert result.solution.verdicts == () and result.solution.verdict is None
-    assert result.verdict.source == "check"
+    # the dense check's verdict is the only one; the finished design has one status: the verdict's
+    assert [v.source for v in result.solution.verdicts] == ["check"] and result.verdict is result.solution.verdict
+    assert (result.solution.status, result.solution.message) == (result.status, result.message)
     assert (result.status, result.message) == judge(result.solution, result.verification)
     # DesignResult wraps the solution: what it holds is read through it, not copied
     assert result.problem is result.solution.problem
@@ -204,14 +205,19 @@ def test_robust_layer_wraps_the_nominal_design_and_its_verdict_is_the_counterpar
 def test_judge_takes_the_outermost_layers_verdict_as_it_stands():
     method = build_method(plain_pendulum(0.8, 0.3, (0.02, 1.0), 25.0).build())
     result = run(method)
-    inner = result.solution
+    inner = method.solve()  # as the method returned it: no verdict yet
     said = inner.judged(Status.INFEASIBLE, "inner layer", "payload").judged(Status.FAILED, "outer layer", "parts")
     assert [v.source for v in said.verdicts] == ["payload", "parts"]  # innermost first
     assert judge(said, result.verification) == (Status.FAILED, "outer layer")
     assert verdict(said, result.verification) is said.verdicts[-1]
     assert inner.verdicts == ()  # judged() left the solution it was called on alone
-    rewrapped = DesignResult(said, result.verification, verdict(said, result.verification))
-    assert (rewrapped.status, rewrapped.message) == (Status.FAILED, "outer layer")
+    assert said.status is Status.OPTIMAL  # a layer's verdict leaves what the solver said
+    final = dataclasses.replace(said, verification=result.verification).settled(verdict(said, result.verification))
+    rewrapped = DesignResult(final)
+    assert (rewrapped.status, rewrapped.message) == (Status.FAILED, "outer layer") == (final.status, final.message)
+    assert final.verdicts == said.verdicts  # the outermost verdict is not stacked twice
+    with pytest.raises(ValueError, match="verified and judged"):
+        DesignResult(said)  # a result holds a finished design
 
 
 def test_a_verdict_names_a_known_source():
@@ -242,5 +248,5 @@ def test_minimax_design_is_judged_by_the_minimax_rule(tmp_path):
 
     result = run(build_method(arm(tmp_path, 'stiffness = "k"\nfree_length = "50 mm"\ninitial_tension = "2 N"\nmax_length = "0.6 m"')))
     assert result.optimal, result.message
-    assert result.solution.verdicts == () and result.verdict.source == "minimax"
+    assert [v.source for v in result.solution.verdicts] == ["minimax"] and result.verdict.source == "minimax"
     assert "dense check: worst residual ratio" in result.message

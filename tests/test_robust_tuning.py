@@ -154,7 +154,7 @@ def test_step_and_pitch_set_the_procedure(tmp_path):
     path.write_text(text, encoding="utf-8")
     problem = load_problem(path)
     assert dict(problem.robust.steps) == {"h": pytest.approx(0.005)} and dict(problem.robust.pitch) == {"h": pytest.approx(0.0005)}
-    from counterpoise.report.robust import procedure_rows
+    from counterpoise.robust.report import procedure_rows
 
     result = design(problem)
     actions = " ".join(r["action"] for r in procedure_rows(result))

@@ -33,14 +33,24 @@ from ..formulation.constraints import ConstraintValue
 from ..formulation.formulation import Formulation
 from ..formulation.layout import Gravity3, Slot
 from ..model.problem import Problem
-from ..registry import names as layer_names
+from .. import registry
 from ..solvers.base import SolverOutput, Status
 from .checks import Verification
 
-#: who gives a design its verdict (:attr:`Verdict.source`): the dense check (the rule for
-#: every design no layer judged), the design constraints, the minimax rule, or a registered
-#: layer (:data:`counterpoise.registry.REGISTRY`, by its name)
-VERDICT_SOURCES = ("check", "constraints", "minimax", *layer_names())
+#: who gives a design its verdict (:attr:`Verdict.source`) besides the registered layers:
+#: the dense check (the rule for every design no layer judged), the design constraints and
+#: the minimax rule of the core designer
+CORE_SOURCES = ("check", "constraints", "minimax")
+
+
+def verdict_sources() -> tuple[str, ...]:
+    """Every valid :attr:`Verdict.source`: the core's, then each registered layer's name
+    (:data:`counterpoise.registry.REGISTRY`)."""
+    return (*CORE_SOURCES, *registry.names())
+
+
+#: the verdict sources of the layers registered when this module was imported (:func:`verdict_sources`)
+VERDICT_SOURCES = verdict_sources()
 
 #: the type of an extra (:meth:`Solution.extra`)
 E = TypeVar("E")
@@ -50,7 +60,7 @@ E = TypeVar("E")
 class Verdict:
     """A design's status and the one line a user reads, and who said it.
 
-    ``source`` (one of :data:`VERDICT_SOURCES`): ``check`` when the dense check judged the
+    ``source`` (one of :func:`verdict_sources`): ``check`` when the dense check judged the
     design (:func:`counterpoise.verify.judge.judge`), else the layer whose own word goes
     beyond it: the design constraints (balanced, yet infeasible with them), the minimax
     designer (its constraints cannot hold; or its dense ratio reported as is), the robust
@@ -61,8 +71,9 @@ class Verdict:
     source: str
 
     def __post_init__(self) -> None:
-        if self.source not in VERDICT_SOURCES:
-            raise ValueError(f"verdict source {self.source!r}: expected one of {', '.join(VERDICT_SOURCES)}")
+        sources = verdict_sources()
+        if self.source not in sources:
+            raise ValueError(f"verdict source {self.source!r}: expected one of {', '.join(sources)}")
 
 
 @dataclass(frozen=True)
@@ -128,6 +139,14 @@ class Solution:
     def judged(self, status: Status, message: str, source: str) -> Solution:
         """A new solution with the verdict of layer ``source`` on top; this one is left as it is."""
         return replace(self, verdicts=(*self.verdicts, Verdict(status, message, source)))
+
+    def settled(self, verdict: Verdict) -> Solution:
+        """The design as finally judged (what :func:`counterpoise.pipeline.run` returns):
+        ``verdict`` on top of the stack (unless it is the outermost already), and its status
+        and message the design's own, so that a finished design has one status. A new
+        value; this one is left as it is (a layer's solution keeps what its solver said)."""
+        verdicts = self.verdicts if self.verdict is verdict else (*self.verdicts, verdict)
+        return replace(self, status=verdict.status, message=verdict.message, verdicts=verdicts)
 
     def variable_values(self, scenario: str) -> dict[str, float]:
         """Value of every variable as seen by ``scenario``."""

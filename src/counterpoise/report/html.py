@@ -277,12 +277,12 @@ def report_html(name: str, title: str, status: str, texts: Mapping[str, str], im
         sections.append(("energy", IMAGES[1][1], _image("energy.png", energy, *IMAGES[1][1:])))
     sections.append(("verification", "Verification", csv_table(texts.get("verification.csv", ""), "verification.csv: the largest residual of each balance condition over the checked configurations, against the largest gravity torque")))
     if "tolerance.csv" in texts:
-        from .robust import TOLERANCE_CAPTION, is_robust_tolerance
+        from ..robust.report import TOLERANCE_CAPTION, is_robust_tolerance
 
         caption = TOLERANCE_CAPTION if is_robust_tolerance(texts["tolerance.csv"]) else "tolerance.csv: the residual ratio with the parts' rates and initial tensions at the ends of their tolerance bands"
         sections.append(("tolerance", "Tolerance", csv_table(texts["tolerance.csv"], caption)))
     if "tuning.csv" in texts:
-        from .robust import procedure_html
+        from ..robust.report import procedure_html
 
         sections.append(("tuning", "Tuning procedure", procedure_html(texts["tuning.csv"])))
     if "schedule.csv" in texts:

@@ -223,7 +223,9 @@ def _chosen_parts(result: Any) -> dict[str, tuple[str, float, float]]:
     """Each slot's chosen part (the nearest candidate when none fits), its rate and the
     largest force its springs pull over the checked configurations (``result``: a
     :class:`~counterpoise.pipeline.DesignResult`)."""
-    parts = result.parts
+    from ..selection.result import PartsReport
+
+    parts = result.extra(PartsReport)
     if parts is None:
         return {}
     out = {}
