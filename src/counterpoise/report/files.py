@@ -184,16 +184,17 @@ def report_texts(result: DesignResult, warnings: Sequence[str] | None = None) ->
 
     ``warnings``: the problem's degeneracy warnings as already found
     (:func:`~counterpoise.formulation.assumptions.degeneracies`; the CLI finds them at load);
-    None: found here."""
+    None: the problem's, as :func:`~counterpoise.formulation.assumptions.problem_warnings`
+    found them (once per problem)."""
     stack = layers()
     summary = summary_row(result)
     status = status_text(result)
     for layer in stack:
         status = _lines(status, layer.status_lines(result))
-    if warnings is None:
-        from ..formulation.assumptions import degeneracies
+    if warnings is None:  # not given: the problem's own, found once per problem (formulation.assumptions)
+        from ..formulation.assumptions import problem_warnings
 
-        warnings = degeneracies(result.problem)
+        warnings = problem_warnings(result.problem)
     status = _lines(status, "".join(f"warning: {w}\n" for w in warnings))
     for layer in stack:
         status = _lines(status, layer.status_notes(result))
