@@ -311,7 +311,7 @@ class MinimaxDesigner:
     def smallest_worst_ratio(self, z0: np.ndarray, p: np.ndarray, lbz: np.ndarray, ubz: np.ndarray) -> tuple[SolverOutput, float]:
         """The design within [lbz, ubz] (scaled) with the smallest worst residual ratio on the
         samples, from ``z0``, design constraints left out: the closest design of a balance
-        problem that cannot be met (see :meth:`counterpoise.designer.designer.Designer.closest_minimax`).
+        problem that cannot be met (see :meth:`counterpoise.designer.closest.Closest.minimax`).
         Returns the solver's output (without t) and t."""
         z0 = np.clip(z0, lbz, ubz)
         t0 = max(INITIAL_RATIO, 2.0 * float(np.abs(self.ratios(z0, p)).max(initial=0.0)))
