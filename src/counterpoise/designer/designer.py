@@ -108,7 +108,7 @@ class Designer:
         #: the closest design of a balance that cannot be met (its NLPs built on first use)
         self.closest = Closest(problem, f, self.conditions, self.balance, self.options, self._ipopt_options)
         #: designers of this problem rebuilt for other loop geometries (:func:`for_geometry`)
-        self.geometries = Geometries()
+        self.geometries: Geometries[Designer] = Geometries()
         if kept is not None:  # just built and not yet used: kept for a later counterpoise solve
             kept.keep(dict(self.__dict__))
 

@@ -141,7 +141,7 @@ class MinimaxDesigner:
         self._only = (None if coordinates is None else frozenset(coordinates), None if springs is None else frozenset(springs))
         self._restricted: dict[tuple[frozenset[str], frozenset[str]], MinimaxDesigner] = {}
         #: designers of this problem rebuilt for other loop geometries (:func:`for_geometry`)
-        self.geometries = Geometries()
+        self.geometries: Geometries[MinimaxDesigner] = Geometries()
         self.formulation = f = Formulation(problem)
         self.parameters = f.parameters.values()
         rng = np.random.default_rng(problem.settings.seed + 5)

@@ -31,7 +31,8 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
 
 from ..designer.designer import Designer
-from ..designer.methods import BoundsOverride, DesignMethod, Plain
+from ..designer.methods import DesignMethod, Plain
+from ..designer.options import BoundsOverride
 from ..designer.solution import Solution
 from ..model import expr as ex
 from ..model.payload import MAX_PAYLOAD_RANGE

@@ -13,7 +13,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import replace
 
-from ..designer.methods import DesignMethod, SolveOptions
+from ..designer.methods import DesignMethod
+from ..designer.options import SolveOptions
 from ..designer.solution import Solution
 from ..model.problem import Problem
 from .design import design_payloads

@@ -27,7 +27,8 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 from typing import Any
 
-from ..designer.methods import DesignMethod, SolveOptions
+from ..designer.methods import DesignMethod
+from ..designer.options import SolveOptions
 from ..designer.solution import Solution
 from ..model import expr as ex
 from ..model.problem import Problem

@@ -26,13 +26,12 @@ from typing import TextIO
 
 from .. import unfinished
 from ..filemodes import respect_umask
-from ..designer.layers import layers
+from ..designer.layers import Row, layers
 from ..pipeline import DesignResult
 from .rows import (
     DESIGN_COLUMNS,
     SUBSTITUTION_COLUMNS,
     VERIFICATION_COLUMNS,
-    Row,
     design_rows,
     status_text,
     substitution_rows,

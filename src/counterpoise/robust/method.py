@@ -29,7 +29,8 @@ import numpy as np
 
 from ..designer.constrained import SLACK_TOLERANCE
 from ..designer.convex import geometric_variables
-from ..designer.methods import DesignMethod, SolveOptions
+from ..designer.methods import DesignMethod
+from ..designer.options import SolveOptions
 from ..designer.solution import Solution, build_solution
 from ..errors import ProblemFileError
 from ..formulation.constraints import MAX_ROUNDS, ConstraintValue, describe, scale, violations

@@ -23,7 +23,8 @@ from collections.abc import Collection, Mapping
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
-from ..designer.methods import BoundsOverride, DesignMethod, SampledMethod, SolveOptions
+from ..designer.methods import DesignMethod, SampledMethod
+from ..designer.options import BoundsOverride, SolveOptions
 from ..designer.solution import Solution
 from ..errors import ProblemFileError
 from ..formulation.layout import Slot
