@@ -84,7 +84,7 @@ LAYER_MODULE = '''
 
 from dataclasses import dataclass
 
-from counterpoise.designer.layers import BaseLayer, Table
+from counterpoise.designer.layers import BaseLayer, Page, Table
 from counterpoise.designer.methods import DesignMethod
 
 
@@ -125,7 +125,7 @@ class StampLayer(BaseLayer):
 
     def tables(self, result):
         stamp = result.extra(Stamp)
-        return {"stamp.csv": Table([{"stamp": stamp.text}], ["stamp"])} if stamp is not None else {}
+        return {"stamp.csv": Table([{"stamp": stamp.text}], ["stamp"], page=Page("stamp", "Stamp", "stamp.csv: the stamp"))} if stamp is not None else {}
 
 
 LAYER = StampLayer()
@@ -149,12 +149,12 @@ def stamp_layer(tmp_path, monkeypatch):
     sys.modules.pop("stamp_layer", None)
 
 
-def test_a_new_layer_is_its_package_and_one_registry_line(stamp_layer):
+def test_a_new_layer_is_its_package_and_one_registry_line(stamp_layer, tmp_path):
     """Registered, the stamp layer wraps the pendulum's method, its verdict is a valid one,
-    and the reports take its summary cell (after the listed columns), its status line and
-    its file: no other module was edited."""
+    and the reports take its summary cell (after the listed columns), its status line, its
+    file and that file's section of report.html: no other module was edited."""
     from counterpoise.pipeline import build_method, run
-    from counterpoise.report.files import report_texts
+    from counterpoise.report.files import report_texts, write_reports
 
     problem = pendulum(0.8, 0.3, (0.02, 1.0), 25.0).build()
     method = build_method(problem)
@@ -166,6 +166,8 @@ def test_a_new_layer_is_its_package_and_one_registry_line(stamp_layer):
     assert texts["summary.csv"].splitlines()[0].endswith(",certificate,stamp") and texts["summary.csv"].splitlines()[1].endswith(",stamped")
     assert texts["status.txt"].endswith("stamp: stamped\n")
     assert Verdict(Status.OPTIMAL, "x", "stamp").source == "stamp"
+    page = (write_reports(result, tmp_path / "out", html=True, warnings=()) / "report.html").read_text(encoding="utf-8")
+    assert '<section id="stamp"><h2>Stamp</h2>' in page and "stamp.csv: the stamp" in page
 
 
 def test_a_layers_table_cannot_yet_be_combined_with_another_as_its_entry_says(tmp_path):

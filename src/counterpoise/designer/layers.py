@@ -40,13 +40,28 @@ E = TypeVar("E")
 
 
 @dataclass(frozen=True)
+class Page:
+    """How ``report.html`` shows a layer's file: a section ``title`` (its link ``anchor``)
+    after the verification, in ``order`` among the layers' sections; the file's text as a
+    table with ``caption``, or made into HTML by ``render`` (text -> HTML)."""
+
+    anchor: str
+    title: str
+    caption: str = ""
+    render: Callable[[str], str] | None = None
+    order: int = 0
+
+
+@dataclass(frozen=True)
 class Table:
-    """A CSV file a layer writes beside the design's reports: its rows, its columns and the
-    ``printf`` format of its floats (None: the reports' own, 10 significant digits)."""
+    """A CSV file a layer writes beside the design's reports: its rows, its columns, the
+    ``printf`` format of its floats (None: the reports' own, 10 significant digits) and its
+    section of ``report.html`` (None: written, not shown there)."""
 
     rows: Sequence[Row]
     columns: Sequence[str]
     float_format: str | None = None
+    page: Page | None = None
 
 
 class Result(Protocol):

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from ..designer.layers import BaseLayer, Result, Row, Table
+from ..designer.layers import BaseLayer, Page, Result, Row, Table
 from ..designer.methods import DesignMethod
 from ..formulation.layout import Slot
 from ..model.problem import Problem
@@ -49,7 +49,8 @@ class PayloadLayer(BaseLayer):
             return {}
         from .report import schedule_columns, schedule_rows
 
-        return {"schedule.csv": Table(schedule_rows(result), schedule_columns(result))}
+        page = Page("schedule", "Payload schedule", "schedule.csv: the adjustments per payload", order=20)
+        return {"schedule.csv": Table(schedule_rows(result), schedule_columns(result), page=page)}
 
 
 LAYER = PayloadLayer()

@@ -26,7 +26,7 @@ from typing import TextIO
 
 from .. import unfinished
 from ..filemodes import respect_umask
-from ..designer.layers import Row, layers
+from ..designer.layers import Page, Row, layers
 from ..pipeline import DesignResult
 from .rows import (
     DESIGN_COLUMNS,
@@ -171,7 +171,13 @@ def atomic_folder(folder: Path, fill: Callable[[Path], None]) -> Path:
 
 
 def report_texts(result: DesignResult, warnings: Sequence[str] | None = None) -> dict[str, str]:
-    """File name -> text of every report of ``result``: ``design.csv``, ``summary.csv``,
+    """File name -> text of every report of ``result`` (see :func:`report_files`)."""
+    return report_files(result, warnings)[0]
+
+
+def report_files(result: DesignResult, warnings: Sequence[str] | None = None) -> tuple[dict[str, str], list[tuple[str, Page]]]:
+    """(File name -> text of every report of ``result``, the sections ``report.html`` gives
+    the layers' files): ``design.csv``, ``summary.csv``,
     ``verification.csv``, ``status.txt``, ``substitution.csv`` when the problem substitutes a
     body, and the files of the registered layers (:func:`counterpoise.designer.layers.layers`,
     innermost first: a payload range's ``schedule.csv``; a ``[robust]`` design's
@@ -205,12 +211,15 @@ def report_texts(result: DesignResult, warnings: Sequence[str] | None = None) ->
     }
     if result.problem.substitutions:
         texts["substitution.csv"] = csv_text(substitution_rows(result), SUBSTITUTION_COLUMNS)
+    pages: list[tuple[str, Page]] = []
     for layer in stack:
         for name, table in layer.tables(result).items():
             if name in texts:
                 raise ValueError(f"{name}: written twice (layer {layer.name} and another): a file has one writer")
             texts[name] = csv_text(table.rows, table.columns, table.float_format or FLOAT_FORMAT)
-    return texts
+            if table.page is not None:
+                pages.append((name, table.page))
+    return texts, pages
 
 
 def _lines(text: str, more: str) -> str:
@@ -231,7 +240,7 @@ def write_reports(
     ``report.html``, the page of every file and plot in the folder (:mod:`.html`).
     ``warnings``: the degeneracy warnings already found (see :func:`report_texts`).
     """
-    texts = report_texts(result, warnings)  # built before anything is written
+    texts, pages = report_files(result, warnings)  # built before anything is written
 
     def fill(temp: Path) -> None:
         for name, text in texts.items():
@@ -243,7 +252,7 @@ def write_reports(
             from .html import IMAGES, report_html
 
             images = {name: (temp / name).read_bytes() for name, *_ in IMAGES if (temp / name).is_file()}
-            page = report_html(result.problem.name, result.problem.title, result.status.value, texts, images)
+            page = report_html(result.problem.name, result.problem.title, result.status.value, texts, images, pages)
             with (temp / "report.html").open("w", encoding="utf-8", newline="") as handle:
                 handle.write(page)
 

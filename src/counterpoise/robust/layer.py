@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from ..designer.layers import BaseLayer, Result, Row, Table
+from ..designer.layers import BaseLayer, Page, Result, Row, Table
 from ..designer.methods import DesignMethod
 from ..model.problem import Problem
 from .result import RobustReport
@@ -48,12 +48,12 @@ class RobustLayer(BaseLayer):
             return {}
         from . import report
 
-        tables = {"tolerance.csv": Table(report.tolerance_rows(result), report.TOLERANCE_COLUMNS)}
+        tables = {"tolerance.csv": Table(report.tolerance_rows(result), report.TOLERANCE_COLUMNS, page=Page("tolerance", "Tolerance", report.TOLERANCE_CAPTION, order=10))}
         if result.problem.robust is not None and result.problem.robust.tune:
             tables["tuning_corners.csv"] = Table(report.tuning_rows(result), report.tuning_columns(result))
             procedure = report.procedure_rows(result)
             if procedure:
-                tables["tuning.csv"] = Table(procedure, report.PROCEDURE_COLUMNS)
+                tables["tuning.csv"] = Table(procedure, report.PROCEDURE_COLUMNS, page=Page("tuning", "Tuning procedure", render=report.procedure_html, order=11))
         return tables
 
 

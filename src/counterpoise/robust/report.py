@@ -24,11 +24,6 @@ TOLERANCE_CAPTION = (
 )
 
 
-def is_robust_tolerance(text: str) -> bool:
-    """Whether a tolerance.csv text is a [robust] problem's (its header), not a catalogue's."""
-    return text.split("\n", 1)[0].strip() == ",".join(TOLERANCE_COLUMNS)
-
-
 def _report(result: Result) -> RobustReport | None:
     return result.extra(RobustReport)
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from ..designer.layers import BaseLayer, Result, Row, Table
+from ..designer.layers import BaseLayer, Page, Result, Row, Table
 from ..designer.methods import DesignMethod
 from ..model.problem import Problem
 from .result import PartsReport
@@ -59,7 +59,8 @@ class PartsLayer(BaseLayer):
             return {}
         from .report import TOLERANCE_COLUMNS, tolerance_rows
 
-        return {"tolerance.csv": Table(tolerance_rows(result), TOLERANCE_COLUMNS)}
+        caption = "tolerance.csv: the residual ratio with the parts' rates and initial tensions at the ends of their tolerance bands"
+        return {"tolerance.csv": Table(tolerance_rows(result), TOLERANCE_COLUMNS, page=Page("tolerance", "Tolerance", caption, order=10))}
 
 
 LAYER = PartsLayer()
