@@ -69,8 +69,8 @@ def measure(n: int) -> None:
     masses = [solution.values[k] for k in sorted(solution.values, key=lambda k: int(k.variable[1:]))]
     error = max(abs(m - r) / r for m, r in zip(masses, required_masses(n)))
     print(json.dumps({
-        "n": n, "status": status.value, "message": message, "conditions": solution.conditions,
-        "iterations": solution.iterations, "ratio": verification.residual_ratio, "mass_error": error,
+        "n": n, "status": status.value, "message": message, "conditions": solution.stats.conditions,
+        "iterations": solution.stats.iterations, "ratio": verification.residual_ratio, "mass_error": error,
         "span": max(required_masses(n)) / min(required_masses(n)),
         "cpu": {"problem": build_cpu, "build": d_cpu, "solve": s_cpu, "verify": v_cpu, "verify_again": v2_cpu},
         "wall": {"problem": build_wall, "build": d_wall, "solve": s_wall, "verify": v_wall, "verify_again": v2_wall},

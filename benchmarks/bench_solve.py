@@ -147,8 +147,8 @@ def bench_warm(files: list[Path], repeats: int) -> dict:
             for _ in range(repeats):
                 dt, solution = timed(designer.solve)
                 t["solve"].append(dt)
-                ipopt_internal.append(solution.solve_time)
-                iterations.add(solution.iterations)
+                ipopt_internal.append(solution.stats.solve_time)
+                iterations.add(solution.stats.iterations)
             for _ in range(repeats):
                 t["verify"].append(timed(verify, solution)[0])
             for _ in range(repeats):
@@ -161,7 +161,7 @@ def bench_warm(files: list[Path], repeats: int) -> dict:
                 "name": problem.name,
                 "status": result.status.value,
                 "iterations": sorted(iterations),
-                "conditions": solution.conditions,
+                "conditions": solution.stats.conditions,
                 "slots": len(designer.formulation.design),
                 "configurations": result.verification.configurations,
                 "first": first,

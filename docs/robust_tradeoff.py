@@ -17,7 +17,7 @@ import numpy as np
 
 from counterpoise.designer.methods import core_method
 from counterpoise.io.loader import load_problem
-from counterpoise.robust import RobustMethod
+from counterpoise.robust import RobustMethod, RobustReport
 
 HERE = Path(__file__).resolve().parent
 
@@ -34,7 +34,7 @@ def main() -> None:
     rows = []
     for limit in np.linspace(0.12, 0.024, args.points):
         solution = method.with_spec(replace(spec, limit=float(limit))).solve()
-        report = solution.robust
+        report = solution.extra(RobustReport)
         band = report.bands.get("robust", report.bands["nominal"])
         rows.append((float(limit), band["all"], band["rate"], band["mass"], report.added_mass.get("robust", float("nan")), (solution.verdict.status if solution.verdict is not None else solution.status).value))
     print("limit,worst_case_ratio,rate_part,mass_part,added_mass_kg,status")
@@ -48,7 +48,7 @@ def main() -> None:
     ok = [r for r in rows if r[5] == "optimal"]
     fig, ax = plt.subplots(figsize=(5.0, 3.4), dpi=100)
     ax.plot([r[1] for r in ok], [r[4] for r in ok], "o-", label="robust designs (limit mode)")
-    nominal = method.solve().robust.bands["nominal"]["all"]
+    nominal = method.solve().extra(RobustReport).bands["nominal"]["all"]
     ax.plot([nominal], [0.0], "s", label="nominal design (springs only)")
     ax.axvline(ok[-1][3], color="grey", ls=":", label="arm-mass tolerance alone")
     ax.set_xlabel("worst-case residual ratio over the tolerance box")

@@ -97,28 +97,11 @@ def test_process_runner_matches_serial():
     assert [p.values["M"] * p.values["b"] for p in serial] == pytest.approx([m * 0.3 for m in (0.5, 0.8, 1.1, 1.4)], rel=1e-9)
 
 
-#: upward imports for annotations only (inside ``if TYPE_CHECKING:``, never at run time):
-#: the frozen Solution names the typed results the outer layers attach to it
-#: (docs/development.md, "Typed, immutable results"); any other is an offender
-TYPE_ONLY_UPWARD = {"designer/solution.py": {"verify", "selection", "payload", "robust"}}
-
-
-def _type_checking_lines(text: str) -> set[int]:
-    """Line numbers inside ``if TYPE_CHECKING:`` blocks."""
-    import ast
-
-    lines: set[int] = set()
-    for node in ast.walk(ast.parse(text)):
-        if isinstance(node, ast.If) and isinstance(node.test, ast.Name) and node.test.id == "TYPE_CHECKING":
-            for child in node.body:
-                lines.update(range(child.lineno, (child.end_lineno or child.lineno) + 1))
-    return lines
-
-
 def test_layers_do_not_import_upwards():
     """model imports nothing above it; mechanics nothing from io and beyond; io nothing from
-    formulation and beyond; and so on. An import for annotations only is allowed where
-    :data:`TYPE_ONLY_UPWARD` says so."""
+    formulation and beyond; and so on: not at run time, not inside a function, not for
+    annotations (an outer layer's result is an extra of the design, reached by its own
+    type: docs/development.md, "Typed, immutable results")."""
     order = LAYERS
     src = ROOT / "src" / "counterpoise"
     rank = {name: i for i, name in enumerate(order)}
@@ -129,24 +112,20 @@ def test_layers_do_not_import_upwards():
         if layer not in rank:
             continue
         text = path.read_text(encoding="utf-8")
-        typing_only = _type_checking_lines(text)
-        allowed = TYPE_ONLY_UPWARD.get(rel.as_posix(), set())
         for match in re.finditer(r"^\s*from \.+(\w+)", text, flags=re.M):
             target = match.group(1)
             depth = len(re.match(r"^\s*from (\.+)", match.group(0)).group(1))
             if depth == 1 and len(rel.parts) > 1:
                 continue  # a sibling inside the same layer
-            line = text.count("\n", 0, match.start() + len(match.group(0)) - len(match.group(0).lstrip())) + 1
-            if target in allowed and line in typing_only:
-                continue
             if target in rank and rank[target] > rank[layer]:
                 offenders.append(f"{rel}: imports {target}")
     assert not offenders, offenders
 
 
-def _import_graph() -> dict[str, dict[str, set[str]]]:
+def _import_graph(annotations: bool = False) -> dict[str, dict[str, set[str]]]:
     """Modules of src/counterpoise -> {imported module: names imported, prefixed "def:" when
-    the import runs inside a function}. Imports under ``if TYPE_CHECKING`` never run: left out."""
+    the import runs inside a function}. Imports under ``if TYPE_CHECKING`` never run: left
+    out, unless ``annotations`` (then their names are prefixed "type:")."""
     import ast
 
     src = ROOT / "src"
@@ -159,10 +138,12 @@ def _import_graph() -> dict[str, dict[str, set[str]]]:
     for module, (path, package) in files.items():
         here = module.split(".") if package else module.split(".")[:-1]
 
-        def visit(node, in_function, module=module, here=here):
+        def visit(node, in_function, module=module, here=here, typing=False):
             for child in ast.iter_child_nodes(node):
                 inner = in_function or isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda))
                 if isinstance(child, ast.If) and "TYPE_CHECKING" in ast.unparse(child.test):
+                    if annotations:
+                        visit(child, inner, typing=True)
                     continue
                 targets = []
                 if isinstance(child, ast.ImportFrom):
@@ -175,8 +156,8 @@ def _import_graph() -> dict[str, dict[str, set[str]]]:
                     targets = [(alias.name, "*") for alias in child.names]
                 for target, name in targets:
                     if target in files and target != module:
-                        graph[module].setdefault(target, set()).add(f"def:{name}" if inner else name)
-                visit(child, inner)
+                        graph[module].setdefault(target, set()).add(f"def:{name}" if inner else f"type:{name}" if typing else name)
+                visit(child, inner, typing=typing)
 
         visit(ast.parse(path.read_text(encoding="utf-8")), False)
     return graph
@@ -229,6 +210,17 @@ def test_no_circle_of_imports():
                 if target in component and taken:
                     private.append(f"{m} imports {', '.join(taken)} from {target} (a circle: {' '.join(component)})")
     assert private == []
+
+
+def test_no_circle_of_imports_even_for_annotations():
+    """Counting the imports made for annotations only (``if TYPE_CHECKING:``), there is no
+    circle of module-level imports either: the core result names no outer layer's type
+    (its layers' results are extras reached by their own types; issue 33: a 19-file circle
+    through ``designer/solution.py``), and the designer's parts take the designer as a
+    protocol (``designer/built.py``), not by its class."""
+    graph = _import_graph(annotations=True)
+    module_level = {m: {t for t, names in targets.items() if any(not n.startswith("def:") for n in names)} for m, targets in graph.items()}
+    assert _cycles(module_level) == []
 
 
 def test_kept_builds_once_per_key_and_drops_the_least_recently_used():

@@ -24,6 +24,8 @@ from conftest import PROBLEMS, solved
 from counterpoise.realisation.asbuilt import check, read, rebuild
 from counterpoise.realisation.sheet import COLUMNS
 from counterpoise.report.files import report_texts, write_reports
+from counterpoise.robust.result import RobustReport
+from counterpoise.designer.minimax import MinimaxDesign
 
 NAMES = sorted(p.stem for p in PROBLEMS.glob("*.toml"))
 #: the as-built acceptance: a design that claims exact balance balances as built to this
@@ -89,8 +91,8 @@ def test_a_design_that_claims_balance_balances_as_built(name, sheets):
         assert "springs: IDEAL" in status
         return
     if result.status.value == "optimal":
-        tolerance = problem.settings.minimax_tolerance if result.solution.sampled_ratio is not None else AS_BUILT
-        robust = result.solution.robust
+        tolerance = problem.settings.minimax_tolerance if result.solution.extra(MinimaxDesign) is not None else AS_BUILT
+        robust = result.solution.extra(RobustReport)
         if robust is not None:  # a robust design answers for its hardware with its worst case (and its tuning law)
             tolerance = max(tolerance, *(v for band in robust.bands.values() for v in band.values()))
         assert as_built.residual_ratio <= tolerance, (name, as_built.residual_ratio)

@@ -157,6 +157,32 @@ def test_built_objects_round_trip_and_a_bad_entry_is_dropped(cache_on):
     assert cache.fetch_built("thing", ("c",), {}) is None and len(list((cache_on / cache.BUILT).glob("*.pickle"))) == 1
 
 
+def test_a_built_entry_gives_back_only_what_its_builder_makes(cache_on, monkeypatch):
+    """:func:`built_entry` (the one glue the designer, the dense check and the springs'
+    sample use): keyed on the problem's content and the parts; a kept object its builder
+    would not make (``valid`` says no) is not handed back; no entry at all when built
+    objects are not kept in this process."""
+    from builders import pendulum
+    from counterpoise.io import cache
+
+    problem = pendulum(0.8, 0.3, (0.02, 1.0), 25.0).build()
+    entry = cache.built_entry("thing", problem, "a", shared={"problem": problem})
+    assert entry is not None
+    entry.keep({"problem": problem, "x": 1.5})
+
+    def is_dict(found: object) -> bool:
+        return isinstance(found, dict)
+
+    back = cache.built_entry("thing", problem, "a", shared={"problem": problem}).fetch(is_dict)
+    assert back == {"problem": problem, "x": 1.5} and back["problem"] is problem
+    assert cache.built_entry("thing", problem, "a", shared={"problem": problem}).fetch(lambda found: isinstance(found, list)) is None
+    assert cache.built_entry("thing", problem, "b", shared={"problem": problem}).fetch(is_dict) is None
+    other = pendulum(0.9, 0.3, (0.02, 1.0), 25.0).build()  # another content: another key
+    assert cache.built_entry("thing", other, "a", shared={"problem": other}).fetch(is_dict) is None
+    monkeypatch.setattr(cache, "_built", False)
+    assert cache.built_entry("thing", problem, "a") is None
+
+
 @pytest.mark.parametrize("which", ["lp", "nlp"])
 def test_a_kept_designer_is_the_built_one(which, cache_on, monkeypatch):
     """A designer built with the cache on is kept; the next one of the same problem is
@@ -178,8 +204,8 @@ def test_a_kept_designer_is_the_built_one(which, cache_on, monkeypatch):
     kept = module.Designer(problem)
     assert kept.problem is problem and kept.formulation.problem is problem
     a, b = built.solve(), kept.solve()
-    assert (a.status, a.values, a.objective, a.iterations) == (b.status, b.values, b.objective, b.iterations)
-    assert (which == "lp") == (a.solver == "clarabel")
+    assert (a.status, a.values, a.objective, a.stats.iterations) == (b.status, b.values, b.objective, b.stats.iterations)
+    assert (which == "lp") == (a.stats.solver == "clarabel")
 
 
 def test_designers_are_not_kept_outside_solve(tmp_path, monkeypatch):
@@ -226,7 +252,8 @@ def test_the_dense_checks_evaluators_are_kept_after_their_first_check(cache_on, 
     # solve with other designs or options refines from its own samples, as a cold one would
     problem = load_problem(file)
     settings = problem.settings
-    kept = check._restore(problem, check._kept_parts(problem, settings.verify_samples, settings.seed + 1))
+    entry = check.kept_entry(problem, settings.verify_samples, settings.seed + 1)
+    kept = entry.fetch(check._evaluators_of) if entry is not None else None
     assert kept is not None and any(e.box_state for *_, e in kept)  # the box maximum's functions are kept
     assert all("maximisers" not in e.box_state and not e.box_state.get("found") for *_, e in kept)
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 import pytest
 
 from counterpoise.cli import main
-from counterpoise.designer import designer as designer_module
+from counterpoise.designer import closest as closest_module
 from counterpoise.io.loader import load_problem_text
 from counterpoise.pipeline import design
 from counterpoise.solvers import Status
@@ -68,7 +68,7 @@ FOURBAR = (ROOT / "problems" / "fourbar_counter_mass.toml").read_text().replace(
 
 def least_squares_only(self, z, p, b):
     """The closest design as it was: least squares on the compressed conditions."""
-    return z, designer_module.LEAST_SQUARES_NO_CLOSER, 0.0
+    return z, closest_module.LEAST_SQUARES_NO_CLOSER, 0.0
 
 
 def both(text: str, name: str):
@@ -76,7 +76,7 @@ def both(text: str, name: str):
     problem = load_problem_text(text, name)
     minimax = design(problem)
     with pytest.MonkeyPatch.context() as m:
-        m.setattr(designer_module.Designer, "closest_minimax", least_squares_only)
+        m.setattr(closest_module.Closest, "minimax", least_squares_only)
         least = design(load_problem_text(text, name))
     return minimax, least
 
@@ -101,7 +101,7 @@ def test_two_tips_closest_design_is_the_closed_form_minimax(two_tips):
     """Worst ratio 0.25 at M b = 0.45 kg·m (see TWO_TIPS), on the LP and on the NLP path."""
     kind, minimax, least = two_tips
     assert minimax.status is Status.INFEASIBLE
-    assert minimax.solution.solver == ("clarabel" if kind == "fixed_lever" else "ipopt")
+    assert minimax.solution.stats.solver == ("clarabel" if kind == "fixed_lever" else "ipopt")
     assert minimax.verification.residual_ratio == pytest.approx(0.25, rel=1e-6)
     assert _product(minimax) == pytest.approx(0.45, rel=1e-6)
     assert "minimax" in minimax.message
@@ -142,9 +142,9 @@ def test_a_probe_gets_least_squares_and_certify_upgrades_it():
 
     d = Designer(load_problem_text(FIXED_LEVER, "two_tips.toml"))
     probe = d.solve(certify=False)
-    assert probe.status is Status.INFEASIBLE and probe.closest == designer_module.LEAST_SQUARES_CLOSEST
+    assert probe.status is Status.INFEASIBLE and probe.closest == closest_module.LEAST_SQUARES_CLOSEST
     certified = d.certify(probe)  # a new solution: the probe stays as it was (Solution is frozen)
-    assert probe.closest == designer_module.LEAST_SQUARES_CLOSEST
+    assert probe.closest == closest_module.LEAST_SQUARES_CLOSEST
     assert certified.closest is not None and certified.closest.startswith("minimax")
     assert {s.variable: v for s, v in certified.values.items()}["M"] == pytest.approx(4.5, rel=1e-6)
 

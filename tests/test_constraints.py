@@ -126,7 +126,7 @@ def limited():
 
 
 def test_force_limit_binds_on_the_lp_path(limited):
-    assert limited.status is Status.OPTIMAL and limited.solution.solver == "clarabel"
+    assert limited.status is Status.OPTIMAL and limited.solution.stats.solver == "clarabel"
     assert _mass(limited) == pytest.approx((1 * G * 0.2 - 0.75) / (G * 0.25), rel=1e-8)
     limit = _value(limited, "s.max_force")
     assert limit.active == "upper" and limit.value == pytest.approx(15.0, rel=1e-8)
@@ -249,7 +249,7 @@ def test_a_constraint_that_is_not_a_finite_number_is_named(expression, fragment)
 def test_nonlinear_constraint_moves_an_lp_to_the_nlp():
     """M² ≤ 0.3 kg² (M ≤ 0.5477 kg) is not linear: IPOPT solves it, and says why."""
     result = design(spring_lp(square={"expression": "M**2", "upper": "0.3 kg^2"}).build())
-    assert result.status is Status.OPTIMAL and result.solution.solver == "ipopt"
+    assert result.status is Status.OPTIMAL and result.solution.stats.solver == "ipopt"
     assert "square" in result.message and "made this LP problem an NLP" in result.message
     assert _mass(result) == pytest.approx((1 * G * 0.2 - 0.75) / (G * 0.25), rel=1e-6)
 

@@ -264,7 +264,7 @@ def test_solve_time_counts_solver_calls_not_builds(monkeypatch):
     assert solution.status is Status.OPTIMAL
     assert "design_reduced" in builds  # a solver is built inside solve() on this path
     assert len(calls) >= 2
-    assert solution.solve_time == pytest.approx(sum(calls), rel=1e-12)
+    assert solution.stats.solve_time == pytest.approx(sum(calls), rel=1e-12)
 
 
 def test_readme_states_the_display_unit_fallback():

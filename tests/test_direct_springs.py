@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from counterpoise import design, load_problem
+from counterpoise.designer.minimax import MinimaxDesign
 from counterpoise.errors import ProblemFileError
 from counterpoise.formulation.assumptions import check_exact_conditions
 from counterpoise.solvers.base import Status
@@ -105,7 +106,7 @@ def test_real_spring_minimax_and_dense_check_agree(tmp_path):
         check_exact_conditions(problem)
     result = design(problem)
     assert result.status is Status.OPTIMAL, result.message
-    t = result.solution.sampled_ratio
+    t = result.solution.extra(MinimaxDesign).sampled_ratio
     dense = result.verification.residual_ratio
     assert 0 < t <= dense <= 1.05 * t
     assert independent_ratio(result, 200.0, 0.05, 2.0) == pytest.approx(dense, rel=2e-3)

@@ -132,7 +132,7 @@ def test_a_light_link_with_a_wide_stiffness_bound_is_finished_to_rounding(mass, 
     """Found by the random chains: a 10 g link whose spring may reach 1e7 N/m but needs
     0.147 N/m. The equalities are scaled by residuals sampled over the whole box, so
     IPOPT's stop (|g| ~ 5e-16 there) left k 1e-8 off and the dense check failed at a ratio
-    of 1.1e-8. Newton steps on the free variables finish the design (Designer.finish):
+    of 1.1e-8. Newton steps on the free variables finish the design (Balance.finish):
     k = m g r / (h a) exactly, ratio at rounding."""
     chain = Chain(links=[Link(length=0.5, mass=mass, com=com, arm=0.25, free_offset=True)], base_angle=0.0, spring_on_first=0.125, inertia_weight=0.0)
     result = design(chain.problem())

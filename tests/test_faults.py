@@ -843,8 +843,9 @@ def test_status_txt_ends_with_a_newline_whatever_wrote_its_last_line(monkeypatch
     (parts, payload, robust, warnings); the file ends with one whichever wrote last, here a
     layer whose text lacks it."""
     from conftest import solved
-    from counterpoise.report import files, parts
+    from counterpoise.realisation.layer import LAYER
+    from counterpoise.report import files
 
-    monkeypatch.setattr(parts, "designed_status", lambda result: "designed spring: a line without its newline")
+    monkeypatch.setattr(type(LAYER), "status_lines", lambda self, result: "designed spring: a line without its newline")
     text = files.report_texts(solved("yasir2019_counter_mass"), warnings=())["status.txt"]
     assert "designed spring: a line without its newline\n" in text and text.endswith("\n")

@@ -209,7 +209,7 @@ def test_holder_drawing_shows_forces_within_the_parts_range(tmp_path):
     placeholder rate, where springs.csv says 26.9-48.3 N over the workspace. Home lies in the
     workspace, so each drawn force lies within its spring's [min_force_N, max_force_N]."""
     from counterpoise.plots.mechanism import design_drawing
-    from counterpoise.report.parts import springs_rows
+    from counterpoise.realisation.report import springs_rows
 
     result = solved("yasir2019_hybrid_catalogue")
     drawing = design_drawing(result, tmp_path)

@@ -12,6 +12,7 @@ from counterpoise.formulation.layout import Slot
 from counterpoise.io.loader import load_problem, load_problem_text
 from counterpoise.pipeline import build_method, design, run
 from counterpoise.solvers.base import Status
+from counterpoise.designer.minimax import MinimaxDesign
 
 
 PAYLOAD_PENDULUM = payload_pendulum_toml(
@@ -43,7 +44,7 @@ def test_starts_act_on_a_payload_range():
     """Before: starts was dropped for payload ranges (starts_reaching_best 1/1)."""
     result = design(payload_pendulum(), starts=3)
     assert result.status is Status.OPTIMAL, result.message
-    assert result.solution.starts[1] == 3
+    assert result.solution.stats.starts[1] == 3
     assert result.payload is not None and result.payload.schedule.feasible
 
 
@@ -84,7 +85,7 @@ def test_starts_act_on_directly_attached_springs(tmp_path):
     assert isinstance(method, MultiStart) and isinstance(method.inner, Minimax)
     result = run(method)
     assert result.status is Status.OPTIMAL, result.message
-    assert result.solution.starts[1] == 2
+    assert result.solution.stats.starts[1] == 2
 
 
 def test_starts_and_parameters_act_on_slots(tmp_path):
@@ -96,7 +97,7 @@ def test_starts_and_parameters_act_on_slots(tmp_path):
     problem = pendulum(tmp_path, [good], 2.0 / (9.81 * 0.2))
     result = design(problem, starts=2)
     assert result.status is Status.OPTIMAL, result.message
-    assert result.solution.starts[1] == 2
+    assert result.solution.stats.starts[1] == 2
     # m g r = k b h: a 10 % heavier m moves h to 1.1 × (2 N·m / (200 N/m · 0.1 m))
     heavier = design(problem, parameters={"m": 1.1 * 2.0 / (9.81 * 0.2)})
     assert heavier.status is Status.OPTIMAL, heavier.message
@@ -225,7 +226,7 @@ def test_directly_attached_spring_with_a_payload_range_and_starts(tmp_path):
     text = text.replace('initial = "0.2 m"\n', 'initial = "0.2 m"\nadjustable = true\n', 1)
     result = design(load_problem_text(text, "direct_payload.toml"), starts=2)
     assert result.status is Status.OPTIMAL, result.message
-    assert result.solution.starts[1] == 2 and result.solution.sampled_ratio is not None
+    assert result.solution.stats.starts[1] == 2 and result.solution.extra(MinimaxDesign) is not None
     plan = result.payload.schedule
     assert plan.feasible and plan.rows[-1].payload == pytest.approx(0.2)
     heights = [s.values["y"] for s in plan.rows]

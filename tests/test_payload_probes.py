@@ -85,15 +85,15 @@ def test_the_widest_range_search_settles_its_infeasible_probes_by_the_certificat
     payload, so it lies within the certificate's rounding margin (1e-12 of the terms, on a
     tolerance of 1e-9) of the tolerance on at most a halving or two; every other probe
     beyond the limit is settled by the certificate: at most 5 restarts, whatever the machine."""
-    from counterpoise.designer.designer import Designer
+    from counterpoise.designer.closest import Closest
     from counterpoise.payload.widest import widest_range
     from counterpoise.payload.schedule import schedule
 
     solver = _solver(design)
     plan = schedule(solver, 0.0, 0.031)
     calls = []
-    real = Designer.closest_design_multistart
-    monkeypatch.setattr(Designer, "closest_design_multistart", lambda self, *a, **k: calls.append(1) or real(self, *a, **k))
+    real = Closest.least_squares_multistart
+    monkeypatch.setattr(Closest, "least_squares_multistart", lambda self, *a, **k: calls.append(1) or real(self, *a, **k))
     widest, _ = widest_range(solver, plan)
     m_c2 = design.solution.values[next(s for s in design.solution.values if s.variable == "m_c2")]
     assert widest.upper == pytest.approx(m_c2 * 50 / 200, rel=1e-6)

@@ -18,6 +18,7 @@ from hypothesis import strategies as st
 from builders import G, Chain, Link, one_link_toml
 from conftest import PROBLEMS, solved
 
+from counterpoise.designer.minimax import MinimaxDesign
 from counterpoise.io.loader import load_problem, load_problem_text
 from counterpoise.mechanics import Mechanics
 from counterpoise.mechanics.cable import cable
@@ -222,7 +223,7 @@ def test_a_single_arm_designed_for_its_pulley_radius():
     values = {slot.variable: v for slot, v in ideal.solution.values.items()}
     ignoring = design(made_for, bounds={n: (v, v) for n, v in values.items()})
     minimax = design(made_for)
-    assert minimax.solution.sampled_ratio is not None
+    assert minimax.solution.extra(MinimaxDesign) is not None
     ratio = minimax.verification.residual_ratio / ignoring.verification.residual_ratio
     assert ratio <= 0.7, (minimax.verification.residual_ratio, ignoring.verification.residual_ratio)
     # honest: a residual of several per cent is not balanced

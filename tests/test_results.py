@@ -19,12 +19,14 @@ import math
 import pytest
 
 from builders import pendulum as plain_pendulum
-from counterpoise.designer.methods import MultiStart, Plain
+from counterpoise.designer.methods import MultiStart, Plain, SolveOptions
 from counterpoise.designer.solution import VERDICT_SOURCES, Solution, Verdict
 from counterpoise.io.loader import load_problem
 from counterpoise.pipeline import DesignResult, build_method, run
 from counterpoise.solvers.base import Status
 from counterpoise.verify.judge import judge, verdict
+from counterpoise.robust.result import RobustReport
+from counterpoise.selection.result import PartsReport
 
 
 def _snapshot(solution: Solution) -> dict[str, object]:
@@ -58,10 +60,13 @@ class Spy:
     def __getattr__(self, name: str) -> object:
         return getattr(self.inner, name)
 
-    def solve(self, *args: object, **kwargs: object) -> Solution:
-        solution = self.inner.solve(*args, **kwargs)
+    def solve_with(self, options: object) -> Solution:
+        solution = self.inner.solve_with(options)
         self.returned.append((solution, _snapshot(solution)))
         return solution
+
+    def solve(self, *args: object, **kwargs: object) -> Solution:
+        return self.solve_with(SolveOptions(*args, **kwargs))
 
     def check_untouched(self, outer: Solution) -> None:
         assert self.returned, "the inner method was not called"
@@ -101,8 +106,9 @@ def test_plain_design_is_frozen_and_judged_by_the_dense_check():
     result = run(method)
     assert result.optimal, result.message
     _mutation_raises(result.solution)
-    assert result.solution.verdicts == () and result.solution.verdict is None
-    assert result.verdict.source == "check"
+    # the dense check's verdict is the only one; the finished design has one status: the verdict's
+    assert [v.source for v in result.solution.verdicts] == ["check"] and result.verdict is result.solution.verdict
+    assert (result.solution.status, result.solution.message) == (result.status, result.message)
     assert (result.status, result.message) == judge(result.solution, result.verification)
     # DesignResult wraps the solution: what it holds is read through it, not copied
     assert result.problem is result.solution.problem
@@ -120,9 +126,9 @@ def test_designer_certify_returns_a_new_solution():
     before = _snapshot(raw)
     certified = method.certify(raw)
     assert certified is not raw
-    assert math.isnan(raw.certificate_gap)
+    assert math.isnan(raw.stats.certificate_gap)
     assert all(_same(before[name], value) for name, value in _snapshot(raw).items())
-    assert not math.isnan(certified.certificate_gap)
+    assert not math.isnan(certified.stats.certificate_gap)
 
 
 def test_multi_start_returns_a_new_solution_and_leaves_its_starts_alone():
@@ -132,9 +138,9 @@ def test_multi_start_returns_a_new_solution_and_leaves_its_starts_alone():
     best = method.solve()
     spy.check_untouched(best)
     assert len(spy.returned) == 3
-    assert best.starts[1] == 3
-    assert all(s.starts == (1, 1) for s, _ in spy.returned)  # each start's own value untouched
-    assert best.solve_time == pytest.approx(sum(s.solve_time for s, _ in spy.returned))
+    assert best.stats.starts[1] == 3
+    assert all(s.stats.starts == (1, 1) for s, _ in spy.returned)  # each start's own value untouched
+    assert best.stats.solve_time == pytest.approx(sum(s.stats.solve_time for s, _ in spy.returned))
     _mutation_raises(best)
 
 
@@ -175,8 +181,8 @@ def test_parts_layer_wraps_its_inner_design_and_its_verdict_names_the_part(tmp_p
     result, spy = _run_spied(problem, "PartsMethod")
     assert result.verdict.source == "parts"
     assert "; parts " in result.message and result.message.endswith(": GOOD")  # the layer's own line
-    assert result.parts is not None and result.parts is result.solution.parts
-    assert all(s.parts is None for s, _ in spy.returned)  # the inner design knows no parts
+    assert result.parts is not None and result.parts is result.solution.extra(PartsReport)
+    assert all(s.extra(PartsReport) is None for s, _ in spy.returned)  # the inner design knows no parts
     _mutation_raises(result.solution)
 
 
@@ -190,8 +196,8 @@ def test_robust_layer_wraps_the_nominal_design_and_its_verdict_is_the_counterpar
     problem = load_problem(_pendulum(tmp_path, "limit", 'mode = "limit"\nlimit = 0.04\ntolerances.rate = "10 %"'))
     result, spy = _run_spied(problem, "RobustMethod")
     assert result.verdict.source == "robust"
-    assert result.solution.robust is not None
-    assert all(s.robust is None and s.verdict is None for s, _ in spy.returned)
+    assert result.solution.extra(RobustReport) is not None
+    assert all(s.extra(RobustReport) is None and s.verdict is None for s, _ in spy.returned)
     assert "worst-case residual ratio" in result.message
 
 
@@ -199,14 +205,19 @@ def test_robust_layer_wraps_the_nominal_design_and_its_verdict_is_the_counterpar
 def test_judge_takes_the_outermost_layers_verdict_as_it_stands():
     method = build_method(plain_pendulum(0.8, 0.3, (0.02, 1.0), 25.0).build())
     result = run(method)
-    inner = result.solution
+    inner = method.solve()  # as the method returned it: no verdict yet
     said = inner.judged(Status.INFEASIBLE, "inner layer", "payload").judged(Status.FAILED, "outer layer", "parts")
     assert [v.source for v in said.verdicts] == ["payload", "parts"]  # innermost first
     assert judge(said, result.verification) == (Status.FAILED, "outer layer")
     assert verdict(said, result.verification) is said.verdicts[-1]
     assert inner.verdicts == ()  # judged() left the solution it was called on alone
-    rewrapped = DesignResult(said, result.verification, verdict(said, result.verification))
-    assert (rewrapped.status, rewrapped.message) == (Status.FAILED, "outer layer")
+    assert said.status is Status.OPTIMAL  # a layer's verdict leaves what the solver said
+    final = dataclasses.replace(said, verification=result.verification).settled(verdict(said, result.verification))
+    rewrapped = DesignResult(final)
+    assert (rewrapped.status, rewrapped.message) == (Status.FAILED, "outer layer") == (final.status, final.message)
+    assert final.verdicts == said.verdicts  # the outermost verdict is not stacked twice
+    with pytest.raises(ValueError, match="verified and judged"):
+        DesignResult(said)  # a result holds a finished design
 
 
 def test_a_verdict_names_a_known_source():
@@ -237,5 +248,5 @@ def test_minimax_design_is_judged_by_the_minimax_rule(tmp_path):
 
     result = run(build_method(arm(tmp_path, 'stiffness = "k"\nfree_length = "50 mm"\ninitial_tension = "2 N"\nmax_length = "0.6 m"')))
     assert result.optimal, result.message
-    assert result.solution.verdicts == () and result.verdict.source == "minimax"
+    assert [v.source for v in result.solution.verdicts] == ["minimax"] and result.verdict.source == "minimax"
     assert "dense check: worst residual ratio" in result.message

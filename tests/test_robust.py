@@ -28,6 +28,7 @@ import pytest
 
 from counterpoise.cli import main
 from counterpoise.io.loader import load_problem
+from counterpoise.robust.result import RobustReport
 from counterpoise.pipeline import design
 
 from conftest import solved
@@ -110,7 +111,7 @@ def test_limit_mode_closed_form(folder):
     v = _values(result)
     assert v["M"] == pytest.approx(M_MASS_ONLY * (1 - 0.04 / 0.1), rel=1e-6)  # 3.6 kg
     assert v["k"] == pytest.approx(K_SPRING_ONLY * 0.04 / 0.1, rel=1e-6)  # 117.72 N/m
-    report = result.solution.robust
+    report = result.solution.extra(RobustReport)
     assert report.bands["nominal"]["all"] == pytest.approx(0.1, rel=1e-6)  # the spring alone: ρ = t
     assert report.bands["robust"]["all"] == pytest.approx(0.04, rel=1e-6)
     assert report.added_mass["robust"] == pytest.approx(3.6, rel=1e-6)
@@ -126,7 +127,7 @@ def test_minimise_mode_closed_form(folder, weight, mass, rate, band):
     v = _values(result)
     assert v["M"] == pytest.approx(mass, abs=1e-6 * M_MASS_ONLY)
     assert v["k"] == pytest.approx(rate, abs=1e-6 * K_SPRING_ONLY)
-    assert result.solution.robust.bands["robust"]["all"] == pytest.approx(band, abs=1e-6)
+    assert result.solution.extra(RobustReport).bands["robust"]["all"] == pytest.approx(band, abs=1e-6)
 
 
 def test_every_tolerance_kind_worst_case(folder):
@@ -138,7 +139,7 @@ def test_every_tolerance_kind_worst_case(folder):
     equals h = 100 mm: 0.05 N·m, ratio 0.05/5.886 = 0.0084947."""
     robust = 'tolerances.rate = "10 %"\ntolerances.mass = "5 %"\ntolerances.com = "1 mm"\ntolerances.initial_tension = "0.5 N"'
     result = design(load_problem(_pendulum(folder, "kinds", robust)))
-    band = result.solution.robust.bands["nominal"]
+    band = result.solution.extra(RobustReport).bands["nominal"]
     assert band["rate"] == pytest.approx(0.1, rel=1e-6)
     assert band["mass"] == pytest.approx(0.05, rel=1e-6)
     assert band["com"] == pytest.approx(math.sqrt(2) * 0.001 / 0.3, rel=1e-6)
@@ -206,7 +207,7 @@ def test_lamp_robust_design_halves_the_band(lamp):
     docs/robust.md#lamp: (0.1·T_1 + 0.05·g(m_1 L_1/2 + m_2 L_1))/T_1 = 0.12222 with
     T_1 = g(m_1 L_1/2 + (m_2 + m_head) L_1) = 2.6487 N·m the largest gravity torque."""
     assert lamp.optimal, lamp.message
-    report = lamp.solution.robust
+    report = lamp.solution.extra(RobustReport)
     nominal, robust = report.bands["nominal"]["all"], report.bands["robust"]["all"]
     assert nominal == pytest.approx((0.1 * 0.27 + 0.05 * (0.3 * 0.15 + 0.25 * 0.3)) / 0.27, rel=1e-6)
     assert robust <= nominal / 2
@@ -218,7 +219,7 @@ def test_lamp_robust_design_halves_the_band(lamp):
 
 
 def test_lamp_tuning_balances_every_corner(lamp):
-    report = lamp.solution.robust
+    report = lamp.solution.extra(RobustReport)
     assert report.tuning_status == "balanced"
     assert len(report.corners) == 1 + 2**4  # the nominal and every corner of 2 rates and 2 masses
     assert all(c.after <= 1e-8 for c in report.corners)
@@ -268,4 +269,4 @@ def test_limit_mode_with_free_geometry_is_the_minimax_nlp(folder):
     v = _values(result)
     assert v["M"] == pytest.approx(3.6, rel=1e-6)
     assert v["k"] * v["h"] == pytest.approx(0.4 * MGL / 0.2, rel=1e-6)
-    assert result.solution.robust.bands["robust"]["all"] == pytest.approx(0.04, rel=1e-5)
+    assert result.solution.extra(RobustReport).bands["robust"]["all"] == pytest.approx(0.04, rel=1e-5)

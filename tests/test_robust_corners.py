@@ -22,6 +22,7 @@ from counterpoise.solvers.base import Status
 
 from conftest import PROBLEMS
 from test_robust import MGL, PENDULUM
+from counterpoise.robust.result import RobustReport
 
 T, RHO = 0.1, 0.04
 ML_B = 2 * 0.3 / 0.1  # m l/b = 6 kg
@@ -171,7 +172,7 @@ def test_counter_mass_tolerance(folder):
     v = _values(result)
     assert v["M"] == pytest.approx(2.4, rel=1e-6)
     assert v["k"] == pytest.approx(0.6 * 294.3, rel=1e-6)
-    band = result.solution.robust.bands["robust"]
+    band = result.solution.extra(RobustReport).bands["robust"]
     assert band["mass"] == pytest.approx(0.02, rel=1e-6)
     assert band["all"] == pytest.approx(0.08, rel=1e-6)
 
@@ -202,7 +203,7 @@ def test_fully_fixed_robust_problem_is_judged_by_its_dense_check(tmp_path):
     result = design(load_problem(path))
     assert result.optimal, result.message
     assert 0 < result.verification.residual_ratio <= 1e-8
-    report = result.solution.robust
+    report = result.solution.extra(RobustReport)
     assert len(report.corners) == 17 and report.tuning_status == "balanced"
 
 
@@ -231,7 +232,7 @@ def test_mass_and_centre_of_mass_together_equal_vertex_enumeration(folder):
     import numpy as np
 
     robust = 'tolerances.rate = "10 %"\ntolerances.mass = { bob = "5 %" }\ntolerances.com = { bob = "1 mm" }'
-    band = design(_problem(folder, "mass_com", robust)).solution.robust.bands["nominal"]
+    band = design(_problem(folder, "mass_com", robust)).solution.extra(RobustReport).bands["nominal"]
     m, g, l = 2.0, 9.81, 0.3
     theta = np.linspace(-np.pi, np.pi, 10_001)
     worst = 0.0
@@ -290,7 +291,7 @@ def test_ellipsoid_with_products_is_labelled_a_bound(folder):
 
     robust = 'shape = "ellipsoid"\ntolerances.rate = "10 %"\ntolerances.mass = { bob = "5 %" }\ntolerances.com = { bob = "1 mm" }'
     result = design(_problem(folder, "ellipse_bound", robust))
-    report = result.solution.robust
+    report = result.solution.extra(RobustReport)
     assert report.exactness.startswith("a bound over the ellipsoid")
     assert "(a bound) over the tolerance ellipsoid" in result.message
     m, g, l = 2.0, 9.81, 0.3
@@ -319,7 +320,7 @@ def test_minimise_mode_reports_the_objective_it_minimised(folder, weight, mass, 
     result = design(_problem(folder, f"objective_{weight:g}", f'mode = "minimise"\nweight = "{weight:g} kg"\ntolerances.rate = "10 %"'))
     assert result.optimal, result.message
     assert result.solution.objective == pytest.approx(mass + weight * band, abs=1e-6)
-    report = result.solution.robust
+    report = result.solution.extra(RobustReport)
     assert report.objective["robust"] == pytest.approx(mass + weight * band, abs=1e-6)
     assert report.base_objective["robust"] == pytest.approx(mass, abs=1e-6)
     # the nominal design (spring alone) under the same criterion: 0 + W × 0.1
@@ -340,5 +341,5 @@ def test_free_geometry_ellipsoid_is_the_ellipsoid_not_its_box(folder):
         result = design(_problem(folder, name, robust, h=h))
         assert result.optimal, result.message
         assert _values(result)["M"] == pytest.approx(ML_B * (1 - u), rel=1e-6), name
-        assert result.solution.robust.bands["robust"]["all"] == pytest.approx(0.08, rel=1e-6)
+        assert result.solution.extra(RobustReport).bands["robust"]["all"] == pytest.approx(0.08, rel=1e-6)
     assert "minimax NLP over the tolerance ellipsoid" in result.message

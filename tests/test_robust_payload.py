@@ -25,6 +25,7 @@ from counterpoise.pipeline import design
 from counterpoise.solvers.base import Status
 
 from conftest import PROBLEMS, solved
+from counterpoise.robust.result import RobustReport
 
 RESERVE = 0.4 * 0.05 / (2 * 0.95)  # m at each end: (0.4/0.95 − 0.4)/2
 SPAN = 0.4 - 2 * RESERVE
@@ -42,7 +43,7 @@ def _values(result) -> dict[str, float]:
 
 def test_jib_is_tunable_at_every_camera_with_travel_reserved(jib):
     assert jib.optimal, jib.message
-    report = jib.solution.robust
+    report = jib.solution.extra(RobustReport)
     assert report.tuning_status == "balanced"
     assert len(report.corners) == 1 + 2**3  # rate, boom mass, counterweight mass
     assert all(c.after <= 1e-8 for c in report.corners)

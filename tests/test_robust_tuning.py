@@ -26,6 +26,7 @@ from counterpoise.robust.limits import PulleySpring, envelope, pulley_margins
 
 from conftest import solved
 from test_robust import K_SPRING_ONLY, PENDULUM
+from counterpoise.robust.result import RobustReport
 
 
 @pytest.fixture(scope="module")
@@ -38,7 +39,7 @@ def pendulum(tmp_path_factory):
 
 
 def test_pendulum_law_reads_forces_and_sets_h_exactly(pendulum):
-    report = pendulum.solution.robust
+    report = pendulum.solution.extra(RobustReport)
     law = report.law
     assert law is not None and law.tune == ("h",) and law.affine
     (reading,) = law.readings
@@ -66,7 +67,7 @@ def test_lamp_law_check_at_1000_random_machines(lamp):
     """Acceptance: the law applied at 1000 random as-built lamps leaves ≤ 1e-6 (ideal springs:
     each string set for its part as measured); with the strings left set for the nominal parts
     the constant force −Δk·F0/k along each cable remains, reported (about 1 %)."""
-    report = lamp.solution.robust
+    report = lamp.solution.extra(RobustReport)
     assert report.law.affine and report.law.pairs is not None
     check = report.law_check
     assert check.samples == 1000
@@ -78,7 +79,7 @@ def test_lamp_tuned_settings_within_the_hardware_limits(lamp):
     """Acceptance: every tuned corner within the cable, the spring's load and its slack; the
     springs are designed for the envelope over the corners and the cable is the longest
     distance there (the nominal spring broke these at 12 of 16 corners, issue 31)."""
-    report = lamp.solution.robust
+    report = lamp.solution.extra(RobustReport)
     assert report.tuning_status == "balanced"
     assert set(report.margins) == {c.name for c in report.corners}
     for margins in report.margins.values():
@@ -153,7 +154,7 @@ def test_step_and_pitch_set_the_procedure(tmp_path):
     path.write_text(text, encoding="utf-8")
     problem = load_problem(path)
     assert dict(problem.robust.steps) == {"h": pytest.approx(0.005)} and dict(problem.robust.pitch) == {"h": pytest.approx(0.0005)}
-    from counterpoise.report.robust import procedure_rows
+    from counterpoise.robust.report import procedure_rows
 
     result = design(problem)
     actions = " ".join(r["action"] for r in procedure_rows(result))
@@ -175,7 +176,7 @@ def test_without_tuning_the_built_design_is_checked_at_the_corners(tmp_path):
     # with a spring that can be made, the one made serves the +10 % corner
     ok = design(load_problem(_write(tmp_path, PENDULUM % {"robust": 'tolerances.rate = "10 %"', "h_lower": "100 mm", "h_upper": "100 mm"})))
     assert ok.optimal, ok.message
-    assert ok.solution.robust.envelope["s"].force_max == pytest.approx(1.1 * K_SPRING_ONLY * 0.3, rel=1e-6)
+    assert ok.solution.extra(RobustReport).envelope["s"].force_max == pytest.approx(1.1 * K_SPRING_ONLY * 0.3, rel=1e-6)
 
 
 def _write(folder, text: str):

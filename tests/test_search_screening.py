@@ -158,7 +158,7 @@ def test_search_evidence_reaches_status_and_summary(tmp_path):
     """The search's evidence (pruned per limit, method and guarantee) is in status.txt's
     part-search lines and the lower bound of the ratio in summary.csv (0: exact balance)."""
     from counterpoise import design
-    from counterpoise.report.parts import parts_status
+    from counterpoise.selection.report import parts_status
     from counterpoise.report.rows import summary_row
 
     rng = np.random.default_rng(4)

@@ -53,7 +53,7 @@ class TestSphericalChain3R:
 
     def test_each_link_balanced_alone(self, result):
         """Eq. (18): the conditions are per link, three of them, one per unknown height."""
-        assert result.solution.conditions == 3
+        assert result.solution.stats.conditions == 3
 
 
 # --------------------------------------------------------------------------------------
@@ -109,7 +109,7 @@ def test_tilted_link_needs_h_equal_mg_over_k(approx):
     """V = const + (m g − k h) sin α (b cos θ + a sin θ): one condition, h = m g/k."""
     result = tilted(alpha=35, a=40, b=-25)
     assert result.status.value == "optimal"
-    assert result.solution.conditions == 1
+    assert result.solution.stats.conditions == 1
     assert value(result, "h", "mm") == approx(1000 * 0.25 * G / 200)  # 12.2625 mm
     assert result.verification.residual_ratio <= 1e-9
 
@@ -118,7 +118,7 @@ def test_tilted_link_needs_h_equal_mg_over_k(approx):
 def test_tilted_link_degenerate_cases_balance_with_any_h(alpha, a, b):
     """a = b = 0 or α = 0: nothing moves vertically, so no condition constrains h."""
     result = tilted(alpha=alpha, a=a, b=b, h0=3.0, pinned=True)  # 3 mm is far from m g/k = 12.26 mm
-    assert result.solution.conditions == 0
+    assert result.solution.stats.conditions == 0
     assert value(result, "h", "mm") == pytest.approx(3.0)
     assert result.status.value == "optimal"
     assert result.verification.residual_ratio <= 1e-9
@@ -213,7 +213,7 @@ def test_5r_heights_are_independent_of_the_other_links():
     result = solved("spherical_5r", (("parameters.m3", "400 g"),))
     assert value(result, "h3", "mm") == pytest.approx(1000 * 0.4 * G / 200, rel=1e-6)
     assert value(result, "h2", "mm") == pytest.approx(1000 * 0.25 * G / 200, rel=1e-6)
-    assert result.solution.conditions == 4
+    assert result.solution.stats.conditions == 4
 
 
 def test_5r_with_its_loop_closed_is_balanced_by_the_paper_heights():
@@ -232,7 +232,7 @@ def test_5r_closed_leaves_one_height_free():
     result = solved("spherical_5r_closed", free)
     assert result.status.value == "optimal"
     assert result.verification.residual_ratio <= 1e-9
-    assert result.solution.conditions == 3
+    assert result.solution.stats.conditions == 3
 
 
 def test_5r_closed_with_a_wrong_height_is_not_balanced():

@@ -81,7 +81,7 @@ class TestHybridSameSpring:
 
     def test_identical_legs_do_not_repeat_conditions(self, result):
         # 3 legs x 3 coordinates = 9 block conditions; the two side legs coincide -> 6
-        assert result.solution.conditions == 6
+        assert result.solution.stats.conditions == 6
 
 
 class TestFreeExtensions:

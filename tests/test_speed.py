@@ -40,7 +40,7 @@ def test_24_link_chain_is_optimal_and_verified():
     assert max(required) / min(required) > 1e10
     result = design(chain.problem())
     assert result.status is Status.OPTIMAL, result.message
-    assert result.solution.conditions == 24
+    assert result.solution.stats.conditions == 24
     assert result.verification.residual_ratio <= 1e-9
     found = [result.solution.values[s] for s in sorted(result.solution.values, key=lambda s: int(s.variable[1:]))]
     np.testing.assert_allclose(found, required, rtol=1e-9)

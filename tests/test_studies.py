@@ -190,7 +190,7 @@ def test_the_lp_path_matches_ipopt_on_a_fixed_geometry_seed_problem():
 
     problem = load_problem(PROBLEMS / "yasir2019_hybrid.toml")
     lp, nlp = Designer(problem).solve(), Designer(problem, backend="ipopt").solve()
-    assert lp.solver == "clarabel" and nlp.solver == "ipopt"
+    assert lp.stats.solver == "clarabel" and nlp.stats.solver == "ipopt"
     for slot, value in nlp.values.items():
         assert lp.values[slot] == pytest.approx(value, rel=1e-8, abs=1e-8 * problem.variable[slot.variable].upper)
     assert lp.objective == pytest.approx(nlp.objective, rel=1e-8)
@@ -202,16 +202,16 @@ def test_certificate_gap_is_zero_at_the_optimum_and_not_after_a_solve_stopped_ea
     problem = load_problem(PROBLEMS / "yasir2019_free_extensions.toml")
     full = Designer(problem).solve()
     early = Designer(problem, {"max_iter": 3}).solve()
-    assert full.solver == "ipopt" and abs(full.certificate_gap) < 1e-9
+    assert full.stats.solver == "ipopt" and abs(full.stats.certificate_gap) < 1e-9
     # after 3 iterations the masses do not balance the geometry IPOPT stopped at: the LP's differ
-    assert early.solver_status == "Maximum_Iterations_Exceeded" and abs(early.certificate_gap) > 1e-4
+    assert early.stats.solver_status == "Maximum_Iterations_Exceeded" and abs(early.stats.certificate_gap) > 1e-4
 
 
 def test_multistart_reports_how_many_starts_reached_the_best():
     from counterpoise.pipeline import design
 
     result = design(load_problem(PROBLEMS / "yasir2019_free_extensions.toml", {"objective.inertia_weight": "200 1/m^2"}), starts=4)
-    reached, run = result.solution.starts
+    reached, run = result.solution.stats.starts
     assert run == 4 and 1 <= reached <= 4 and result.optimal
     assert result.solution.values[next(s for s in result.solution.values if s.variable == "b_b")] == pytest.approx(200**-0.5, rel=1e-6)
 

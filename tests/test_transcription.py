@@ -264,3 +264,20 @@ def test_the_warning_reaches_stderr_and_status_txt(tmp_path, monkeypatch):
     status = (tmp_path / "out" / "yasir2019_counter_mass" / "status.txt").read_text(encoding="utf-8")
     assert "warning: nothing to balance: the weight of the bodies does no work" in status
     assert calls == ["yasir2019_counter_mass"]
+
+
+def test_a_report_reads_the_problems_warnings_once_found(monkeypatch):
+    """Reports written in code without the warnings (``write_reports(result)``) take the
+    problem's degeneracy warnings as found once for that problem, not found again on each
+    report (issue 33: the report layer reads what was computed)."""
+    import counterpoise.formulation.assumptions as assumptions
+    from counterpoise.pipeline import design
+    from counterpoise.report.files import report_texts
+
+    calls = []
+    original = assumptions.degeneracies
+    monkeypatch.setattr(assumptions, "degeneracies", lambda problem: calls.append(problem.name) or original(problem))
+    result = design(load_problem_text(YASIR.replace("direction = [0, -1, 0]", "direction = [0, 0, -1]"), "flat.toml"))
+    first, again = report_texts(result)["status.txt"], report_texts(result)["status.txt"]
+    assert first == again and "warning: nothing to balance" in first
+    assert calls == ["yasir2019_counter_mass"]

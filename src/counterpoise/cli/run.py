@@ -91,11 +91,11 @@ def checked(problem: Problem) -> tuple[str, ...]:
     then its degeneracy warnings (:func:`~counterpoise.formulation.assumptions.degeneracies`).
     Both depend on the problem's content only, so the console script keeps the warnings
     with the loaded problem."""
-    from ..formulation.assumptions import degeneracies
+    from ..formulation.assumptions import problem_warnings
     from ..mechanics.closure import check_assembly
 
     check_assembly(problem)
-    return tuple(degeneracies(problem))
+    return problem_warnings(problem)
 
 
 def solve_all(

@@ -24,7 +24,7 @@ from ..solvers.base import Bounds, SolverOutput, Status
 from .solution import Solution
 
 if TYPE_CHECKING:
-    from .designer import Designer
+    from .built import Built
 
 #: solver_status of a design whose IPOPT run said infeasible although the balance alone holds
 BALANCEABLE_BUT_INFEASIBLE = "infeasible_with_constraints"
@@ -74,7 +74,7 @@ class Conflict:
     relaxed: dict[tuple[str, str], float]
 
 
-def name_conflict(designer: "Designer", z: np.ndarray, p: np.ndarray, b: Bounds) -> Conflict | None:
+def name_conflict(designer: Built, z: np.ndarray, p: np.ndarray, b: Bounds) -> Conflict | None:
     """An infeasible constrained design that the balance alone allows: the constraints the
     elastic problem had to relax, by name, and the elastic design itself (None: not the
     constraints' fault, or the elastic problem did not balance)."""
@@ -118,7 +118,7 @@ def name_conflict(designer: "Designer", z: np.ndarray, p: np.ndarray, b: Bounds)
     )
     out = backend.solve(np.concatenate([z, 1.0 + 1.0 / weight]), p, bounds)
     zz, s = out.z[: z.size], weight * out.z[z.size :]
-    if out.status is not Status.OPTIMAL or not designer.balances(zz, p):
+    if out.status is not Status.OPTIMAL or not designer.balance.balances(zz, p):
         return None
     missed = [(float(s[j]), g) for j, g in enumerate(rows.groups) if s[j] > SLACK_TOLERANCE]
     if not missed:
@@ -156,7 +156,7 @@ def file_key(c: Any) -> str:
     return f"springs.{c.spring}.max_force" if c.kind == FORCE_LIMIT and c.spring else f"constraints.{c.name}.expression"
 
 
-def _design_text(designer: "Designer", z: np.ndarray) -> str:
+def _design_text(designer: Built, z: np.ndarray) -> str:
     d = designer.formulation.design
     problem = designer.problem
     parts = []
@@ -171,7 +171,7 @@ def _design_text(designer: "Designer", z: np.ndarray) -> str:
 MAX_NAMED_VARIABLES = 6
 
 
-def name_invalid_numbers(designer: "Designer", points: Sequence[np.ndarray], p: np.ndarray) -> str:
+def name_invalid_numbers(designer: Built, points: Sequence[np.ndarray], p: np.ndarray) -> str:
     """The constraints whose value or derivative is not a finite number at the first of
     ``points`` where some is (the solver's last point, then its start): what IPOPT's
     ``Invalid_Number_Detected`` met, by name and key; "" when no constraint is the cause

@@ -4,7 +4,8 @@
   constraints and the objective linearly (a fixed geometry: only masses, stiffnesses and
   payload shares are free), the design problem is an LP. :func:`convex_backend` detects
   this (on the CasADi expressions, not on names) and the designer then solves it with
-  Clarabel (:mod:`counterpoise.solvers.convex`); the solution reports ``solver = clarabel``.
+  Clarabel (:mod:`counterpoise.solvers.convex`, ``Designer._solve_convex``); the solution
+  reports ``solver = clarabel``.
 - **Certificate gap.** For a general problem solved by IPOPT, the variables that do not
   enter any position (frames, points) are the *linear* ones. With the geometry fixed at
   IPOPT's answer, the best linear variables are an LP; ``certificate_gap`` = IPOPT's
@@ -22,12 +23,11 @@ import numpy as np
 
 from ..model import expr as ex
 from ..model.problem import Problem
-from ..solvers.base import Bounds, SolverOutput, Status
+from ..solvers.base import Bounds, Status
 
 if TYPE_CHECKING:
     from ..solvers.convex import ConvexBackend
-    from .designer import Designer
-    from .methods import BoundsOverride
+    from .built import Built
 
 
 def geometric_variables(problem: Problem) -> set[str]:
@@ -44,13 +44,13 @@ def geometric_variables(problem: Problem) -> set[str]:
     return names & set(problem.variable)
 
 
-def linear_slots(designer: "Designer") -> list[int]:
+def linear_slots(designer: Built) -> list[int]:
     """Indices of the design-vector slots whose variables never move a point."""
     geometric = geometric_variables(designer.problem)
     return [i for i, slot in enumerate(designer.formulation.design.slots) if slot.variable not in geometric]
 
 
-def convex_backend(designer: "Designer", choice: str) -> "ConvexBackend | None":
+def convex_backend(designer: Built, choice: str) -> "ConvexBackend | None":
     """The LP/QP backend when the whole problem is convex and ``choice`` allows it."""
     from ..solvers.convex import ConvexBackend, affine_variables
 
@@ -68,7 +68,7 @@ def convex_backend(designer: "Designer", choice: str) -> "ConvexBackend | None":
     return ConvexBackend(designer.nlp, every)
 
 
-def nonlinear_constraints(designer: "Designer") -> tuple[str, ...]:
+def nonlinear_constraints(designer: Built) -> tuple[str, ...]:
     """The constraints whose rows are nonlinear in the design, when without them the problem
     would be an LP (so a nonlinear constraint moved it to the NLP); else ()."""
     import casadi as ca
@@ -91,32 +91,6 @@ def nonlinear_constraints(designer: "Designer") -> tuple[str, ...]:
     return tuple(names)
 
 
-def solve_convex(designer: "Designer", z0: np.ndarray, p: np.ndarray, b: Bounds, bounds: "BoundsOverride | None", minimax: bool = True) -> tuple[np.ndarray, SolverOutput, str, str | None]:
-    """The LP's optimum (variables on a bound put exactly on it), or the closest design:
-    (scaled point, solver output, message, what the closest design is or None) for the
-    designer to build its Solution from."""
-    backend = designer.convex
-    if backend is None:
-        raise ValueError(f"{designer.problem.name}: solve_convex needs a designer with an LP path")
-    out = backend.solve(z0, p, b)
-    if out.status is Status.OPTIMAL:
-        # An interior-point LP solution meets the equalities to ~1e-8 relative: put bound
-        # variables on their bounds, then Newton steps on the (linear) equalities for the
-        # others finish to rounding (a 24-link chain's masses span ten orders of magnitude).
-        z = designer.polish(out.z, p, b)
-        on_bound = (z <= b.lbz) | (z >= b.ubz)
-        fixed = Bounds(np.where(on_bound, z, b.lbz), np.where(on_bound, z, b.ubz), b.lbg, b.ubg)
-        z = designer.refine(z, p, fixed)
-        return z, out, "balanced design found (LP, Clarabel)", None
-    if out.status is Status.INFEASIBLE:
-        closest = designer.closest_design(z0, p, bounds)
-        z, kind, seconds = designer.closest_reported(closest.z, p, b, minimax)
-        z = designer.polish_settings(z, p, b)
-        out = SolverOutput(z, Status.INFEASIBLE, out.solver_status, out.iterations, out.solve_time + closest.solve_time + seconds, out.solver)
-        return z, out, "CLARABEL: infeasible", kind
-    return out.z, out, f"CLARABEL: {out.solver_status}", None
-
-
 class Certificate:
     """The certificate LP of a designer (see the module docstring), built on first use.
 
@@ -124,7 +98,7 @@ class Certificate:
     state, so the designer's internals stay its own.
     """
 
-    def __init__(self, designer: "Designer") -> None:
+    def __init__(self, designer: Built) -> None:
         self.problem = designer.problem
         self.formulation = designer.formulation
         self.nlp = designer.nlp

@@ -7,34 +7,43 @@ so ``solve(parameters=...)`` re-solves a study point without rebuilding, and var
 bounds may be changed per call. CasADi objects do not pickle: a designer pickles as its
 description (the problem and the solver options) and rebuilds itself in the worker.
 ``counterpoise solve`` keeps the state of each designer it builds on disk (its CasADi
-objects written in one CasADi pickle context, :mod:`counterpoise.io.cache`), and a later
-solve of the same content takes it from there instead of building (``_restore``).
-When the problem is an LP (fixed geometry) it is solved by Clarabel, and an IPOPT design
-gets a certificate gap (:mod:`.convex`). Every polish of a solver's point (:meth:`Designer.finish`,
-``_snap``, :meth:`Designer.refine`, :meth:`Designer.polish_settings`) is one call of
-:func:`counterpoise.solvers.gauss_newton.gauss_newton` with its own free variables and rules.
+objects written in one CasADi pickle context, :class:`counterpoise.io.cache.BuiltEntry`),
+and a later solve of the same content takes it from there instead of building.
+
+The designer does one job, the NLP: it builds it and solves it (IPOPT, restarted from a
+balanced point when IPOPT's infeasibility is local; an overdetermined problem reduced at a
+balanced design; design constraints in rounds) and makes the :class:`Solution`. The rest is
+in its parts, each built with it:
+
+- :class:`~.balance.Balance` (:attr:`Designer.balance`): the balance equalities at a design,
+  the balance test and every polish of a solver's point;
+- :class:`~.closest.Closest` (:attr:`Designer.closest`): the closest design of a balance that
+  cannot be met (least squares from several starts; the minimax design reported);
+- :mod:`.convex`: the LP path (Clarabel) and the certificate gap of an IPOPT design;
+- :mod:`.constrained`: the design constraints' values and conflicts at a design.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import replace
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeGuard
 
 import numpy as np
 
 from ..formulation.conditions import BalanceConditions
+from ..formulation.constraints import MAX_ROUNDS, ConstraintRows, Extra, build_rows, evaluate, merge, violations
 from ..formulation.formulation import Formulation
 from ..formulation.layout import Slot
 from ..formulation.manifold import Geometries, for_geometry
 from ..model.problem import BOUND_TOLERANCE, Problem
-from ..solvers.base import Bounds, SolverOutput, Status
-from ..solvers.gauss_newton import Evaluate, Evaluation, gauss_newton, worst
-from ..solvers.ipopt import IPOPT_DEFAULTS, IpoptBackend
 from ..numeric import NumericFunction
+from ..solvers.base import Bounds, SolverOutput, Status
+from ..solvers.ipopt import IPOPT_DEFAULTS, IpoptBackend
 from ..threads import limit_blas_threads
 from . import convex
-from ..formulation.constraints import MAX_ROUNDS, ConstraintRows, Extra, build_rows, evaluate, merge, violations
+from .balance import Balance, admissible, nlp_bounds
+from .closest import LEAST_SQUARES_CLOSEST, LEAST_SQUARES_NO_CLOSER, Closest, with_time
 from .constrained import (
     BALANCEABLE_BUT_INFEASIBLE,
     INVALID_NUMBER,
@@ -46,55 +55,15 @@ from .constrained import (
     rows_multipliers,
     unmet_at,
 )
+from .options import BoundsOverride, SolveOptions
 from .solution import Solution, build_solution
 
 if TYPE_CHECKING:
-    from .minimax import MinimaxDesigner
+    from ..io.cache import BuiltEntry
+    from ..solvers.convex import ConvexBackend
 
-#: The compressed balance equalities (each coordinate's rows scaled to order one) hold when
-#: every one is at most this (see :meth:`Designer.balances`).
-BALANCE_TOLERANCE = 1e-9
-#: Gauss-Newton on the balance equalities stops once every one is at most this (exact to rounding).
-EXACT_BALANCE = 1e-15
-#: A variable tried on a bound (:meth:`Designer.polish`) may raise the objective by this
-#: much (relative, at least absolute on objectives below 1): rounding, not a worse design.
-OBJECTIVE_ROUNDING = 1e-12
 #: Singular values below this share of the largest count as zero (rank of the conditions).
 RANK_TOLERANCE = 1e-8
-#: IPOPT tolerances of the least-squares closest-design solve (½|g|² needs the tight ones).
-CLOSEST_TOL = 1e-14
-CLOSEST_ACCEPTABLE_TOL = 1e-12
-
-#: evaluations of the balance equalities kept for the same point asked again (:meth:`Designer.residual_jacobian`)
-REMEMBERED_EVALUATIONS = 4
-
-#: configurations per coordinate on which a setting's adjustments are polished (infeasible problems)
-POLISH_CONFIGURATIONS = 8
-
-#: Balance equalities below this are rounding noise: each coordinate's rows are scaled by its
-#: largest sampled residual (formulation.conditions), so the equalities are of order one and
-#: a few thousand ulps of them is noise, not a worse balance (used when polishing onto bounds).
-ROUNDING_FLOOR = 1e-12
-
-BoundsOverride = Mapping["Slot | str", tuple[float, float]]
-
-#: A variable put on its bound in the minimax closest design may raise the worst sampled
-#: residual ratio by this much (absolute): rounding, not a worse design.
-MINIMAX_ROUNDING = 1e-12
-#: ``Solution.closest`` of a solve with ``certify=False`` (a probe of a part search or a
-#: schedule): the least-squares closest design, which :meth:`Designer.certify` upgrades
-LEAST_SQUARES_CLOSEST = "least squares on the compressed balance conditions"
-#: ``Solution.closest`` when the minimax design failed or was no closer (see
-#: :meth:`Designer.closest_minimax`)
-LEAST_SQUARES_NO_CLOSER = LEAST_SQUARES_CLOSEST + "; the minimax design was no closer"
-
-#: Seeded random starts of the closest-design search after the given ones (see
-#: :meth:`Designer.closest_design_multistart`); only an infeasible-looking solve pays for them.
-CLOSEST_RANDOM_STARTS = 4
-#: Variables this close to a bound (× span) are tried on it, one at a time, and kept there
-#: when that is no worse (see :meth:`Designer.polish`); within BOUND_TOLERANCE × span they
-#: are put on it as long as the balance holds.
-SNAP_BAND = 1e-5
 
 
 class Designer:
@@ -109,7 +78,7 @@ class Designer:
         import casadi as ca
 
         limit_blas_threads()
-        kept = _kept_parts(problem, ipopt_options, backend, extra) if type(self) is Designer else None
+        kept = _kept_entry(problem, ipopt_options, backend, extra, self) if type(self) is Designer else None
         if kept is not None and self._restore(kept, problem):
             return
         self.problem = problem
@@ -134,39 +103,31 @@ class Designer:
         self._round = 0
         #: the LP over the linear variables at a fixed geometry (built on first use)
         self.certificate = convex.Certificate(self)
-        self._feasibility: IpoptBackend | None = None
-        self._residual_jacobian: NumericFunction | None = None
-        self._settings: dict[str, tuple[Any, np.ndarray]] | None = None
-        self._minimax: MinimaxDesigner | None = None  # the epigraph NLP of the closest design (built on first use)
+        #: the balance equalities at a design: evaluated, tested, polished
+        self.balance = Balance(problem, f, self.conditions, self.rows)
+        #: the closest design of a balance that cannot be met (its NLPs built on first use)
+        self.closest = Closest(problem, f, self.conditions, self.balance, self.options, self._ipopt_options)
         #: designers of this problem rebuilt for other loop geometries (:func:`for_geometry`)
-        self.geometries = Geometries()
-        if kept is not None:
-            self._keep(kept)
+        self.geometries: Geometries[Designer] = Geometries()
+        if kept is not None:  # just built and not yet used: kept for a later counterpoise solve
+            kept.keep(dict(self.__dict__))
 
     # -- kept on disk by counterpoise solve (counterpoise.io.cache) -----------------------
-    def _restore(self, parts: tuple[str, ...], problem: Problem) -> bool:
+    def _restore(self, kept: BuiltEntry, problem: Problem) -> bool:
         """Take the state of a designer built from the same content, kept on disk by an
-        earlier ``counterpoise solve`` (:func:`counterpoise.io.cache.fetch_built`); False when
+        earlier ``counterpoise solve`` (:class:`counterpoise.io.cache.BuiltEntry`); False when
         there is none. Its CasADi expressions and functions are unpickled in one CasADi
         context (shared symbols stay shared), so they are the ones built: the same
         designs, bit for bit."""
-        import casadi as ca
 
-        from ..io.cache import fetch_built
+        def valid(found: object) -> TypeGuard[dict[str, Any]]:  # the state of a designer of this problem (put back in its place)
+            return isinstance(found, dict) and found.get("problem") is problem
 
-        state = fetch_built(KEPT_KIND, parts, {"problem": problem, "designer": self}, ca.global_unpickle_context)
-        if not isinstance(state, dict) or state.get("problem") is not problem:
+        state = kept.fetch(valid)
+        if state is None:
             return False
         self.__dict__.update(state)
         return True
-
-    def _keep(self, parts: tuple[str, ...]) -> None:
-        """Keep this designer's state, just built and not yet used, for a later ``counterpoise solve``."""
-        import casadi as ca
-
-        from ..io.cache import keep_built
-
-        keep_built(KEPT_KIND, parts, dict(self.__dict__), {"problem": self.problem, "designer": self}, _KEPT_REDUCERS, ca.global_pickle_context)
 
     def __reduce__(self) -> tuple[Any, ...]:
         """Pickle as a description; the worker rebuilds the CasADi objects."""
@@ -176,15 +137,7 @@ class Designer:
     def bounds(self, n_equalities: int, overrides: BoundsOverride | None = None, constraints: bool = True) -> Bounds:
         """Variable bounds (with per-call ``overrides``, SI) and [equalities; signs ≥ 0;
         constraint rows (unless ``constraints`` is False)]."""
-        lbz, ubz = self.formulation.design.bounds(overrides)
-        n_in = int(self.formulation.nonnegative.numel())
-        rows = self.rows if constraints and self.rows is not None else None
-        return Bounds(
-            lbz,
-            ubz,
-            np.concatenate([np.zeros(n_equalities + n_in), rows.lbg if rows is not None else []]),
-            np.concatenate([np.zeros(n_equalities), np.full(n_in, np.inf), rows.ubg if rows is not None else []]),
-        )
+        return nlp_bounds(self.formulation, self.rows, n_equalities, overrides, constraints)
 
     def _row_g(self) -> list[Any]:
         return [self.rows.g] if self.rows is not None else []
@@ -208,21 +161,26 @@ class Designer:
         hidden a condition).
 
         ``certify``: compute the solution's certificate gap (an LP, see :mod:`.convex`) and,
-        for an infeasible problem, the minimax closest design (:meth:`closest_minimax`);
+        for an infeasible problem, the minimax closest design (:meth:`.closest.Closest.minimax`);
         callers that solve many times and report one design (part searches, schedules,
         multi-start) pass False (their probes get the least-squares closest design) and
         :meth:`certify` the one they report.
         """
+        return self.solve_with(SolveOptions(parameters, bounds, initial, certify))
+
+    def solve_with(self, options: SolveOptions) -> Solution:
+        """:meth:`solve` with its options in one :class:`~.options.SolveOptions`."""
+        parameters, bounds = options.parameters, options.bounds
         other = for_geometry(self, parameters, lambda problem: Designer(problem, self._ipopt_options, self.backend_choice), self.geometries)
         if other is not self:  # closed loops: a new geometry needs its own manifold equalities
-            return other.solve(initial, parameters, bounds, certify)
+            return other.solve_with(options)
         if self._refined is not None:  # a verification round added configurations
-            return self._refined.solve(initial, parameters, bounds, certify)
+            return self._refined.solve_with(options)
         d = self.formulation.design
         p = self.formulation.parameters.values(parameters) if parameters else self.parameters
         b = self.bounds(self.n_equalities, bounds)
-        z0 = np.clip(d.to_z(d.vector(initial or {})), b.lbz, b.ubz)
-        solution = self._solve(z0, p, b, bounds, certify)
+        z0 = np.clip(d.to_z(d.vector(options.initial or {})), b.lbz, b.ubz)
+        solution = self._solve(z0, p, b, bounds, options.certify)
         # rounds only for a design whose solver held its sampled rows (one the dense check
         # then failed between them): re-solving a failed or conflicting one with more rows
         # cannot help (a max_force of 1e-300 N took 5 elastic solves of 500 iterations)
@@ -234,10 +192,9 @@ class Designer:
             refined = Designer(self.problem, self._ipopt_options, self.backend_choice, extra)
             refined._round = self._round + 1
             self._refined = refined
-            start = dict(solution.values)
-            return refined.solve(start, parameters, bounds, certify)
-        if certify:
-            solution = replace(solution, certificate_gap=self._certificate_gap(solution, p, b))
+            return refined.solve_with(replace(options, initial=dict(solution.values)))
+        if options.certify:
+            solution = replace(solution, stats=replace(solution.stats, certificate_gap=self._certificate_gap(solution, p, b)))
         return solution
 
     def certify(self, solution: Solution, parameters: Mapping[str, float] | None = None, bounds: BoundsOverride | None = None) -> Solution:
@@ -252,16 +209,17 @@ class Designer:
         b = self.bounds(self.n_equalities, bounds)
         if solution.status is Status.INFEASIBLE and solution.closest == LEAST_SQUARES_CLOSEST:
             solution = self._upgrade_closest(solution, p, b)
-        return replace(solution, certificate_gap=self._certificate_gap(solution, p, b))
+        return replace(solution, stats=replace(solution.stats, certificate_gap=self._certificate_gap(solution, p, b)))
 
     def _upgrade_closest(self, solution: Solution, p: np.ndarray, b: Bounds) -> Solution:
         """``solution`` (a solve made with ``certify=False``) with its least-squares closest
-        design replaced by the minimax one (:meth:`closest_minimax`): the design reported."""
+        design replaced by the minimax one (:meth:`.closest.Closest.minimax`): the design reported."""
         d = self.formulation.design
-        z, kind, seconds = self.closest_minimax(d.to_z(d.vector(solution.values)), p, b)
+        z, kind, seconds = self.closest.minimax(d.to_z(d.vector(solution.values)), p, b)
         if kind != LEAST_SQUARES_NO_CLOSER:
-            z = self.polish_settings(z, p, b)
-        out = SolverOutput(z, solution.status, solution.solver_status, solution.iterations, solution.solve_time + seconds, solution.solver)
+            z = self.balance.polish_settings(z, p, b)
+        stats = solution.stats
+        out = SolverOutput(z, solution.status, stats.solver_status, stats.iterations, stats.solve_time + seconds, stats.solver)
         new = self._solution(z, p, b, out, solution.message, kind)
         return replace(
             solution,
@@ -271,48 +229,41 @@ class Designer:
             objective=new.objective,
             added_mass=new.added_mass,
             added_inertia=new.added_inertia,
-            solve_time=new.solve_time,
+            stats=replace(stats, solve_time=new.stats.solve_time),
             scenario_parameters=new.scenario_parameters,
             verdicts=new.verdicts,
             constraints=new.constraints,
             closest=new.closest,
         )
 
-    def closest_reported(self, z: np.ndarray, p: np.ndarray, b: Bounds, minimax: bool) -> tuple[np.ndarray, str, float]:
-        """(closest design, what it is, seconds): minimax, or least squares when not ``minimax``."""
-        if minimax:
-            return self.closest_minimax(z, p, b)
-        return z, LEAST_SQUARES_CLOSEST, 0.0
-
     def _certificate_gap(self, solution: Solution, p: np.ndarray, b: Bounds) -> float:
         d = self.formulation.design
-        return self.certificate.gap(d.to_z(d.vector(solution.values)), p, b, solution.solver, solution.objective)
+        return self.certificate.gap(d.to_z(d.vector(solution.values)), p, b, solution.stats.solver, solution.objective)
 
     def _solve(self, z0: np.ndarray, p: np.ndarray, b: Bounds, bounds: BoundsOverride | None, minimax: bool = True) -> Solution:
         """``minimax``: report the minimax closest design of an infeasible problem (else the
         least-squares one, upgraded by :meth:`certify`)."""
         d = self.formulation.design
         if self.convex is not None:
-            z, out, message, kind = convex.solve_convex(self, z0, p, b, bounds, minimax)
-            return self._solution(z, p, b, out, message, kind)
+            return self._solve_convex(self.convex, z0, p, b, bounds, minimax)
         if self.n_equalities > len(d):
             return self._overdetermined(z0, p, b, bounds, minimax)
         out = self.backend.solve(z0, p, b)
         z, message = out.z, f"{out.solver.upper()}: {out.solver_status}"
         closest_kind: str | None = None
         if out.status is Status.OPTIMAL:
-            z, message = self.polish(z, p, b), "balanced design found"
+            z, message = self.balance.polish(z, p, b), "balanced design found"
         elif out.status is Status.INFEASIBLE:
             # IPOPT's infeasibility verdict is local (its restoration phase got stuck). The
             # least-squares closest design settles it: when that balances, restart from it.
-            closest = self.closest_design_multistart([z, z0], p, b, bounds)
+            closest = self.closest.least_squares_multistart([z, z0], p, b, bounds)
             elapsed = out.solve_time + closest.solve_time
-            if self.balances(closest.z, p):
+            if self.balance.balances(closest.z, p):
                 out = self.backend.solve(closest.z, p, b)
                 elapsed += out.solve_time
                 z, message = out.z, f"{out.solver.upper()}: {out.solver_status}"
                 if out.status is Status.OPTIMAL:
-                    z, message = self.polish(z, p, b), "balanced design found (restarted from a balanced point)"
+                    z, message = self.balance.polish(z, p, b), "balanced design found (restarted from a balanced point)"
                 elif out.status is Status.INFEASIBLE and (within := self._within_rounding(closest.z, p, b)) is not None:
                     # the balanced design lies beyond a bound by rounding (issue 32: a catalogue
                     # part's rate 1e-11 outside the balanceable window)
@@ -324,15 +275,36 @@ class Designer:
                     out = SolverOutput(closest.z, Status.FAILED, code, out.iterations, out.solve_time, out.solver)
                     z, message = closest.z, "IPOPT declared a balanceable problem infeasible; the closest design is reported"
             else:
-                z, closest_kind, seconds = self.closest_reported(closest.z, p, b, minimax)
-                z = self.polish_settings(z, p, b)
+                z, closest_kind, seconds = self.closest.reported(closest.z, p, b, minimax)
+                z = self.balance.polish_settings(z, p, b)
                 elapsed += seconds
-            out = _with_time(out, elapsed)
+            out = with_time(out, elapsed)
         if out.solver_status == INVALID_NUMBER:
             named = name_invalid_numbers(self, [z, z0], p)
             if named:
                 message = f"{message}: {named}"
         return self._solution(z, p, b, out, message, closest_kind)
+
+    def _solve_convex(self, backend: ConvexBackend, z0: np.ndarray, p: np.ndarray, b: Bounds, bounds: BoundsOverride | None, minimax: bool) -> Solution:
+        """The LP path (:mod:`.convex`): the LP's optimum (variables on a bound put exactly on
+        it), or the closest design."""
+        out = backend.solve(z0, p, b)
+        if out.status is Status.OPTIMAL:
+            # An interior-point LP solution meets the equalities to ~1e-8 relative: put bound
+            # variables on their bounds, then Newton steps on the (linear) equalities for the
+            # others finish to rounding (a 24-link chain's masses span ten orders of magnitude).
+            z = self.balance.polish(out.z, p, b)
+            on_bound = (z <= b.lbz) | (z >= b.ubz)
+            fixed = Bounds(np.where(on_bound, z, b.lbz), np.where(on_bound, z, b.ubz), b.lbg, b.ubg)
+            z = self.balance.refine(z, p, fixed)
+            return self._solution(z, p, b, out, "balanced design found (LP, Clarabel)")
+        if out.status is Status.INFEASIBLE:
+            closest = self.closest.least_squares(z0, p, bounds)
+            z, kind, seconds = self.closest.reported(closest.z, p, b, minimax)
+            z = self.balance.polish_settings(z, p, b)
+            out = SolverOutput(z, Status.INFEASIBLE, out.solver_status, out.iterations, out.solve_time + closest.solve_time + seconds, out.solver)
+            return self._solution(z, p, b, out, "CLARABEL: infeasible", kind)
+        return self._solution(out.z, p, b, out, f"CLARABEL: {out.solver_status}")
 
     def _within_rounding(self, z: np.ndarray, p: np.ndarray, b: Bounds) -> tuple[np.ndarray, SolverOutput] | None:
         """A balanced design IPOPT calls infeasible from a balanced start ``z``: solved once
@@ -352,248 +324,10 @@ class Designer:
         out = self.backend.solve(z, p, widened)
         if out.status is not Status.OPTIMAL:
             return None
-        candidate = self.polish(np.clip(out.z, b.lbz, b.ubz), p, b)
-        if not self.balances(candidate, p) or not _admissible(np.array(self.residual_jacobian()(candidate, p)[2]).reshape(-1)):
+        candidate = self.balance.polish(np.clip(out.z, b.lbz, b.ubz), p, b)
+        if not self.balance.balances(candidate, p) or not admissible(np.array(self.balance.residual_jacobian()(candidate, p)[2]).reshape(-1)):
             return None
         return candidate, out
-
-    def balances(self, z: np.ndarray, p: np.ndarray, tolerance: float = BALANCE_TOLERANCE) -> bool:
-        """Whether the compressed balance equalities hold at ``z`` (scaled as in the NLP)."""
-        g = np.array(self.residual_jacobian()(z, p)[0]).reshape(-1)
-        return bool(g.size == 0 or np.abs(g).max() <= tolerance)
-
-    # -- helpers -------------------------------------------------------------------
-    def residual_jacobian(self) -> NumericFunction:
-        """(z, p) -> (balance equalities, their Jacobian, sign constraints) as arrays: a CasADi
-        function evaluated through its buffers (:class:`~counterpoise.numeric.NumericFunction`), built once.
-        The latest few evaluations are kept: a polish asks again for the point its
-        Gauss-Newton steps ended at (:meth:`_snap`, then :meth:`finish`)."""
-        import casadi as ca
-
-        if self._residual_jacobian is None:
-            f = self.formulation
-            eq = self.conditions.equalities
-            signs = ca.vertcat(f.nonnegative, self.rows.margins()) if self.rows is not None else f.nonnegative
-            self._residual_jacobian = NumericFunction(ca.Function("gJ", [f.z, f.p], [eq, ca.jacobian(eq, f.z), signs]), remember=REMEMBERED_EVALUATIONS)
-        return self._residual_jacobian
-
-    def _balance_evaluation(self, p: np.ndarray) -> Evaluate:
-        """The balance equalities at ``p`` for :func:`~counterpoise.solvers.gauss_newton.gauss_newton`:
-        (g, ∂g/∂z, whether the sign constraints hold)."""
-        gj = self.residual_jacobian()
-
-        def evaluate(z: np.ndarray) -> Evaluation:
-            g, jac, signs = gj(z, p)  # new arrays on every call
-            return g.reshape(-1), jac, _admissible(signs)
-
-        return evaluate
-
-    def polish(self, z: np.ndarray, p: np.ndarray, bounds: Bounds, iterations: int = 8) -> np.ndarray:
-        """Put variables that the solver left a hair inside a bound exactly on it.
-
-        An interior-point solution sits ~1e-9 inside its active bounds. Each variable within
-        :data:`~counterpoise.model.problem.BOUND_TOLERANCE` × span of a bound (the rule the
-        reports use) is moved onto it and the balance equalities are re-solved for the
-        other variables (Gauss-Newton). The polished point is kept only if it balances at
-        least as well and respects the sign constraints; otherwise the solver's point stands.
-
-        When the variables' scales differ widely, IPOPT can stop farther inside an active
-        bound (1.1e-7 of the span for a lever whose counter-mass may reach 50 t). So each
-        variable within :data:`SNAP_BAND` × span is then tried on its bound, one at a time,
-        and kept there only if the objective does not get worse: a design exactly on the
-        bound and no worse is the better report.
-        """
-        lo, hi = bounds.lbz, bounds.ubz
-        band = BOUND_TOLERANCE * (hi - lo)
-        at_lo = (z - lo <= band) & (hi > lo)
-        z = self._snap(z, p, bounds, at_lo, (hi - z <= band) & (hi > lo) & ~at_lo, iterations, None)
-        span = hi - lo
-        near = SNAP_BAND * span
-        with np.errstate(divide="ignore", invalid="ignore"):  # a fixed variable (span 0) is not tried
-            share = np.minimum(z - lo, hi - z) / span  # each variable's distance to its nearer bound, per span
-            tried = (hi > lo) & (lo < z) & (z < hi) & (share * span <= near)
-        for _, i in sorted((float(share[i]), int(i)) for i in np.flatnonzero(tried)):
-            on_lo, on_hi = (z == lo) & (hi > lo), (z == hi) & (hi > lo)
-            if z[i] - lo[i] <= hi[i] - z[i]:
-                on_lo[i] = True
-            else:
-                on_hi[i] = True
-            f0 = float(self.formulation.report_values(z, p)[0][0, 0])
-            z = self._snap(z, p, bounds, on_lo, on_hi, iterations, f0 + OBJECTIVE_ROUNDING * max(1.0, abs(f0)))
-        return self.finish(z, p, bounds, iterations)
-
-    def finish(self, z: np.ndarray, p: np.ndarray, bounds: Bounds, iterations: int = 8) -> np.ndarray:
-        """Gauss-Newton steps on the balance equalities, moving only the variables inside
-        their bounds, while each step at least halves the largest equality.
-
-        The equalities are scaled by the largest residual sampled over the whole variable
-        box; when a bound is far larger than what the design uses (a stiffness allowed up to
-        1e7 N/m that ends at 0.15 N/m), IPOPT's stop (``|g| ~ 1e-16`` in those units) can still be
-        1e-8 of the design's own gravity torque, which the dense check sees. Rounding stops
-        the steps; a step that breaks a sign constraint is not taken."""
-        lo, hi = bounds.lbz, bounds.ubz
-        free = (z > lo) & (z < hi)
-        if not free.any():
-            return z
-        return gauss_newton(self._balance_evaluation(p), z, lo, hi, free=free, iterations=iterations, decrease=0.5).z
-
-    def _snap(
-        self, z: np.ndarray, p: np.ndarray, bounds: Bounds, at_lo: np.ndarray, at_hi: np.ndarray, iterations: int, objective_limit: float | None
-    ) -> np.ndarray:
-        """``z`` with the variables ``at_lo``/``at_hi`` on those bounds and the others
-        re-solved (see :meth:`polish`); or ``z`` itself if that balances worse, breaks a sign
-        constraint or makes the objective exceed ``objective_limit``."""
-        lo, hi = bounds.lbz, bounds.ubz
-        active = at_lo | at_hi
-        candidate = np.where(at_lo, lo, np.where(at_hi, hi, z))
-        if not active.any() or np.array_equal(candidate, z):
-            return z
-        gj = self.residual_jacobian()
-        candidate = gauss_newton(self._balance_evaluation(p), candidate, lo, hi, free=~active, iterations=iterations, tolerance=EXACT_BALANCE, decrease=None).z
-        g_new, _, signs = (np.array(v).reshape(-1) for v in gj(candidate, p))
-        g_old = np.array(gj(z, p)[0]).reshape(-1)
-        worst_new = np.abs(g_new).max(initial=0.0)
-        worst_old = np.abs(g_old).max(initial=0.0)
-        if not (worst_new <= max(worst_old, ROUNDING_FLOOR) and _admissible(signs)):
-            return z
-        if objective_limit is not None and not float(self.formulation.report_values(candidate, p)[0][0, 0]) <= objective_limit:
-            return z
-        return candidate
-
-    def polish_settings(self, z: np.ndarray, p: np.ndarray, b: Bounds, iterations: int = 20) -> np.ndarray:
-        """The closest design of an infeasible problem, with the adjustments of each setting
-        (a working mode, a payload sample) re-solved for that setting's own balance.
-
-        A least-squares closest design trades every scenario against the others, so a
-        scenario that its own adjustments could balance is left a little off. Here the
-        shared variables stay; for each setting, Gauss-Newton steps on the residuals of its
-        scenarios (on seeded configurations, :data:`POLISH_CONFIGURATIONS` per coordinate)
-        move only its adjustments, within their bounds. Kept when that setting's residual
-        drops and the sign constraints hold; the dense check then says which scenarios are met.
-        """
-        gj = self.residual_jacobian()
-        for function, columns in self._setting_residuals().values():
-
-            def evaluate(candidate: np.ndarray, function: Any = function) -> Evaluation:
-                r, jac = (np.array(v) for v in function(candidate, p))
-                return r, jac, _admissible(np.array(gj(candidate, p)[2]))
-
-            z = gauss_newton(evaluate, z, b.lbz, b.ubz, free=columns, iterations=iterations).z
-        return z
-
-    def _setting_residuals(self) -> dict[str, tuple[Any, np.ndarray]]:
-        """Per setting with adjustments: a CasADi function (z, p) -> (residuals of its scenarios
-        on seeded configurations, their Jacobian), and the indices of its adjustment slots."""
-        import casadi as ca
-
-        if self._settings is not None:
-            return self._settings
-        f = self.formulation
-        problem = self.problem
-        rng = np.random.default_rng(problem.settings.seed + 3)
-        out: dict[str, tuple[Any, np.ndarray]] = {}
-        for setting in dict.fromkeys(problem.setting(s.name) for s in problem.scenarios):
-            columns = np.array([i for i, slot in enumerate(f.design.slots) if slot.scenario == setting], dtype=int)
-            if columns.size == 0:
-                continue
-            rows = []
-            for block in f.blocks:
-                if problem.setting(block.scenario) != setting:
-                    continue
-                coords = [problem.coordinate[n] for n in block.coordinates]
-                lo = np.array([c.lower for c in coords])
-                hi = np.array([c.upper for c in coords])
-                for q in lo + (hi - lo) * rng.random((POLISH_CONFIGURATIONS * len(coords), len(coords))):
-                    rows.append(block.residual(q, f.z, f.p))
-            r = ca.vertcat(*rows)
-            out[setting] = (ca.Function("setting_residual", [f.z, f.p], [r, ca.jacobian(r, f.z)]), columns)
-        self._settings = out
-        return out
-
-    def closest_design(self, z0: np.ndarray, p: np.ndarray, bounds: BoundsOverride | None = None) -> SolverOutput:
-        """The design within the bounds that comes closest to balance (least squares)."""
-        import casadi as ca
-
-        f = self.formulation
-        if self._feasibility is None:
-            nlp = {"x": f.z, "p": f.p, "f": 0.5 * ca.sumsqr(self.conditions.equalities), "g": f.nonnegative}
-            self._feasibility = IpoptBackend(nlp, {**self.options, "tol": CLOSEST_TOL, "acceptable_tol": CLOSEST_ACCEPTABLE_TOL}, "closest")
-        b = self.bounds(0, bounds, constraints=False)
-        out = self._feasibility.solve(np.clip(z0, b.lbz, b.ubz), p, b)
-        z = self.refine(out.z, p, b)
-        return SolverOutput(z, out.status, out.solver_status, out.iterations, out.solve_time, out.solver)
-
-    def closest_design_multistart(
-        self, starts: list[np.ndarray], p: np.ndarray, b: Bounds, bounds: BoundsOverride | None = None
-    ) -> SolverOutput:
-        """:meth:`closest_design` from each of ``starts``, then from :data:`CLOSEST_RANDOM_STARTS`
-        seeded random designs in the box, until one balances; else the one closest to balance.
-
-        Least squares on bilinear conditions (a mass times its offset) has local minima: a
-        counter-mass at its lower bound with its offset on the wrong side is one, where the
-        offset no longer matters and more mass only makes it worse. Other starts escape it.
-        """
-        rng = np.random.default_rng(self.problem.settings.seed)
-        randoms = [b.lbz + (b.ubz - b.lbz) * rng.random(len(b.lbz)) for _ in range(CLOSEST_RANDOM_STARTS)]
-        tried: list[tuple[float, int, SolverOutput]] = []
-        elapsed = 0.0
-        for i, z0 in enumerate([*starts, *randoms]):
-            out = self.closest_design(z0, p, bounds)
-            elapsed += out.solve_time
-            g = np.array(self.residual_jacobian()(out.z, p)[0]).reshape(-1)
-            tried.append((float(np.abs(g).max(initial=0.0)), i, out))
-            if self.balances(out.z, p):
-                break
-        return _with_time(min(tried)[2], elapsed)
-
-    def closest_minimax(self, z: np.ndarray, p: np.ndarray, b: Bounds) -> tuple[np.ndarray, str, float]:
-        """The closest design reported for a balance that cannot be met: the one with the
-        smallest worst residual ratio, the figure the report gives.
-
-        Least squares on the compressed conditions (``z``, from :meth:`closest_design`) is not
-        that design: it weighs the scaled conditions, not the residual ratio the dense check
-        reports (issue 24: on an infeasible four-bar, a worst residual of 11.9 % where 9.39 %
-        can be reached; tests/test_closest.py has such a four-bar and a closed-form case). So the epigraph NLP of :class:`~counterpoise.designer.minimax.MinimaxDesigner`
-        (``min t s.t. |r_j(q_s; z)| ≤ t·T`` on sampled configurations, T the largest unbalanced
-        gravity force of the coordinate's kind; built on first use) is solved from ``z``
-        within the bounds, design constraints left out as in the least-squares design.
-        Variables within BOUND_TOLERANCE × span of a bound are put on it when that does not
-        raise the worst sampled ratio (beyond rounding). The minimax design is kept when IPOPT
-        converged, the sign constraints hold and its worst sampled ratio is below the
-        least-squares one; else ``z`` stands.
-
-        Returns (design, what it is: the text of ``Solution.closest``, solve seconds).
-        """
-        from .minimax import MinimaxDesigner
-
-        if self._minimax is None:
-            self._minimax = MinimaxDesigner(self.problem, self._ipopt_options)
-        m = self._minimax
-        lo, hi = b.lbz, b.ubz
-        least_squares = worst(m.ratios(z, p))
-        out, _ = m.smallest_worst_ratio(z, p, lo, hi)
-        candidate = np.clip(out.z, lo, hi)
-        reached = worst(m.ratios(candidate, p))
-        band = BOUND_TOLERANCE * (hi - lo)
-        snapped = np.where((candidate - lo <= band) & (hi > lo), lo, np.where((hi - candidate <= band) & (hi > lo), hi, candidate))
-        if not np.array_equal(snapped, candidate) and worst(m.ratios(snapped, p)) <= reached + MINIMAX_ROUNDING:
-            candidate, reached = snapped, worst(m.ratios(snapped, p))
-        signs = np.array(self.residual_jacobian()(candidate, p)[2]).reshape(-1)[: int(self.formulation.nonnegative.numel())]
-        if out.status is Status.OPTIMAL and _admissible(signs) and reached < least_squares:
-            return candidate, f"minimax: the smallest worst residual on {m.n_samples} sampled configurations", out.solve_time
-        return z, LEAST_SQUARES_NO_CLOSER, out.solve_time
-
-    def refine(self, z: np.ndarray, p: np.ndarray, b: Bounds, iterations: int = 8) -> np.ndarray:
-        """Gauss-Newton steps on the balance equalities from ``z``, within the bounds.
-
-        Least squares on ``½|g|²`` stops near ``|g| ~ 1e-8`` (squaring loses half the digits), just
-        short of :meth:`balances`; a few Newton steps on g itself finish the job when a
-        balanced design is that near. Kept only while ``|g|`` decreases and signs stay ≥ 0.
-        """
-        # a fixed variable (lower = upper: a part's rate in a part search) does not move: in
-        # the minimum-norm step it would take a share that the bounds then cut away, and the
-        # steps would stall short of balance (issue 32)
-        return gauss_newton(self._balance_evaluation(p), z, b.lbz, b.ubz, free=b.ubz > b.lbz, iterations=iterations, tolerance=EXACT_BALANCE).z
 
     def _overdetermined(self, z0: np.ndarray, p: np.ndarray, b: Bounds, bounds: BoundsOverride | None, minimax: bool = True) -> Solution:
         """More independent conditions than variables: balance only at special designs.
@@ -606,12 +340,12 @@ class Designer:
         import casadi as ca
 
         f = self.formulation
-        closest = self.closest_design_multistart([z0], p, b, bounds)
-        g, jac, _ = (np.array(v) for v in self.residual_jacobian()(closest.z, p))
-        if not self.balances(closest.z, p):
+        closest = self.closest.least_squares_multistart([z0], p, b, bounds)
+        g, jac, _ = (np.array(v) for v in self.balance.residual_jacobian()(closest.z, p))
+        if not self.balance.balances(closest.z, p):
             message = "more independent balance conditions than design variables, and no design within the bounds meets them"
-            z, kind, seconds = self.closest_reported(closest.z, p, b, minimax)
-            z = self.polish_settings(z, p, b)
+            z, kind, seconds = self.closest.reported(closest.z, p, b, minimax)
+            z = self.balance.polish_settings(z, p, b)
             out = SolverOutput(z, Status.INFEASIBLE, "overdetermined", closest.iterations, closest.solve_time + seconds, closest.solver)
             return self._solution(z, p, b, out, message, kind)
         u, s, _ = np.linalg.svd(jac, full_matrices=False)
@@ -621,17 +355,17 @@ class Designer:
         backend = IpoptBackend(nlp, self.options, "design_reduced")
         rb = self.bounds(r, bounds)
         out = backend.solve(closest.z, p, rb)
-        out = _with_time(out, out.solve_time + closest.solve_time)
+        out = with_time(out, out.solve_time + closest.solve_time)
         z, message = out.z, f"{out.solver.upper()}: {out.solver_status}"
         if out.status is Status.OPTIMAL:
-            z, message = self.polish(z, p, rb), "balanced design found (conditions reduced at a balanced design)"
+            z, message = self.balance.polish(z, p, rb), "balanced design found (conditions reduced at a balanced design)"
         elif out.status is Status.INFEASIBLE:
             out = SolverOutput(out.z, Status.FAILED, out.solver_status, out.iterations, out.solve_time, out.solver)
         return self._solution(z, p, b, out, message)
 
     def _solution(self, z: np.ndarray, parameters: np.ndarray, b: Bounds, out: SolverOutput, message: str, closest: str | None = None) -> Solution:
         """``closest``: what the reported closest design of an infeasible problem is (see
-        :meth:`closest_minimax`); None for a design that balances."""
+        :meth:`.closest.Closest.minimax`); None for a design that balances."""
         solution = build_solution(self.formulation, z, parameters, b.lbz, b.ubz, out, message, self.n_equalities, self.conditions.summary())
         if closest is not None:  # a new Solution's closest is None
             solution = replace(solution, closest=closest)
@@ -664,35 +398,27 @@ class Designer:
         return solution
 
 
-def _admissible(signs: np.ndarray) -> bool:
-    """The sign constraints (and constraint margins) hold: every one ≥ 0."""
-    return bool(signs.size == 0 or signs.min() >= 0)
-
-
-def _with_time(out: SolverOutput, seconds: float) -> SolverOutput:
-    return SolverOutput(out.z, out.status, out.solver_status, out.iterations, seconds, out.solver)
-
-
 # -- a designer kept on disk by counterpoise solve ---------------------------------------
 
 #: the kind of :mod:`counterpoise.io.cache`'s built entries that hold designers
 KEPT_KIND = "designer"
 
 
-def _kept_parts(problem: Problem, ipopt_options: Mapping[str, Any] | None, backend: str, extra: Extra | None) -> tuple[str, ...] | None:
-    """The key parts of a designer kept on disk (the problem's content, the options, the
-    CasADi version), or None when designers are not kept in this process (anything but the
+def _kept_entry(problem: Problem, ipopt_options: Mapping[str, Any] | None, backend: str, extra: Extra | None, designer: Designer) -> BuiltEntry | None:
+    """The disk entry of a designer (key: the problem's content, the options, the CasADi
+    version), or None when designers are not kept in this process (anything but the
     console script's ``solve``) or this one is not (a verification round's, with ``extra``)."""
-    from ..io.cache import built_parts
-
     if extra:
         return None
     import casadi as ca
 
+    from ..io.cache import built_entry
     from ..model.digest import digest
 
     version = str(getattr(ca, "__version__", ""))  # also in the entry's key by its installed version (io.cache.BUILT_LIBRARIES)
-    return built_parts(problem, digest(dict(ipopt_options or {})), backend, version)
+    return built_entry(
+        KEPT_KIND, problem, digest(dict(ipopt_options or {})), backend, version, shared={"problem": problem, "designer": designer}, reducers=_KEPT_REDUCERS, casadi=True
+    )
 
 
 def _reduce_numeric(f: NumericFunction) -> tuple[Any, ...]:

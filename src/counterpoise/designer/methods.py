@@ -3,7 +3,9 @@
 A design method answers ``solve(parameters=None, bounds=None, initial=None) -> Solution``
 (SI values; ``bounds`` maps a variable name or a :class:`Slot` to (lower, upper);
 ``initial`` maps slots to start values), and may be called many times: whatever it builds
-(solvers, samples) is built once. The innermost methods live here:
+(solvers, samples) is built once. Each method implements ``solve_with(options)`` with one
+:class:`SolveOptions`; :class:`DesignMethod` writes ``solve`` once for all. The innermost
+methods live here:
 
 - :class:`Plain`: the :class:`~counterpoise.designer.designer.Designer` (IPOPT, or the LP
   path through Clarabel when every variable enters linearly);
@@ -21,7 +23,7 @@ reduction wraps the next) and rockit's method objects (a method attached to a pr
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import abc
 from dataclasses import replace
 from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
@@ -31,6 +33,7 @@ from ..formulation.formulation import Formulation
 from ..formulation.layout import Slot
 from ..model.problem import Problem
 from ..solvers.base import Status
+from .options import BoundsOverride, Initial, Parameters, SolveOptions
 from .solution import Solution
 
 if TYPE_CHECKING:
@@ -40,29 +43,30 @@ if TYPE_CHECKING:
 #: two objectives agree (multi-start) when within this relative distance
 SAME_OBJECTIVE = 1e-7
 
-Parameters = Mapping[str, float]
-BoundsOverride = Mapping["Slot | str", tuple[float, float]]
-Initial = Mapping[Slot, float]
 
 
-@runtime_checkable
-class DesignMethod(Protocol):
-    """A way to design one problem; built once, solved many times."""
+class DesignMethod(abc.ABC):
+    """A way to design one problem; built once, solved many times.
+
+    A method implements :meth:`solve_with` (one :class:`SolveOptions`); :meth:`solve`, the
+    keyword form of the public API, is written here once for all of them."""
 
     @property
+    @abc.abstractmethod
     def problem(self) -> Problem:
         """The problem whose design :meth:`solve` returns (an outer method may solve a
         derived one). Read-only: the innermost methods answer their designer's."""
-        ...
+
+    @abc.abstractmethod
+    def solve_with(self, options: SolveOptions) -> Solution:
+        """The design for these options (a new :class:`Solution`; the method's inner
+        solutions are left as they were)."""
 
     def solve(
         self, parameters: Parameters | None = None, bounds: BoundsOverride | None = None, initial: Initial | None = None, *, certify: bool = True
     ) -> Solution:
-        """Design with these base parameters, bounds and initial values (all SI, optional).
-
-        ``certify=False``: skip the certificate gap (callers that solve many times and
-        report one design)."""
-        ...
+        """Design with these base parameters, bounds and initial values (see :class:`SolveOptions`)."""
+        return self.solve_with(SolveOptions(parameters, bounds, initial, certify))
 
 
 @runtime_checkable
@@ -84,9 +88,19 @@ class SampledMethod(Protocol):
         """The inner method of a sampled problem (built once per set of samples)."""
         ...
 
+    def scheduled(self, solution: Solution) -> Solution | None:
+        """``solution`` (one this method returned) on every sample its schedule covers, each
+        with its own adjustments: what a check that must hold over the whole range (a
+        part's limits) runs on; None when it has no schedule."""
+        ...
 
-class Core:
-    """Shared by the innermost methods: a designer with a formulation and ``solve``."""
+    def sample_of(self, solution: Solution, scenario: str) -> float | None:
+        """The sample (a payload mass, SI) of a scenario of ``solution`` or of :meth:`scheduled`."""
+        ...
+
+
+class Core(DesignMethod):
+    """Shared by the innermost methods: a designer with a formulation."""
 
     designer: Designer | MinimaxDesigner
 
@@ -98,7 +112,9 @@ class Core:
     def formulation(self) -> Formulation:
         return self.designer.formulation
 
-    def certify(self, solution: Solution, parameters: Parameters | None = None, bounds: BoundsOverride | None = None) -> Solution:
+    def certify(self, solution: Solution, options: SolveOptions = SolveOptions()) -> Solution:
+        """``solution`` (solved with ``certify=False`` and these options) as a solve with
+        ``certify=True`` would have returned it: a new value."""
         return solution
 
     def __repr__(self) -> str:
@@ -113,13 +129,12 @@ class Plain(Core):
     def __init__(self, designer: Designer) -> None:
         self.designer = designer
 
-    def solve(
-        self, parameters: Parameters | None = None, bounds: BoundsOverride | None = None, initial: Initial | None = None, *, certify: bool = True
-    ) -> Solution:
-        return self.designer.solve(initial=initial, parameters=parameters, bounds=bounds, certify=certify)
+    def solve_with(self, options: SolveOptions) -> Solution:
+        # the designer's keyword form: an object with the designer's solve() may stand for it (a study's)
+        return self.designer.solve(initial=options.initial, parameters=options.parameters, bounds=options.bounds, certify=options.certify)
 
-    def certify(self, solution: Solution, parameters: Parameters | None = None, bounds: BoundsOverride | None = None) -> Solution:
-        return self.designer.certify(solution, parameters, bounds)
+    def certify(self, solution: Solution, options: SolveOptions = SolveOptions()) -> Solution:
+        return self.designer.certify(solution, options.parameters, options.bounds)
 
 
 class Minimax(Core):
@@ -130,10 +145,8 @@ class Minimax(Core):
     def __init__(self, designer: MinimaxDesigner) -> None:
         self.designer = designer
 
-    def solve(
-        self, parameters: Parameters | None = None, bounds: BoundsOverride | None = None, initial: Initial | None = None, *, certify: bool = True
-    ) -> Solution:
-        return self.designer.solve(initial=initial, parameters=parameters, bounds=bounds)
+    def solve_with(self, options: SolveOptions) -> Solution:
+        return self.designer.solve(initial=options.initial, parameters=options.parameters, bounds=options.bounds)
 
 
 class MultiStart(Core):
@@ -143,7 +156,7 @@ class MultiStart(Core):
     Only the variables that move a point are drawn (uniformly in their bounds, the call's
     ``bounds`` included); the others keep their initial values (they enter linearly). The
     best optimal solution is returned (the best of all when none is optimal), with
-    ``starts = (reached, run)``: how many starts ended within :data:`SAME_OBJECTIVE`
+    ``stats.starts = (reached, run)``: how many starts ended within :data:`SAME_OBJECTIVE`
     (relative) of the best objective. Seeded: the same starts on every call.
     """
 
@@ -155,14 +168,12 @@ class MultiStart(Core):
         self.starts = starts
         self.seed = seed
 
-    def solve(
-        self, parameters: Parameters | None = None, bounds: BoundsOverride | None = None, initial: Initial | None = None, *, certify: bool = True
-    ) -> Solution:
+    def solve_with(self, options: SolveOptions) -> Solution:
         from .convex import geometric_variables
 
         d = self.formulation.design
-        if bounds:
-            lbz, ubz = d.bounds(bounds)
+        if options.bounds:
+            lbz, ubz = d.bounds(options.bounds)
             lower, upper = lbz * d.scale, ubz * d.scale
         else:
             lower, upper = d.lower, d.upper
@@ -171,22 +182,22 @@ class MultiStart(Core):
         draw = [slot for slot in d.slots if slot.variable in geometric] or list(d.slots)
         solutions = []
         for k in range(self.starts):
-            guess = dict(initial or {})
+            guess = dict(options.initial or {})
             if k:
                 for slot in draw:
                     i = d.index[slot]
                     guess[slot] = float(lower[i] + (upper[i] - lower[i]) * rng.random())
-            solutions.append(self.inner.solve(parameters, bounds, guess, certify=False))
+            solutions.append(self.inner.solve_with(replace(options, initial=guess, certify=False)))
         optimal = [s for s in solutions if s.status is Status.OPTIMAL] or solutions
         best = min(optimal, key=lambda s: s.objective if np.isfinite(s.objective) else np.inf)
         scale = SAME_OBJECTIVE * max(1.0, abs(best.objective))
         reached = sum(1 for s in optimal if s.status is best.status and abs(s.objective - best.objective) <= scale)
-        if certify:
-            best = self.inner.certify(best, parameters, bounds)
-        return replace(best, starts=(reached, self.starts), solve_time=sum(s.solve_time for s in solutions))
+        if options.certify:
+            best = self.inner.certify(best, options)
+        return replace(best, stats=replace(best.stats, starts=(reached, self.starts), solve_time=sum(s.stats.solve_time for s in solutions)))
 
-    def certify(self, solution: Solution, parameters: Parameters | None = None, bounds: BoundsOverride | None = None) -> Solution:
-        return self.inner.certify(solution, parameters, bounds)
+    def certify(self, solution: Solution, options: SolveOptions = SolveOptions()) -> Solution:
+        return self.inner.certify(solution, options)
 
 
 def core_method(problem: Problem, starts: int = 1, backend: str = "auto", designer: Designer | MinimaxDesigner | None = None) -> Plain | Minimax | MultiStart:

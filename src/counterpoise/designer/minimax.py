@@ -16,7 +16,8 @@ parameter values): r_j and the gravity torque are then the generalized forces al
 independent coordinates, r_i = ∂V/∂q_i + (dq_d/dq_i)ᵀ ∂V/∂q_d, as in the dense check of
 :mod:`counterpoise.verify.manifold`, and the spring lengths are those of the assembled
 configurations. The design is then checked on the dense verification sample like any other:
-the residual ratio reported is the dense one; ``Solution.sampled_ratio`` is t.
+the residual ratio reported is the dense one; t is the design's :class:`MinimaxDesign` extra
+(``solution.extra(MinimaxDesign).sampled_ratio``), which also marks it a minimax design.
 Built once; :meth:`solve` takes parameters and bounds per call, like :class:`Designer`
 (and, like it, builds another for parameters that change a closed loop's geometry).
 """
@@ -24,7 +25,7 @@ Built once; :meth:`solve` takes parameters and bounds per call, like :class:`Des
 from __future__ import annotations
 
 from collections.abc import Collection, Mapping
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -41,7 +42,24 @@ from ..solvers.ipopt import IPOPT_DEFAULTS, IpoptBackend
 from ..threads import limit_blas_threads
 from ..formulation.constraints import MAX_ROUNDS, ConstraintRows, Extra, build_rows, describe, merge, violations
 from .constrained import attach_constraints, rows_multipliers
+from .options import SolveOptions
 from .solution import Solution, build_solution
+
+@dataclass(frozen=True)
+class MinimaxDesign:
+    """The extra of a minimax design (:meth:`MinimaxDesigner.solve`): its worst residual
+    ratio ``t`` on the NLP's sampled configurations, and how many there were. Its presence
+    marks the design as a minimax one: judged by the minimax rule
+    (:func:`counterpoise.verify.judge.judge_minimax`), not by exact balance."""
+
+    sampled_ratio: float
+    samples: int
+
+
+def minimax_of(solution: Solution) -> MinimaxDesign | None:
+    """The minimax extra of ``solution``; None for a design of exact balance conditions."""
+    return solution.extra(MinimaxDesign)
+
 
 #: sampled configurations per (subsystem, scenario): SAMPLES_PER_COORDINATE × n_q (+ corners)
 SAMPLES_PER_COORDINATE = 96
@@ -123,7 +141,7 @@ class MinimaxDesigner:
         self._only = (None if coordinates is None else frozenset(coordinates), None if springs is None else frozenset(springs))
         self._restricted: dict[tuple[frozenset[str], frozenset[str]], MinimaxDesigner] = {}
         #: designers of this problem rebuilt for other loop geometries (:func:`for_geometry`)
-        self.geometries = Geometries()
+        self.geometries: Geometries[MinimaxDesigner] = Geometries()
         self.formulation = f = Formulation(problem)
         self.parameters = f.parameters.values()
         rng = np.random.default_rng(problem.settings.seed + 5)
@@ -218,16 +236,23 @@ class MinimaxDesigner:
         parameters: Mapping[str, float] | None = None,
         bounds: Mapping[Slot | str, tuple[float, float]] | None = None,
     ) -> Solution:
+        """The smallest worst residual ratio with these initial values, base parameters and
+        bounds (SI, for this call; see :class:`~.options.SolveOptions`)."""
+        return self.solve_with(SolveOptions(parameters, bounds, initial))
+
+    def solve_with(self, options: SolveOptions) -> Solution:
+        """:meth:`solve` with its options in one :class:`~.options.SolveOptions` (``certify`` changes nothing here)."""
+        parameters, bounds = options.parameters, options.bounds
         other = for_geometry(self, parameters, lambda problem: MinimaxDesigner(problem, self._ipopt_options, coordinates=self._only[0], springs=self._only[1]), self.geometries)
         if other is not self:  # closed loops: a new geometry is sampled on its own manifold
-            return other.solve(initial, parameters, bounds)
+            return other.solve_with(options)
         if self._refined is not None:  # a verification round added configurations
-            return self._refined.solve(initial, parameters, bounds)
+            return self._refined.solve_with(options)
         f = self.formulation
         d = f.design
         p = f.parameters.values(parameters) if parameters else self.parameters
         lbz, ubz = d.bounds(bounds)
-        z0 = np.clip(d.to_z(d.vector(initial or {})), lbz, ubz)
+        z0 = np.clip(d.to_z(d.vector(options.initial or {})), lbz, ubz)
         rows = self.rows
         out = self.backend.solve(np.concatenate([z0, [INITIAL_RATIO]]), p, self._bounds(lbz, ubz, True))
         t = float(out.z[-1])
@@ -239,7 +264,7 @@ class MinimaxDesigner:
         )
         design_out = SolverOutput(out.z[:-1], out.status, out.solver_status, out.iterations, out.solve_time, out.solver)
         summary = "epigraph rows on sampled configurations"
-        solution = build_solution(f, out.z[:-1], p, lbz, ubz, design_out, message, self.n_rows, summary, sampled_ratio=t)
+        solution = build_solution(f, out.z[:-1], p, lbz, ubz, design_out, message, self.n_rows, summary).with_extra(MinimaxDesign(t, self.n_samples))
         if rows is None:
             return solution
         solution = attach_constraints(solution, rows, rows_multipliers(out, rows))
@@ -258,8 +283,7 @@ class MinimaxDesigner:
             refined = MinimaxDesigner(self.problem, self._ipopt_options, extra, coordinates=self._only[0], springs=self._only[1])
             refined._round = self._round + 1
             self._refined = refined
-            start = dict(solution.values)
-            return refined.solve(start, parameters, bounds)
+            return refined.solve_with(replace(options, initial=dict(solution.values)))
         return solution
 
     def _bounds(self, lbz: np.ndarray, ubz: np.ndarray, constraints: bool) -> Bounds:
@@ -287,7 +311,7 @@ class MinimaxDesigner:
     def smallest_worst_ratio(self, z0: np.ndarray, p: np.ndarray, lbz: np.ndarray, ubz: np.ndarray) -> tuple[SolverOutput, float]:
         """The design within [lbz, ubz] (scaled) with the smallest worst residual ratio on the
         samples, from ``z0``, design constraints left out: the closest design of a balance
-        problem that cannot be met (see :meth:`counterpoise.designer.designer.Designer.closest_minimax`).
+        problem that cannot be met (see :meth:`counterpoise.designer.closest.Closest.minimax`).
         Returns the solver's output (without t) and t."""
         z0 = np.clip(z0, lbz, ubz)
         t0 = max(INITIAL_RATIO, 2.0 * float(np.abs(self.ratios(z0, p)).max(initial=0.0)))

@@ -3,8 +3,8 @@
 :meth:`Designer.solve <counterpoise.designer.designer.Designer.solve>` on the IPOPT path
 (``Designer._solve``) declares a design infeasible when IPOPT does and none of the
 least-squares closest designs it then searches from several starts
-(:meth:`~counterpoise.designer.designer.Designer.closest_design_multistart`) meets the balance
-equalities to :data:`~counterpoise.designer.designer.BALANCE_TOLERANCE` (IPOPT's verdict is
+(:meth:`~counterpoise.designer.closest.Closest.least_squares_multistart`) meets the balance
+equalities to :data:`~counterpoise.designer.balance.BALANCE_TOLERANCE` (IPOPT's verdict is
 local; the restarts settle it). Those restarts are most of the cost of an infeasible solve,
 and a bisection (the widest payload range, :mod:`counterpoise.payload.widest`) needs only the
 verdict.
@@ -39,7 +39,7 @@ from ..solvers.least_residual import least_residual_bound
 if TYPE_CHECKING:
     from ..formulation.layout import Slot
     from .designer import Designer
-    from .methods import BoundsOverride
+    from .options import BoundsOverride
 
 #: variables beyond which the 3^n bound patterns are not tried (the answer is then "solve it")
 MAX_VARIABLES = 6
@@ -90,7 +90,7 @@ def unbalanceable(
     b = designer.bounds(designer.n_equalities, bounds)
     lower, upper = np.asarray(b.lbz, dtype=float), np.asarray(b.ubz, dtype=float)
     middle = 0.5 * (lower + upper)
-    g, jac, _ = (np.array(v, dtype=float) for v in designer.residual_jacobian()(middle, p))
+    g, jac, _ = (np.array(v, dtype=float) for v in designer.balance.residual_jacobian()(middle, p))
     g = g.reshape(-1)
     jac = jac.reshape(g.size, n)
     offset = g - jac @ middle
@@ -99,7 +99,7 @@ def unbalanceable(
     # the box widened by a rounding's width, so that a solver's point on a bound is inside it
     slack = 1e-12 * (np.abs(lower) + np.abs(upper) + (upper - lower))
     largest = float((np.abs(offset) + np.abs(jac) @ np.maximum(np.abs(lower), np.abs(upper))).max())
-    from .designer import BALANCE_TOLERANCE
+    from .balance import BALANCE_TOLERANCE
 
     if least_residual_bound(jac, offset, lower - slack, upper + slack) <= BALANCE_TOLERANCE + ROUNDING_SHARE * max(largest, 1.0):
         return False

@@ -20,6 +20,7 @@ breaks the assumption instead of letting the compression return a wrong rank.
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -159,6 +160,25 @@ def check_exact_conditions(problem: Problem) -> None:
                             "the translation is not a polynomial in the coordinates, so exact balance conditions "
                             "cannot be derived from samples",
                         )
+
+
+#: the degeneracy warnings of the problems asked last (:func:`problem_warnings`), by id, with a weak reference
+_FOUND: dict[int, tuple["weakref.ref[Problem]", tuple[str, ...]]] = {}
+_FOUND_SIZE = 8
+
+
+def problem_warnings(problem: Problem) -> tuple[str, ...]:
+    """:func:`degeneracies` of ``problem``, found once per problem and then read (the
+    console script finds them at load; a report written later in the same process reads
+    them instead of finding them again)."""
+    entry = _FOUND.get(id(problem))
+    if entry is not None and entry[0]() is problem:
+        return entry[1]
+    found = tuple(degeneracies(problem))
+    if len(_FOUND) >= _FOUND_SIZE:
+        _FOUND.pop(next(iter(_FOUND)))
+    _FOUND[id(problem)] = (weakref.ref(problem), found)
+    return found
 
 
 def degeneracies(problem: Problem) -> list[str]:

@@ -17,8 +17,8 @@ the dense check of :mod:`counterpoise.verify.manifold` tests independently.
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import Any
+from collections.abc import Callable, Mapping
+from typing import Any, Protocol, TypeVar
 
 import numpy as np
 
@@ -103,7 +103,18 @@ def with_values(problem: Problem, values: Any) -> Problem:
     return replace(problem, parameters=tuple(replace(q, value=float(values[q.name])) if q.is_base and q.name in values else q for q in problem.parameters))
 
 
-class Geometries(Kept[tuple[tuple[str, float], ...], Any]):
+class _Owner(Protocol):
+    """A designer: what :func:`for_geometry` reads of it."""
+
+    @property
+    def problem(self) -> Problem: ...
+
+
+#: the designer type a :class:`Geometries` keeps (a designer keeps designers of its own kind)
+D = TypeVar("D", bound=_Owner)
+
+
+class Geometries(Kept[tuple[tuple[str, float], ...], D]):
     """The designers one designer rebuilt for other loop geometries (:func:`for_geometry`),
     by the changed (name, value) pairs: owned by that designer (a field it creates), at most
     :data:`GEOMETRIES_KEPT`, the least recently used dropped first."""
@@ -112,7 +123,7 @@ class Geometries(Kept[tuple[tuple[str, float], ...], Any]):
         super().__init__(GEOMETRIES_KEPT)
 
 
-def for_geometry(owner: Any, parameters: Any, build: Callable[[Problem], Any], geometries: Geometries) -> Any:
+def for_geometry(owner: D, parameters: Mapping[str, float] | None, build: Callable[[Problem], D], geometries: Geometries[D]) -> D:
     """The designer to solve ``parameters`` with: ``owner`` itself, or, when they change a
     loop's geometry, one built by ``build`` on the problem with those values (the manifold
     equalities are solved at the build's geometry, docs/loops.md), kept in ``geometries``

@@ -52,7 +52,7 @@ from collections.abc import Callable, Iterable, Mapping
 from contextlib import AbstractContextManager, nullcontext
 from functools import lru_cache
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeGuard, TypeVar
 
 from ..hashing import blake2b
 
@@ -503,3 +503,68 @@ def keep_built(
         _write(entry, value, MAX_BUILT, dump, MAX_BUILT_BYTES)
     except Exception:  # noqa: BLE001 - CasADi raises plain Exception for what it cannot serialize: keep nothing
         return
+
+
+#: what a valid kept object is (see :meth:`BuiltEntry.fetch`)
+T = TypeVar("T")
+
+
+class BuiltEntry:
+    """One object built from a problem and kept on disk by ``counterpoise solve``: the glue
+    between a builder (a designer, the dense check's evaluators, the springs' workspace
+    sample) and :func:`fetch_built` / :func:`keep_built`, written once.
+
+    ``shared``: objects the entry refers to by name (the problem it was built from, the
+    object restored into), the same at :meth:`fetch` and :meth:`keep`; ``reducers``: how
+    objects of these types pickle in this entry; ``casadi``: the entry holds CasADi
+    expressions or functions, pickled and unpickled in one CasADi context (symbols shared
+    between expressions stay shared). Made by :func:`built_entry`, which gives None when
+    built objects are not kept in this process."""
+
+    def __init__(
+        self,
+        kind: str,
+        parts: tuple[str, ...],
+        shared: Mapping[str, object] | None = None,
+        reducers: Mapping[type, Callable[[Any], tuple[Any, ...]]] | None = None,
+        casadi: bool = False,
+    ) -> None:
+        self.kind = kind
+        self.parts = parts
+        self.shared = dict(shared or {})
+        self.reducers = reducers
+        self.casadi = casadi
+
+    def fetch(self, valid: Callable[[object], TypeGuard[T]]) -> T | None:
+        """The kept object when there is one and ``valid`` says it is what the builder makes; else None."""
+        context: Callable[[], AbstractContextManager[object]] = nullcontext
+        if self.casadi:
+            import casadi as ca
+
+            context = ca.global_unpickle_context
+        found = fetch_built(self.kind, self.parts, self.shared, context)
+        return found if found is not None and valid(found) else None
+
+    def keep(self, value: object) -> None:
+        """Keep ``value`` for a later :meth:`fetch` of the same entry."""
+        context: Callable[[], AbstractContextManager[object]] = nullcontext
+        if self.casadi:
+            import casadi as ca
+
+            context = ca.global_pickle_context
+        keep_built(self.kind, self.parts, value, self.shared, self.reducers, context)
+
+
+def built_entry(
+    kind: str,
+    problem: Any,
+    *parts: str,
+    shared: Mapping[str, object] | None = None,
+    reducers: Mapping[type, Callable[[Any], tuple[Any, ...]]] | None = None,
+    casadi: bool = False,
+) -> BuiltEntry | None:
+    """The entry of an object of ``kind`` built from ``problem`` (key: the problem's content,
+    then ``parts``), or None when built objects are not kept in this process (anything but
+    the console script's ``solve`` of one file). See :class:`BuiltEntry`."""
+    key = built_parts(problem, *parts)
+    return None if key is None else BuiltEntry(kind, key, shared, reducers, casadi)

@@ -28,22 +28,23 @@ a ``[payloads]`` range:
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 from ..designer.designer import Designer
-from ..designer.methods import BoundsOverride, DesignMethod, Plain
+from ..designer.methods import DesignMethod, Plain
+from ..designer.options import BoundsOverride
 from ..designer.solution import Solution
-from ..errors import SolverError
 from ..model import expr as ex
-from ..model.payload import MAX_PAYLOAD_RANGE, Payload
+from ..model.payload import MAX_PAYLOAD_RANGE
 from ..model.problem import Problem, ReportQuantity
 from ..solvers.base import Status
 from ..verify.check import verify
-from ..verify.checks import Verification
+from ..designer.checks import Verification
 from ..verify.judge import judge
 from ..formulation.layout import Slot
+from .result import PayloadDesign
 from .options import adjustment_bounds, check_options, merged_bounds, sampled_initial
-from .scenarios import Sampled, is_pinned, modes, payload_of, sampled_problem, setting_name
+from .scenarios import Sampled, is_pinned, payload_of, sampled_problem
 from .schedule import Adjusters, AdjustmentSolver, Schedule, Setting, schedule
 from .widest import PAYLOAD_RESOLUTION, WidestRange, widest_range
 
@@ -52,74 +53,6 @@ REFINEMENTS = 3
 #: bisection steps on each end of a declared range too wide to balance (1/4096 of its span)
 NARROW_STEPS = 12
 
-
-
-@dataclass(frozen=True)
-class PayloadDesign:
-    """The outcome of a payload-range design (``problem`` is the sampled problem solved)."""
-
-    problem: Problem
-    payload: Payload
-    status: Status
-    message: str
-    solution: Solution
-    verification: Verification
-    samples: tuple[float, ...]
-    schedule: Schedule | None
-    checked: tuple[float, float]  # the payload range the schedule covers (kg)
-    widest: WidestRange | None
-    #: the schedule's solver for this design (adjustments at any payload; not compared)
-    adjuster: "AdjustmentSolver | None" = field(default=None, compare=False, repr=False)
-
-    def pinned(self, slot: Slot) -> bool:
-        """Whether a design slot is an adjustment fixed to its nominal (not an active bound)."""
-        setting_mass = {setting_name(self.payload, m): m for m in self.samples}
-        return is_pinned(self.problem, slot, setting_mass)
-
-    def shared(self) -> dict[str, float]:
-        """The design's shared (non-adjustable) variables, SI."""
-        return {slot.variable: v for slot, v in self.solution.values.items() if slot.scenario is None}
-
-    def _scheduled(self) -> Sampled:
-        if self.adjuster is None or self.schedule is None:
-            raise SolverError(f"{self.problem.name}: the payload design has no schedule (its samples were not balanced)")
-        masses = [s.payload for s in self.schedule.rows + self.schedule.between if s.feasible]
-        return sampled_problem(self.adjuster.source, masses or self.samples)
-
-    def schedule_solution(self) -> Solution:
-        """The design on every feasible payload of its schedule (grid and between), one
-        scenario per working mode and payload, each with that payload's adjustments: what
-        a check that must hold at every payload (a part's limits) is run on.
-
-        When no payload of the schedule is feasible (a design that balances none: the
-        closest design of a range it cannot balance), there are no scheduled adjustments to
-        put in: the design itself, on its samples, is returned (issue 32: ``KeyError: 0.0``,
-        the samples' masses looked up among the feasible payloads)."""
-        by_mass = {s.payload: s for s in self.schedule.rows + self.schedule.between if s.feasible} if self.schedule is not None else {}
-        if not by_mass:
-            return self.solution
-        sampled = self._scheduled()
-        n_modes = len(modes(self.adjuster.source)) or 1  # type: ignore[union-attr]  # a design with a schedule has its adjuster
-        first = list(self.solution.scenario_parameters.values())[:n_modes]
-        values: dict[Slot, float] = {slot: v for slot, v in self.solution.values.items() if slot.scenario is None}
-        scenario_parameters = {}
-        for i, scenario in enumerate(sampled.problem.scenarios):
-            mass = sampled.setting_mass[scenario.setting or ""]
-            gravity, base = first[i % n_modes]
-            scenario_parameters[scenario.name] = (gravity, {**base, self.payload.name: mass})
-            row = by_mass.get(mass)
-            if row is None:  # no feasible schedule row: the design's own samples (their settings)
-                continue
-            for name, v in row.values.items():
-                values[Slot(name, scenario.setting)] = v
-        return replace(self.solution, problem=sampled.problem, values=values, scenario_parameters=scenario_parameters)
-
-    def mass_of(self, scenario: str) -> float | None:
-        """The payload mass of a scenario of :meth:`schedule_solution` or of the design."""
-        for sampled in (self._scheduled(), sampled_problem(self.adjuster.source, self.samples)):  # type: ignore[union-attr]  # a design with a schedule has its adjuster
-            if any(s.name == scenario for s in sampled.problem.scenarios):
-                return sampled.setting_mass[sampled.problem.setting(scenario) or ""]
-        return None
 
 
 @dataclass(frozen=True)

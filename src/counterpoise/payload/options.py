@@ -10,7 +10,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 from ..errors import ProblemFileError
-from ..designer.methods import BoundsOverride
+from ..designer.options import BoundsOverride
 from ..formulation.layout import Slot
 from ..model.problem import Problem
 from .scenarios import Sampled, design_bounds, payload_of

@@ -40,6 +40,7 @@ import numpy as np
 from ..mechanics.poses import Placed, assembled, default_values, mechanics, place
 from ..model.mechanism import GROUND
 from ..model.problem import Problem, Scenario
+from ..selection.result import PartsReport
 from ._mpl import freeze_layout, pyplot, save
 
 if TYPE_CHECKING:
@@ -126,8 +127,9 @@ def design_drawing(result: "DesignResult", folder: str | Path) -> Drawing:
     chosen = [s for s in problem.slots if s.name in parameters] if problem.slots else []
     parts_known = len(chosen) == len(problem.slots)
     parts = ""
-    if result.parts is not None and problem.slots:
-        parts = "; parts " + ", ".join(f"{s.name}: {s.catalogue.part_number[result.parts.chosen[s.name]]}" for s in problem.slots if s.name in result.parts.chosen)
+    chosen_parts = result.extra(PartsReport)
+    if chosen_parts is not None and problem.slots:
+        parts = "; parts " + ", ".join(f"{s.name}: {s.catalogue.part_number[chosen_parts.chosen[s.name]]}" for s in problem.slots if s.name in chosen_parts.chosen)
     title = f"{problem.name}: {result.status.value} design"
     where = f"; shown in scenario {scenario.name}" if len(problem.scenarios) > 1 else ""
     note = f"spring forces from the design{parts}{where}" if problem.springs else where.lstrip("; ")

@@ -13,7 +13,7 @@ solved in.
 
 Scenarios that share every row but gravity (working modes, tilts) are one problem; those
 whose masses or settings differ (the payloads of a range) are one problem each, and the
-residual ratio is taken over all of them against one reference (:mod:`counterpoise.verify.checks`).
+residual ratio is taken over all of them against one reference (:mod:`counterpoise.designer.checks`).
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ from ..model.mechanism import GROUND, Body, Coordinate, Frame, Point, Rotation, 
 from ..model.problem import Gravity, Objective, Problem, Scenario, Settings
 from ..model.tilt import Tilt
 from ..model.units import display_unit
-from ..verify.checks import Verification
+from ..designer.checks import Verification
 
 Row = Mapping[str, Any]
 MM = 1e-3
@@ -262,7 +262,7 @@ def check(rows: Sequence[Row]) -> AsBuilt:
     slack: dict[str, float] = {}
     for problem in rebuild(rows):
         scenario_parameters: dict[str, tuple[tuple[float, float, float], dict[str, float]]] = {s.name: (s.gravity.vector, {}) for s in problem.scenarios}
-        solution = Solution(problem, Status.OPTIMAL, "as built", {}, 0.0, 0.0, 0.0, 0, 0.0, "", "", 0, "", scenario_parameters=scenario_parameters)
+        solution = Solution(problem, Status.OPTIMAL, "as built", {}, 0.0, 0.0, 0.0, scenario_parameters=scenario_parameters)
         v = dense(solution, "dense")
         checks += list(v.checks)
         tolerance = v.tolerance

@@ -39,6 +39,9 @@ from ..model.constraints import REALISATION, Constraint
 from ..model.elements import MIN_WRAP, ZeroFreeLengthSpring
 from ..model.problem import Problem
 from ..model.units import display_unit
+from ..designer.solution import Solution
+from ..payload.result import PayloadDesign
+from ..robust.result import RobustReport
 from ..springs.design import NEGLIGIBLE_FORCE
 
 #: a limit counts as met when it misses its bound by less than this share of the bound's
@@ -130,13 +133,20 @@ class Extreme:
     at_high: Mapping[str, float]
 
 
-def checked_solution(solution: Any) -> Any:
+def checked_solution(solution: Solution) -> Solution:
     """The solution the limits are measured on: a payload design's schedule (every payload
     it sets), else the solution itself."""
-    outcome = getattr(solution, "payload", None)
-    if outcome is not None and getattr(outcome, "schedule", None) is not None:
+    outcome = solution.extra(PayloadDesign)
+    if outcome is not None and outcome.schedule is not None:
         return outcome.schedule_solution()
     return solution
+
+
+def tuned_envelope(solution: Solution) -> Mapping[str, Any]:
+    """Per spring: the forces and distances it must serve at every tuned corner of a [robust]
+    design with ``tune`` (:mod:`counterpoise.robust.limits`); empty otherwise."""
+    report = solution.extra(RobustReport)
+    return report.envelope if report is not None else {}
 
 
 def extremes(solution: Any) -> dict[tuple[str, str], dict[str, Extreme]]:

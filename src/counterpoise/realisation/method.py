@@ -24,15 +24,19 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from typing import Any
 
-from ..designer.methods import BoundsOverride, DesignMethod, Initial, Parameters
+from ..designer.methods import DesignMethod
+from ..designer.options import SolveOptions
 from ..designer.solution import Solution
 from ..model import expr as ex
 from ..model.problem import Problem
 from ..solvers.base import Status
-from .limits import Limit, constraints, evaluate
+from ..designer.minimax import minimax_of
+from ..selection.result import PartsReport
+from .limits import Limit, checked_solution, constraints, evaluate, tuned_envelope
+from .result import RealisationReport
 
 #: rounds of added realisation constraints, at most
 ROUNDS = 4
@@ -43,43 +47,22 @@ SAME_RATE = 1e-12
 WOUND_ROUNDS = 3
 
 
-@dataclass(frozen=True)
-class RealisationReport:
-    """What the realisation layer found of a design (an extra of its :class:`Solution`)."""
-
-    limits: tuple[Limit, ...]
-    #: the designed springs (:class:`~counterpoise.springs.workspace.DesignedSpring`)
-    springs: tuple[Any, ...] = ()
-    #: realisation constraints added to the problem before this design
-    added: tuple[str, ...] = ()
-    rounds: int = 0
-    #: per designed spring whose stiffness was re-solved: (design rate, wound rate) in N/m
-    wound: Mapping[str, tuple[float, float]] = field(default_factory=dict)
-    #: the springs are declared ideal: the limits are reported, not enforced
-    ideal: bool = False
-    notes: tuple[str, ...] = ()
-
-    @property
-    def violated(self) -> tuple[Limit, ...]:
-        return tuple(lim for lim in self.limits if not lim.met)
-
-
 def designed_of(solution: Solution) -> tuple[Any, ...]:
     """The designed springs of ``solution`` (free-stiffness springs; empty when none)."""
     if not any(s.slot is None for s in solution.problem.springs):
         return ()
     from ..springs.workspace import designed_springs
 
-    return designed_springs(solution)
+    return designed_springs(solution, checked_solution(solution), tuned_envelope(solution))
 
 
 def report_of(solution: Solution, ideal: bool = False) -> RealisationReport:
     """The realisation limits of ``solution`` as they stand (no rounds, no verdict)."""
     springs = designed_of(solution)
-    return RealisationReport(evaluate(solution, springs, solution.parts), springs, ideal=ideal)
+    return RealisationReport(evaluate(solution, springs, solution.extra(PartsReport)), springs, ideal=ideal)
 
 
-class RealisationMethod:
+class RealisationMethod(DesignMethod):
     """Design ``problem`` with the method ``build(problem)`` makes, within the realisation
     limits of its springs (see the module docstring). ``build`` is called again for the
     problem with realisation constraints added, once per round that needs one."""
@@ -106,9 +89,9 @@ class RealisationMethod:
             self._methods[key] = self._build(problem)
         return self._methods[key]
 
-    def solve(self, parameters: Parameters | None = None, bounds: BoundsOverride | None = None, initial: Initial | None = None, *, certify: bool = True) -> Solution:
+    def solve_with(self, options: SolveOptions) -> Solution:
         problem = self._problem
-        solution = self.inner.solve(parameters, bounds, initial, certify=certify)
+        solution = self.inner.solve_with(options)
         if not problem.springs:
             return solution
         added: list[str] = []
@@ -122,7 +105,7 @@ class RealisationMethod:
                     return _unbuildable(solution, forced, springs, rounds)
                 return solution  # not balanced in the ideal model already: its own verdict stands
             springs = designed_of(solution)
-            limits = evaluate(solution, springs, solution.parts)
+            limits = evaluate(solution, springs, solution.extra(PartsReport))
             if rounds >= ROUNDS:
                 break
             new = constraints(problem, limits)
@@ -133,17 +116,16 @@ class RealisationMethod:
             problem = replace(problem, constraints=tuple(c for c in problem.constraints if c.name not in names) + new)
             added += [n for n in sorted(names) if n not in added]
             rounds += 1
-            solution = self._method(problem).solve(parameters, bounds, dict(solution.values), certify=certify)
+            solution = self._method(problem).solve_with(replace(options, initial=dict(solution.values)))
         wound: dict[str, tuple[float, float]] = {}
         if _ok(solution) and springs:
-            solution, springs, limits, wound = self._wound(problem, solution, springs, limits, parameters, bounds, certify)
+            solution, springs, limits, wound = self._wound(problem, solution, springs, limits, options)
         report = RealisationReport(limits, springs, tuple(added), rounds, wound)
         solution = solution.with_extra(report)
         return _judged(solution, report)
 
     def _wound(
-        self, problem: Problem, solution: Solution, springs: Sequence[Any], limits: tuple[Limit, ...],
-        parameters: Parameters | None, bounds: BoundsOverride | None, certify: bool,
+        self, problem: Problem, solution: Solution, springs: Sequence[Any], limits: tuple[Limit, ...], options: SolveOptions
     ) -> tuple[Solution, tuple[Any, ...], tuple[Limit, ...], dict[str, tuple[float, float]]]:
         """The design re-solved for the wound rates (see :func:`wound_rates`), with its
         springs' designs checked again for the new working range; as it was when no rate
@@ -155,16 +137,16 @@ class RealisationMethod:
         _, _, changed = wound_rates(problem, springs)
         if not changed:
             return solution, tuple(springs), limits, {}
-        options = [tuple(springs)] + [_other_side(springs, {n: changed[n]}) for n in changed]
+        tries = [tuple(springs)] + [_other_side(springs, {n: changed[n]}) for n in changed]
         if len(changed) > 1:
-            options.append(_other_side(springs, changed))
-        for option in options:
-            followed = self._follow(problem, solution, option, parameters, bounds, certify)
+            tries.append(_other_side(springs, changed))
+        for option in tries:
+            followed = self._follow(problem, solution, option, options)
             if followed is not None:
                 final, made = followed
                 rates = {d.spring: float(d.design.rate) for d in made if d.ok}
                 wound = {n: (design, rates.get(n, first)) for n, (design, first) in changed.items()}
-                return final, made, evaluate(final, made, final.parts), wound
+                return final, made, evaluate(final, made, final.extra(PartsReport)), wound
         note = "; ".join(f"{n}: designed for {a / 1e3:.6g} N/mm, wound to {b / 1e3:.6g} N/mm" for n, (a, b) in changed.items())
         limit = Limit(next(iter(changed)), "spring", math.nan, math.nan, "lower", "", "", None,
                       f"no design balances the springs as wound ({note}), on either side of their design rates: "
@@ -172,7 +154,7 @@ class RealisationMethod:
         return solution, tuple(springs), (*limits, limit), changed
 
     def _follow(
-        self, problem: Problem, solution: Solution, springs: Sequence[Any], parameters: Parameters | None, bounds: BoundsOverride | None, certify: bool,
+        self, problem: Problem, solution: Solution, springs: Sequence[Any], options: SolveOptions
     ) -> tuple[Solution, tuple[Any, ...]] | None:
         """The design solved again for these springs' wound rates (each spring kept as wound
         while the geometry follows it, :func:`_same_springs`); None when no design balances them."""
@@ -183,11 +165,11 @@ class RealisationMethod:
                 return solution, tuple(springs)
             held.update(fixed)
             problem = with_rates(problem, replaced)
-            over: dict[Any, tuple[float, float]] = {**(bounds or {}), **{name: (k, k) for name, k in held.items()}}
-            again = self._method(problem).solve(parameters, over, dict(solution.values), certify=certify)
+            over: dict[Any, tuple[float, float]] = {**(options.bounds or {}), **{name: (k, k) for name, k in held.items()}}
+            again = self._method(problem).solve_with(replace(options, bounds=over, initial=dict(solution.values)))
             if not _ok(again):
                 return None
-            if again.sampled_ratio is None and again.verification is None:
+            if minimax_of(again) is None and again.verification is None:
                 # a solver may call a design held at a bound balanced to its own tolerance:
                 # the dense check says whether it follows the wound rate (and is kept for run())
                 from ..verify.check import check

@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from ..designer.minimax import minimax_of
 from ..mechanics import Mechanics
 from ..mechanics.cable import cable
 from ..model.elements import Pulley, ZeroFreeLengthSpring
@@ -43,7 +44,7 @@ def radius_notes(solution: Any, verification: Verification) -> tuple[str, ...]:
     """status.txt's lines on the point pulleys of an exact design (none for a minimax one,
     none when it has no point pulley)."""
     problem: Problem = solution.problem
-    if solution.sampled_ratio is not None:
+    if minimax_of(solution) is not None:
         return ()
     springs = [s for s in problem.springs if s.direct is None and s.pulley is not None and s.pulley.radius == 0.0 and s.subsystem is not None]
     if not springs:

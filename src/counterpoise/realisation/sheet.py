@@ -47,7 +47,8 @@ from ..model import expr as ex
 from ..model.elements import ZeroFreeLengthSpring
 from ..model.mechanism import Point, Rotation
 from ..model.problem import Problem
-from .limits import Extreme, checked_solution
+from ..payload.result import PayloadDesign
+from .limits import Extreme, checked_solution, tuned_envelope
 
 Row = dict[str, Any]
 
@@ -89,7 +90,7 @@ def as_written(rows: Sequence[Row]) -> list[Row]:
 def home_scenario(solution: Any) -> str:
     """The scenario home is taken in: the nominal payload's setting, else the first."""
     problem = solution.problem
-    if solution.payload is not None:
+    if solution.extra(PayloadDesign) is not None:
         from ..payload.scenarios import payload_of, setting_name
 
         payload = payload_of(problem)
@@ -343,7 +344,7 @@ def sheet_rows(solution: Any, designed: Sequence[Any] = (), parts: Any = None, f
         head.append({"kind": "tilt", "name": t.description or "tilt", "axis_x": t.axis[0], "axis_y": t.axis[1], "axis_z": t.axis[2], "range_min": t.lower, "range_max": t.upper,
                      "unit": "rad", "note": "a tilt of the base about this axis, over this range"})
     checked = checked_solution(solution)
-    tuned = getattr(getattr(solution, "robust", None), "envelope", None) or {}
+    tuned = tuned_envelope(solution)
     per_scenario: dict[str, list[Row]] = {}
     for scenario in problem.scenarios:
         mech = mechanics_at(solution, scenario.name)
@@ -420,7 +421,8 @@ def _adjustments(solution: Any) -> list[Row]:
     settings: dict[str, list[float]] = {}
     for slot, value in solution.values.items():
         settings.setdefault(slot.variable, []).append(value)
-    schedule = solution.payload.schedule if solution.payload is not None else None
+    outcome = solution.extra(PayloadDesign)
+    schedule = outcome.schedule if outcome is not None else None
     if schedule is not None:
         for srow in schedule.rows:
             for name, value in srow.values.items():

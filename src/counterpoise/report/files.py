@@ -26,17 +26,16 @@ from typing import TextIO
 
 from .. import unfinished
 from ..filemodes import respect_umask
+from ..designer.layers import Page, Row, layers
 from ..pipeline import DesignResult
-from . import parts
 from .rows import (
     DESIGN_COLUMNS,
     SUBSTITUTION_COLUMNS,
-    SUMMARY_COLUMNS,
     VERIFICATION_COLUMNS,
-    Row,
     design_rows,
     status_text,
     substitution_rows,
+    summary_columns,
     summary_row,
     verification_rows,
 )
@@ -172,85 +171,62 @@ def atomic_folder(folder: Path, fill: Callable[[Path], None]) -> Path:
 
 
 def report_texts(result: DesignResult, warnings: Sequence[str] | None = None) -> dict[str, str]:
-    """File name -> text of every report of ``result`` (substitution.csv only when the
-    problem substitutes a body; payload problems add ``schedule.csv``; problems with
-    catalogue parts ``springs.csv`` and ``tolerance.csv``; problems with free-stiffness
-    springs ``springs.csv``; problems with springs or counter-masses ``build.csv``, :mod:`.build`;
-    ``[robust]`` problems ``tolerance.csv`` and, with ``tune``, ``tuning.csv`` (the procedure)
-    and ``tuning_corners.csv`` (the corners): :mod:`.robust`).
+    """File name -> text of every report of ``result`` (see :func:`report_files`)."""
+    return report_files(result, warnings)[0]
+
+
+def report_files(result: DesignResult, warnings: Sequence[str] | None = None) -> tuple[dict[str, str], list[tuple[str, Page]]]:
+    """(File name -> text of every report of ``result``, the sections ``report.html`` gives
+    the layers' files): ``design.csv``, ``summary.csv``,
+    ``verification.csv``, ``status.txt``, ``substitution.csv`` when the problem substitutes a
+    body, and the files of the registered layers (:func:`counterpoise.designer.layers.layers`,
+    innermost first: a payload range's ``schedule.csv``; a ``[robust]`` design's
+    ``tolerance.csv``, ``tuning_corners.csv`` and ``tuning.csv``; catalogue parts'
+    ``tolerance.csv``; ``springs.csv`` and ``build.csv`` of a design with springs or
+    counter-masses). Each layer adds its rows to ``design.csv``, its cells to ``summary.csv``
+    (a column the summary does not list goes last) and its lines to ``status.txt``: what it
+    chose after the design's own lines, what it found after the problem's warnings.
 
     ``warnings``: the problem's degeneracy warnings as already found
     (:func:`~counterpoise.formulation.assumptions.degeneracies`; the CLI finds them at load);
-    None: found here."""
-    texts = {
-        "design.csv": csv_text(design_rows(result) + parts.part_design_rows(result), DESIGN_COLUMNS),
-        "summary.csv": csv_text([summary_row(result)], SUMMARY_COLUMNS),
-        "verification.csv": csv_text(verification_rows(result), VERIFICATION_COLUMNS),
-        "status.txt": status_text(result) + parts.parts_status(result) + parts.designed_status(result),
-    }
-    if warnings is None:
-        from ..formulation.assumptions import degeneracies
+    None: the problem's, as :func:`~counterpoise.formulation.assumptions.problem_warnings`
+    found them (once per problem)."""
+    stack = layers()
+    summary = summary_row(result)
+    status = status_text(result)
+    for layer in stack:
+        status = _lines(status, layer.status_lines(result))
+    if warnings is None:  # not given: the problem's own, found once per problem (formulation.assumptions)
+        from ..formulation.assumptions import problem_warnings
 
-        warnings = degeneracies(result.problem)
-    texts["status.txt"] += "".join(f"warning: {w}\n" for w in warnings)
+        warnings = problem_warnings(result.problem)
+    status = _lines(status, "".join(f"warning: {w}\n" for w in warnings))
+    for layer in stack:
+        status = _lines(status, layer.status_notes(result))
+    texts = {
+        "design.csv": csv_text(design_rows(result), DESIGN_COLUMNS),
+        "summary.csv": csv_text([summary], summary_columns(summary)),
+        "verification.csv": csv_text(verification_rows(result), VERIFICATION_COLUMNS),
+        "status.txt": status if status.endswith("\n") else status + "\n",  # a text file ends with a newline, whichever layer wrote its last line
+    }
     if result.problem.substitutions:
         texts["substitution.csv"] = csv_text(substitution_rows(result), SUBSTITUTION_COLUMNS)
-    if result.payload is not None:
-        from .schedule import payload_status_lines, schedule_columns, schedule_rows
-
-        texts["status.txt"] += payload_status_lines(result)
-        if result.payload.schedule is not None:
-            texts["schedule.csv"] = csv_text(schedule_rows(result), schedule_columns(result))
-    if getattr(result.solution, "robust", None) is not None:
-        from . import robust
-
-        texts["design.csv"] = csv_text(design_rows(result) + robust.design_rows(result), DESIGN_COLUMNS)
-        texts["status.txt"] += robust.status_lines(result) + robust.law_status_lines(result)
-        texts["tolerance.csv"] = csv_text(robust.tolerance_rows(result), robust.TOLERANCE_COLUMNS)
-        if result.problem.robust is not None and result.problem.robust.tune:
-            texts["tuning_corners.csv"] = csv_text(robust.tuning_rows(result), robust.tuning_columns(result))
-            procedure = robust.procedure_rows(result)
-            if procedure:
-                texts["tuning.csv"] = csv_text(procedure, robust.PROCEDURE_COLUMNS)
-    if result.parts is not None or result.springs:
-        texts["springs.csv"] = csv_text(parts.springs_rows(result), parts.SPRINGS_COLUMNS)
-    if result.parts is not None:
-        texts["tolerance.csv"] = csv_text(parts.tolerance_rows(result), parts.TOLERANCE_COLUMNS)
-    if result.sheet:
-        from ..realisation.sheet import COLUMNS, FLOAT_FORMAT
-
-        texts["build.csv"] = csv_text(list(result.sheet), COLUMNS, FLOAT_FORMAT)
-    if not texts["status.txt"].endswith("\n"):  # each layer's lines start on a line of their own
-        texts["status.txt"] += "\n"
-    texts["status.txt"] += realisation_status(result)
-    if not texts["status.txt"].endswith("\n"):  # a text file ends with a newline, whichever layer wrote its last line
-        texts["status.txt"] += "\n"
-    return texts
+    pages: list[tuple[str, Page]] = []
+    for layer in stack:
+        for name, table in layer.tables(result).items():
+            if name in texts:
+                raise ValueError(f"{name}: written twice (layer {layer.name} and another): a file has one writer")
+            texts[name] = csv_text(table.rows, table.columns, table.float_format or FLOAT_FORMAT)
+            if table.page is not None:
+                pages.append((name, table.page))
+    return texts, pages
 
 
-def realisation_status(result: DesignResult) -> str:
-    """status.txt's lines on the springs as built: the as-built residual ratio, every
-    realisation limit that is not met, the realisation constraints added and the wound rates."""
-    lines = []
-    as_built = result.as_built
-    if as_built is not None:
-        ratio = as_built.residual_ratio
-        lines.append(f"as built (rebuilt from build.csv with real springs): residual ratio {ratio:.3g}" if ratio == ratio else "as built: " + "; ".join(as_built.notes))
-        for name, share in as_built.slack.items():
-            if share > 0:
-                lines.append(f"as built: spring {name} is slack on {100 * share:.3g} % of the checked configurations")
-    report = result.realisation
-    if report is not None:
-        if report.ideal:
-            lines.append("springs: IDEAL (settings.ideal_springs): the status refers to the ideal model; realisation limits are reported, not enforced")
-        for lim in report.violated:
-            lines.append(f"realisation limit: {lim.text(result.problem)}")
-        if report.added:
-            lines.append(f"realisation constraints added ({report.rounds} round{'s' if report.rounds != 1 else ''}): {', '.join(report.added)}")
-        lines += list(report.notes)
-        for name, (design, wound) in report.wound.items():
-            lines.append(f"spring {name}: designed for {design / 1e3:.6g} N/mm, wound to {wound / 1e3:.6g} N/mm; the design was solved again for the wound rate")
-    return "".join(f"{line}\n" for line in lines)
+def _lines(text: str, more: str) -> str:
+    """``text`` with the lines ``more`` after it, each layer's starting on a line of its own."""
+    if not more:
+        return text
+    return (text if not text or text.endswith("\n") else text + "\n") + more
 
 
 def write_reports(
@@ -264,7 +240,7 @@ def write_reports(
     ``report.html``, the page of every file and plot in the folder (:mod:`.html`).
     ``warnings``: the degeneracy warnings already found (see :func:`report_texts`).
     """
-    texts = report_texts(result, warnings)  # built before anything is written
+    texts, pages = report_files(result, warnings)  # built before anything is written
 
     def fill(temp: Path) -> None:
         for name, text in texts.items():
@@ -276,7 +252,7 @@ def write_reports(
             from .html import IMAGES, report_html
 
             images = {name: (temp / name).read_bytes() for name, *_ in IMAGES if (temp / name).is_file()}
-            page = report_html(result.problem.name, result.problem.title, result.status.value, texts, images)
+            page = report_html(result.problem.name, result.problem.title, result.status.value, texts, images, pages)
             with (temp / "report.html").open("w", encoding="utf-8", newline="") as handle:
                 handle.write(page)
 

@@ -20,6 +20,8 @@ import html
 import io
 from collections.abc import Mapping, Sequence
 
+from ..designer.layers import Page
+
 #: the images a page shows, in this order: (file, section title, what it shows)
 IMAGES = (
     ("mechanism.png", "Drawing", "The mechanism at home (bold) and at the corners of its ranges (faint)."),
@@ -278,9 +280,11 @@ def _as_built_line(summary: str) -> str:
     return line
 
 
-def report_html(name: str, title: str, status: str, texts: Mapping[str, str], images: Mapping[str, bytes]) -> str:
+def report_html(name: str, title: str, status: str, texts: Mapping[str, str], images: Mapping[str, bytes], pages: Sequence[tuple[str, Page]] = ()) -> str:
     """The page of one design: ``texts`` are the report files' text (name -> text),
-    ``images`` the PNG plots written beside them (name -> bytes)."""
+    ``images`` the PNG plots written beside them (name -> bytes), ``pages`` the sections the
+    layers ask for their files (file name, :class:`~counterpoise.designer.layers.Page`:
+    a tolerance band, a tuning procedure, a payload schedule), after the verification."""
     # the design first (drawing, variables, build items, springs), the solver's internals last:
     # on paper the first page is the drawing, not seventeen rows of solver figures
     sections: list[tuple[str, str, str]] = []  # (id, title, html)
@@ -296,17 +300,9 @@ def report_html(name: str, title: str, status: str, texts: Mapping[str, str], im
     if energy is not None:
         sections.append(("energy", IMAGES[1][1], _image("energy.png", energy, *IMAGES[1][1:])))
     sections.append(("verification", "Verification", csv_table(texts.get("verification.csv", ""), "verification.csv: the largest residual of each balance condition over the checked configurations, against the largest gravity torque")))
-    if "tolerance.csv" in texts:
-        from .robust import TOLERANCE_CAPTION, is_robust_tolerance
-
-        caption = TOLERANCE_CAPTION if is_robust_tolerance(texts["tolerance.csv"]) else "tolerance.csv: the residual ratio with the parts' rates and initial tensions at the ends of their tolerance bands"
-        sections.append(("tolerance", "Tolerance", csv_table(texts["tolerance.csv"], caption)))
-    if "tuning.csv" in texts:
-        from .robust import procedure_html
-
-        sections.append(("tuning", "Tuning procedure", procedure_html(texts["tuning.csv"])))
-    if "schedule.csv" in texts:
-        sections.append(("schedule", "Payload schedule", csv_table(texts["schedule.csv"], "schedule.csv: the adjustments per payload")))
+    for file, page in sorted(pages, key=lambda item: item[1].order):
+        if file in texts:
+            sections.append((page.anchor, page.title, page.render(texts[file]) if page.render is not None else csv_table(texts[file], page.caption)))
     if "substitution.csv" in texts:
         sections.append(("substitution", "Substituted bodies", csv_table(texts["substitution.csv"])))
     sections.append(("summary", "Summary", _summary(texts.get("summary.csv", "")) + f"<pre>{html.escape(texts.get('status.txt', ''))}</pre>"))

@@ -7,15 +7,14 @@ Pure data, no pandas: the CLI writes them with the standard library (:mod:`.file
 from __future__ import annotations
 
 import math
-from typing import Any
 
+from ..designer.layers import Row, layers
 from ..formulation.constraints import ConstraintValue
 from ..pipeline import DesignResult
 from ..model.problem import Problem
 from ..verify.certificate import certificate_of
-from ..verify.checks import PRISMATIC, REVOLUTE, CoordinateCheck
+from ..designer.checks import PRISMATIC, REVOLUTE, CoordinateCheck
 
-Row = dict[str, Any]
 
 DESIGN_COLUMNS = ["name", "kind", "scenario", "value", "unit", "lower", "upper", "active_bound", "description"]
 SUMMARY_COLUMNS = [
@@ -81,7 +80,18 @@ def substitution_rows(result: DesignResult) -> list[Row]:
 
 
 def design_rows(result: DesignResult) -> list[Row]:
-    """One row per design-vector slot (``variable``) and per report quantity (``quantity``)."""
+    """Every row of ``design.csv``: the design's own (:func:`core_design_rows`), then each
+    registered layer's (:meth:`counterpoise.designer.layers.Layer.design_rows`: a catalogue
+    part per slot, a robust counterpart's figures; a payload range's pinned adjustments)."""
+    rows = core_design_rows(result)
+    for layer in layers():
+        rows = layer.design_rows(result, rows)
+    return rows
+
+
+def core_design_rows(result: DesignResult) -> list[Row]:
+    """One row per design-vector slot (``variable``), per design constraint
+    (``constraint``) and per report quantity (``quantity``)."""
     problem = result.problem
     rows: list[Row] = []
     for slot, value in result.solution.values.items():
@@ -100,8 +110,7 @@ def design_rows(result: DesignResult) -> list[Row]:
                 "unit": u.label,
                 "lower": u.from_si(v.lower),
                 "upper": u.from_si(v.upper),
-                # an adjustment fixed to its nominal at the nominal payload is not on an active bound
-                "active_bound": "" if result.payload is not None and result.payload.pinned(slot) else v.bound_side(value),
+                "active_bound": v.bound_side(value),  # a layer may say otherwise (a payload range's pinned adjustment)
                 "description": v.description,
             }
         )
@@ -177,9 +186,25 @@ def constraint_rows(result: DesignResult) -> list[Row]:
 
 
 def summary_row(result: DesignResult) -> Row:
-    """The one-row summary. Revolute figures (N·m) and prismatic ones (N) are kept apart;
-    a kind the problem does not have is left empty."""
+    """The one-row summary: the design's own cells (:func:`core_summary_row`), then each
+    registered layer's (the parts chosen, the residual ratio as built). A cell whose column
+    :data:`SUMMARY_COLUMNS` does not list is written after those (:func:`summary_columns`)."""
+    row = core_summary_row(result)
+    for layer in layers():
+        row.update(layer.summary_cells(result))
+    return row
+
+
+def summary_columns(row: Row) -> list[str]:
+    """The columns of ``summary.csv`` for ``row``: :data:`SUMMARY_COLUMNS`, then any a layer added."""
+    return [*SUMMARY_COLUMNS, *(c for c in row if c not in SUMMARY_COLUMNS)]
+
+
+def core_summary_row(result: DesignResult) -> Row:
+    """The summary cells of the design itself. Revolute figures (N·m) and prismatic ones (N)
+    are kept apart; a kind the problem does not have is left empty."""
     s, v = result.solution, result.verification
+    stats = s.stats
     return {
         "problem": result.problem.name,
         "status": result.status.value,
@@ -189,31 +214,18 @@ def summary_row(result: DesignResult) -> Row:
         "max_residual_N_m": v.max_residual(REVOLUTE),
         "max_gravity_torque_N_m": v.max_gravity_torque(REVOLUTE),
         "residual_ratio": v.residual_ratio,
-        "residual_ratio_as_built": result.as_built.residual_ratio if result.as_built is not None else None,
         "spring_model": "ideal" if result.problem.settings.ideal_springs else "real",
         "certificate": certificate_of(v),
         "checked_configurations": v.configurations,
-        "iterations": s.iterations,
-        "solve_time_s": s.solve_time,
-        "solver": s.solver,
+        "iterations": stats.iterations,
+        "solve_time_s": stats.solve_time,
+        "solver": stats.solver,
         "max_residual_N": v.max_residual(PRISMATIC),
         "max_gravity_force_N": v.max_gravity_torque(PRISMATIC),
-        "certificate_gap_kg": s.certificate_gap,
-        "starts_reaching_best": f"{s.starts[0]}/{s.starts[1]}",
+        "certificate_gap_kg": stats.certificate_gap,
+        "starts_reaching_best": f"{stats.starts[0]}/{stats.starts[1]}",
         "worst_scenario": worst.scenario if (worst := v.worst()) is not None else "",
-        "lower_bound_ratio": result.parts.search.lower_bound_ratio if result.parts is not None else None,
-        "parts": chosen_parts(result),
     }
-
-
-def chosen_parts(result: DesignResult) -> str:
-    """The catalogue parts chosen, 'slot: part number' per slot ('' without slots)."""
-    if result.parts is None or not result.problem.slots:
-        return ""
-    by_name = {slot.name: slot for slot in result.problem.slots}
-    return "; ".join(
-        f"{name}: {by_name[name].catalogue.part_number[row]}" for name, row in result.parts.chosen.items() if name in by_name
-    )
 
 
 def _scenario_label(problem: Problem, check: CoordinateCheck) -> str:
@@ -253,11 +265,12 @@ def verification_rows(result: DesignResult) -> list[Row]:
 
 def status_text(result: DesignResult) -> str:
     s = result.solution
+    stats = s.stats
     return (
         f"problem: {result.problem.name}\n"
         f"status: {result.status.value}\n"
         f"message: {result.message}\n"
-        f"solver: {s.solver} ({s.solver_status}), {s.iterations} iterations\n"
-        f"balance conditions: {s.conditions} ({s.condition_summary})\n"
-        + (f"closest design: {s.closest}\n" if result.status.value == "infeasible" and getattr(s, "closest", None) else "")
+        f"solver: {stats.solver} ({stats.solver_status}), {stats.iterations} iterations\n"
+        f"balance conditions: {stats.conditions} ({stats.condition_summary})\n"
+        + (f"closest design: {s.closest}\n" if result.status.value == "infeasible" and s.closest else "")
     )

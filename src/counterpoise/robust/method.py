@@ -22,7 +22,7 @@ from __future__ import annotations
 import copy
 import itertools
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -30,6 +30,7 @@ import numpy as np
 from ..designer.constrained import SLACK_TOLERANCE
 from ..designer.convex import geometric_variables
 from ..designer.methods import DesignMethod
+from ..designer.options import SolveOptions
 from ..designer.solution import Solution, build_solution
 from ..errors import ProblemFileError
 from ..formulation.constraints import MAX_ROUNDS, ConstraintValue, describe, scale, violations
@@ -40,10 +41,10 @@ from ..solvers.base import SolverOutput, Status
 from .affine import LP_CONFIGURATIONS, Decomposition, Rows, worst
 from .constraints import CornerConstraints, LinearRows
 from .perturb import Deviation, corner_name, corner_text, perturbed
+from .result import Corner, RobustReport
 
 if TYPE_CHECKING:
     from ..designer.designer import Designer
-    from .law import Check, Law
     from .limits import Envelope as LimitEnvelope
     from .limits import Margin, PulleySpring
     from .minimax import RobustMinimax
@@ -72,64 +73,13 @@ LAW_CONFIGURATIONS = 500
 LPArguments = tuple[Rows, tuple[np.ndarray, float], tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray], str, float, float, str]
 
 
-@dataclass(frozen=True)
-class Corner:
-    """One tolerance corner: its deviations, the tuning that re-balances it, residual ratios."""
-
-    name: str
-    signs: tuple[int, ...]
-    deviation: str
-    before: float  # worst residual ratio at this corner with the factory setting
-    after: float  # after tuning (dense verification)
-    settings: tuple[tuple[str, float], ...]  # (tune variable, SI value); a payload range's adjustments as "x@<setting>"
-    #: a corner that cannot be re-balanced: the scenario (payload sample) where the residual stays
-    scenario: str = ""
-
-
-@dataclass(frozen=True)
-class RobustReport:
-    """What ``robust.csv``, ``tolerance.csv`` and ``tuning.csv`` are written from."""
-
-    mode: str
-    shape: str
-    deviations: tuple[Deviation, ...]
-    #: per design ("nominal", "robust"): {kind or "all": worst-case ratio}, "residual": nominal ratio
-    bands: Mapping[str, Mapping[str, float]]
-    added_mass: Mapping[str, float]  # kg, per design
-    objective: Mapping[str, float]  # kg, per design
-    lp_ratio: float = float("nan")  # the worst case on the LP's rows
-    lp_seconds: float = 0.0
-    solver: str = ""  # of the counterpart: "cvxpy/Clarabel" (LP, SOCP) or "IPOPT" (minimax NLP)
-    corners: tuple[Corner, ...] = ()
-    tuning_range: Mapping[str, tuple[float, float]] = field(default_factory=dict)  # SI
-    tuning_status: str = ""  # "" (no tune), "balanced" or the failure
-    #: how the bands are obtained: "exact" over the box, else what makes them a bound or first order
-    exactness: str = "exact"
-    #: minimise mode: the file's objective per design (``objective`` is it + weight × band)
-    base_objective: Mapping[str, float] = field(default_factory=dict)
-    weight: float = 0.0  # kg per unit of worst-case ratio (minimise)
-    #: per free-stiffness pulley spring: what it must serve over every tuned corner (robust/limits.py)
-    envelope: "Mapping[str, LimitEnvelope]" = field(default_factory=dict)
-    #: per such spring: the spring as designed for the envelope (its F0, L0, allowable load, cable)
-    springs: "Mapping[str, PulleySpring]" = field(default_factory=dict)
-    #: per tuned corner: each spring's margins to its limits
-    margins: "Mapping[str, tuple[Margin, ...]]" = field(default_factory=dict)
-    #: the tuning law and its check at random as-built machines (robust/law.py)
-    law: "Law | None" = None
-    law_check: "Check | None" = None
-
-    @property
-    def tuned_residual(self) -> float:
-        return max((c.after for c in self.corners), default=float("nan"))
-
-
-class RobustMethod:
+class RobustMethod(DesignMethod):
     """Robust design of a problem with ``[robust]`` around its inner design method."""
 
     def __init__(self, problem: Problem, inner: DesignMethod) -> None:
         if problem.robust is None:
             raise ValueError(f"{problem.name}: no [robust] table")
-        self.problem = problem
+        self._problem = problem
         self.inner = inner
         self._source_key: tuple[Any, ...] = ()
         self._prepare(problem)
@@ -157,25 +107,23 @@ class RobustMethod:
         if spec.tolerances != self._spec().tolerances:
             raise ValueError("with_spec: the tolerances must stay the same")
         other = copy.copy(self)
-        other.problem = replace(self.problem, robust=spec)
+        other._problem = replace(self.problem, robust=spec)
         other._tuner = None if spec.tune != self._spec().tune else self._tuner
         other._minimax = None if (spec.mode, spec.weight) != (self._spec().mode, self._spec().weight) else self._minimax
         return other
 
+    @property
+    def problem(self) -> Problem:
+        return self._problem
+
     # -- the method ----------------------------------------------------------------
-    def solve(
-        self,
-        parameters: Mapping[str, float] | None = None,
-        bounds: Mapping["Slot | str", tuple[float, float]] | None = None,
-        initial: Mapping[Slot, float] | None = None,
-        *,
-        certify: bool = True,
-    ) -> Solution:
+    def solve_with(self, options: SolveOptions) -> Solution:
         spec = self._spec()
-        held: dict[Slot | str, tuple[float, float]] = {**(bounds or {})}
+        parameters = options.parameters
+        held: dict[Slot | str, tuple[float, float]] = {**(options.bounds or {})}
         held.update({name: (self.problem.variable[name].initial, self.problem.variable[name].initial) for name in spec.tune})
         if self.problem.payloads:
-            return self._solve_payloads(parameters, held, initial, certify)
+            return self._solve_payloads(options, held)
         f = self.decomposition.formulation
         d = f.design
         p = f.parameters.values(parameters)
@@ -185,7 +133,7 @@ class RobustMethod:
             given = build_solution(f, lbz, p, lbz, ubz, out0, "every variable is held: the design as given, judged by its dense check", 0, "no variable to solve for")
             nominal = replace(given, problem=self.problem, scenario_parameters=_without_deviations(given.scenario_parameters, self.deviations))
         else:
-            nominal = self.inner.solve(parameters, held, initial, certify=certify)
+            nominal = self.inner.solve_with(replace(options, bounds=held))
         z_nom = np.clip(d.to_z(d.vector(nominal.values)), lbz, ubz)
         dense = self.decomposition.configurations(BAND_CONFIGURATIONS, self.problem.settings.seed)
         bands = {"nominal": self._band(self.decomposition.rows(dense, z_nom, [], p))}
@@ -292,7 +240,7 @@ class RobustMethod:
                 )
             else:
                 status, message = Status.FAILED, f"constraint violated at a tolerance corner between the sampled configurations after the verification rounds: {text}"
-            return replace(design, robust=report).judged(status, message, "robust")
+            return design.with_extra(report).judged(status, message, "robust")
         if spec.tune and status is Status.OPTIMAL:
             report = self._tune(design, z, p, dense, report, parameters)
             if report.tuning_status != "balanced":
@@ -313,7 +261,7 @@ class RobustMethod:
         binding = [v for v in corner_values if v.active in ("upper", "lower")]
         if binding:
             text += "; binding: " + "; ".join(describe(self.perturbed, v) for v in binding)
-        design = replace(design, robust=report)
+        design = design.with_extra(report)
         if status is not Status.OPTIMAL:
             if key == "robust" or report.tuning_status not in ("", "balanced"):
                 return design.judged(status, message, "robust")  # the counterpart or the tuning failed: say which
@@ -322,9 +270,7 @@ class RobustMethod:
             return design.judged(status, text, "robust")  # the counterpart may leave the nominal unbalanced by choice
         return replace(design, message=text)  # the ordinary design: judged by its dense check as usual
 
-    def _solve_payloads(
-        self, parameters: Mapping[str, float] | None, held: dict["Slot | str", tuple[float, float]], initial: Mapping[Slot, float] | None, certify: bool
-    ) -> Solution:
+    def _solve_payloads(self, options: SolveOptions, held: dict["Slot | str", tuple[float, float]]) -> Solution:
         """[robust] over a payload range (mode "none"): the design for the range (the inner
         payload method, the tune variables at their factory setting), its worst case over the
         tolerance box at every payload sample, and the tuning: at every corner one setting of
@@ -334,12 +280,13 @@ class RobustMethod:
         designed again with the adjustment's bounds narrowed by it (at most RESERVE_ROUNDS
         times); what remains is infeasible, the corner, the payload and the limit named."""
         spec = self._spec()
+        parameters = options.parameters
         payload = self.problem.payloads[0]
         reserve: dict[Slot | str, tuple[float, float]] = {}
         nominal: Solution | None = None
         report: RobustReport | None = None
         for round_ in range(RESERVE_ROUNDS + 1):
-            nominal = self.inner.solve(parameters, {**held, **reserve}, initial, certify=certify)
+            nominal = self.inner.solve_with(replace(options, bounds={**held, **reserve}))
             verdict = nominal.verdict
             if (verdict.status if verdict is not None else nominal.status) is not Status.OPTIMAL:
                 return nominal  # the range cannot be designed: the payload layer says why
@@ -389,7 +336,7 @@ class RobustMethod:
         masses = sorted(set(setting_mass.values()))
         unit = payload.unit
         reserved = "; ".join(_reserved_text(self.problem.variable[str(name)], lo, hi) for name, (lo, hi) in reserve.items())
-        design = replace(nominal, robust=report)
+        design = nominal.with_extra(report)
         base = nominal.verdict.message if nominal.verdict is not None else nominal.message
         where = f"at every payload sample ({', '.join(f'{unit.from_si(m):g}' for m in masses)} {unit.label})"
         if report.tuning_status not in ("", "balanced"):

@@ -37,7 +37,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..designer.minimax import MinimaxDesigner
+from ..designer.minimax import MinimaxDesign, MinimaxDesigner, minimax_of
+from ..designer.solution import Solution
 from ..errors import ProblemFileError
 from ..formulation.layout import Slot
 from ..model.parts import SpringSlot
@@ -93,11 +94,11 @@ def _terminal_progress(done: int, total: int) -> None:
         sys.stderr.flush()
 
 
-def _choice(problem: Problem, rows: dict[str, int], sol: object) -> Choice:
+def _choice(problem: Problem, rows: dict[str, int], sol: Solution, minimax: MinimaxDesign) -> Choice:
     slots = [s for s in problem.slots if s.name in rows]
     price = sum(len(s.springs) * s.catalogue.price[rows[s.name]] for s in slots)
-    choice = Choice(rows, {s.name: s.catalogue.rate[rows[s.name]] for s in slots}, sol.objective, float(price), robust=float(sol.sampled_ratio))  # type: ignore[attr-defined]  # a minimax Solution has its objective and sampled ratio
-    choice.values = dict(sol.values)  # type: ignore[attr-defined]  # a minimax Solution has its values
+    choice = Choice(rows, {s.name: s.catalogue.rate[rows[s.name]] for s in slots}, sol.objective, float(price), robust=float(minimax.sampled_ratio))
+    choice.values = dict(sol.values)
     return choice
 
 
@@ -194,12 +195,12 @@ def _enumerate(problem: Problem, designer: MinimaxDesigner, progress: Progress, 
         sol = designer.solve(initial=warm, parameters=part_parameters(problem, rows))
         solves += 1
         progress(solves, total)
-        if sol.status is not Status.OPTIMAL or sol.sampled_ratio is None:
+        if sol.status is not Status.OPTIMAL or (minimax := minimax_of(sol)) is None:
             for c in counts:
                 c.failed_limits += 1
             continue
         warm = sol.values
-        found.append(_choice(problem, rows, sol))
+        found.append(_choice(problem, rows, sol, minimax))
         for c in counts:
             c.fitting += 1
     for c in counts:
@@ -246,12 +247,12 @@ def _search_screened(problem: Problem, designer: MinimaxDesigner, screened: Scre
         solves += 1
         designed.append(int(i))
         progress(min(solves, budget), budget)
-        if sol.status is not Status.OPTIMAL or sol.sampled_ratio is None:
+        if sol.status is not Status.OPTIMAL or (minimax := minimax_of(sol)) is None:
             count.failed_limits += 1
             continue
         count.fitting += 1
-        found.append(_choice(problem, rows, sol))
-        incumbent = min(incumbent, float(sol.sampled_ratio))
+        found.append(_choice(problem, rows, sol, minimax))
+        incumbent = min(incumbent, float(minimax.sampled_ratio))
     if not stopped:
         stopped = "every screened part designed"
     count.rates_solved = solves
@@ -334,11 +335,11 @@ def _search_coupled(problem: Problem, designer: MinimaxDesigner, group: DirectGr
             start.update({v: x for v, x in starts[s.name][int(i)].items() if v in group.variables or v not in start})
         sol = designer.solve(initial={Slot(v, None): x for v, x in start.items()}, parameters=part_parameters(problem, rows))
         progress(n + 1, len(combos))
-        if sol.status is not Status.OPTIMAL or sol.sampled_ratio is None:
+        if sol.status is not Status.OPTIMAL or (minimax := minimax_of(sol)) is None:
             for c in counts:
                 c.failed_limits += 1
             continue
-        found.append(_choice(problem, rows, sol))
+        found.append(_choice(problem, rows, sol, minimax))
         for c in counts:
             c.fitting += 1
     for c in counts:

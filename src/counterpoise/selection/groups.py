@@ -94,7 +94,7 @@ def slot_groups(
         lo, hi = lbz * f.design.scale, ubz * f.design.scale
     p = f.parameters.values(parameters) if parameters else d.parameters
     points = [f.design.to_z(f.design.vector(base_values))] + [f.design.to_z(lo + (hi - lo) * rng.random(n)) for _ in range(RANDOM_POINTS)]
-    gj = d.residual_jacobian()
+    gj = d.balance.residual_jacobian()
     for z in points:
         _, jac, _ = (np.array(v) for v in gj(z, p))
         if jac.size == 0:

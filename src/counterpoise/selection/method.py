@@ -9,11 +9,11 @@ or a payload-range design around one of them). Each :meth:`~PartsMethod.solve`:
    with the call's parameters and bounds applied;
 2. solves the inner method with the parts' parameters;
 3. checks every spring against its part's limits in every scenario of the design (a
-   payload range: at every payload of its schedule, ``PayloadDesign.schedule_solution``);
+   payload range: at every payload of its schedule, the inner method's ``scheduled``);
    a payload where a part leaves its limits joins the search's samples and the search
    runs again (at most :data:`REFINEMENTS` times).
 
-It returns a new solution whose ``parts`` is the :class:`.parts.PartsReport` and whose
+It returns a new solution with the :class:`.result.PartsReport` as its extra and whose
 verdict (source ``parts``) the status and message.
 """
 
@@ -23,7 +23,8 @@ from collections.abc import Collection, Mapping
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
-from ..designer.methods import BoundsOverride, DesignMethod, SampledMethod
+from ..designer.methods import DesignMethod, SampledMethod
+from ..designer.options import BoundsOverride, SolveOptions
 from ..designer.solution import Solution
 from ..errors import ProblemFileError
 from ..formulation.layout import Slot
@@ -76,18 +77,22 @@ class _Given:
         return self.designer.solve(initial=initial, parameters=merged, bounds=bounds or self.bounds)
 
 
-class PartsMethod:
+class PartsMethod(DesignMethod):
     """Choose catalogue parts for the slots of ``problem``, then design with ``inner``."""
 
     #: what a solve is doing, for the progress line of a slow one (:func:`counterpoise.progress.phase`)
     phase = "searching catalogue parts"
 
     def __init__(self, problem: Problem, inner: DesignMethod, direct: bool) -> None:
-        self.problem = problem
+        self._problem = problem
         self.inner = inner
         self.direct = direct
         #: the part search's designers, one per searched problem's content (built once per worker)
         self._searches = SearchModels()
+
+    @property
+    def problem(self) -> Problem:
+        return self._problem
 
     def _search_problem(self, extra: tuple[float, ...]) -> Problem:
         return self.inner.search_problem_with(extra) if isinstance(self.inner, SampledMethod) else self.problem
@@ -99,22 +104,16 @@ class PartsMethod:
     def _designer_of(self, solution: Solution) -> Any:
         return self._method_of(solution.problem).designer
 
-    def solve(
-        self,
-        parameters: Mapping[str, float] | None = None,
-        bounds: BoundsOverride | None = None,
-        initial: Mapping[Slot, float] | None = None,
-        *,
-        certify: bool = True,
-    ) -> Solution:
-        given = dict(parameters or {})
+    def solve_with(self, options: SolveOptions) -> Solution:
+        given = dict(options.parameters or {})
+        bounds = options.bounds
         taken = sorted(set(given) & set(part_parameters(self.problem, {s.name: 0 for s in self.problem.slots})))
         if taken:
             raise ProblemFileError(self.problem.path, "parameters", f"'{taken[0]}' is set by the catalogue part chosen for its slot")
         extra: tuple[float, ...] = ()
         for _ in range(REFINEMENTS + 1):
             searched = self._search_problem(extra)
-            start = initial
+            start = options.initial
             if self.direct:
                 search = search_direct(searched, _Given(self._method_of(searched).designer, given, bounds))  # type: ignore[arg-type]  # _Given answers the designer calls search_direct makes
                 rows = dict(search.choice.parts) if search.choice else {s.name: 0 for s in self.problem.slots}
@@ -123,14 +122,14 @@ class PartsMethod:
             else:
                 # the search designer of ``searched`` is built once (per content) and solved with the call's options
                 search, rows, _rates = parts.choose(with_options(searched, given, bounds), self._searches.of(searched, given), given, bounds)  # rows carry the rates
-            solution = self.inner.solve({**given, **part_parameters(self.problem, rows)}, bounds, start, certify=certify)
-            outcome = solution.payload
-            checked = outcome.schedule_solution() if outcome is not None and outcome.schedule is not None else None
+            solution = self.inner.solve_with(replace(options, parameters={**given, **part_parameters(self.problem, rows)}, initial=start))
+            sampled = self.inner if isinstance(self.inner, SampledMethod) else None
+            checked = sampled.scheduled(solution) if sampled is not None else None  # a payload range: every payload of its schedule
             chosen = parts.report(solution.problem, self._designer_of(solution), solution, search, rows, checked, given)
             misfit = chosen.first_misfit()
-            if outcome is None or misfit is None or search.choice is None or checked is None:
+            if sampled is None or misfit is None or search.choice is None or checked is None:
                 break
-            mass = outcome.mass_of(misfit.scenario)
+            mass = sampled.sample_of(solution, misfit.scenario)
             if mass is None or mass in extra:
                 break
             extra = (*extra, mass)
@@ -149,7 +148,7 @@ class PartsMethod:
         elif status is Status.OPTIMAL:
             picked = ", ".join(f"{s.name}: {s.catalogue.part_number[rows[s.name]]}" for s in self.problem.slots)
             message = f"{message}; parts {picked}"
-        return replace(solution, verification=verification, parts=chosen).judged(status, message, "parts")
+        return replace(solution, verification=verification).with_extra(chosen).judged(status, message, "parts")
 
     def __repr__(self) -> str:
         return f"PartsMethod({self.inner!r})"

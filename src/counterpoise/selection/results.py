@@ -6,6 +6,7 @@ import math
 from dataclasses import dataclass, field
 
 from ..catalogue.limits import LIMIT_TEXT
+from ..formulation.layout import Slot
 
 #: objectives within this relative amount count as tied (the preference then decides)
 TIE = 1e-9
@@ -50,7 +51,7 @@ class Choice:
     price: float
     robust: float = math.nan  # worst-case residual ratio over the tolerance band
     #: the design found with these parts (directly attached slots: a start for the final solve)
-    values: dict | None = None
+    values: dict[Slot, float] | None = None
 
 
 @dataclass

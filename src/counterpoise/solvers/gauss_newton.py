@@ -1,7 +1,7 @@
 """One bounded Gauss-Newton iteration, shared by every polish of the designer.
 
 The designer finishes solver points on its balance equalities g(z) = 0 in several places
-(:meth:`~counterpoise.designer.designer.Designer.finish`, ``_snap``, ``refine`` and
+(:meth:`~counterpoise.designer.balance.Balance.finish`, ``snap``, ``refine`` and
 ``polish_settings``); they differ only in which variables move, when a step is kept and
 when to stop. :func:`gauss_newton` is that one loop:
 

@@ -29,11 +29,14 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypeGuard
 
 import numpy as np
 
 from .design import Envelope, Requirement, SpringDesign, design
+
+if TYPE_CHECKING:
+    from ..io.cache import BuiltEntry
 
 #: the seed offset of the dense sample (the one catalogue parts are checked on)
 SEED_OFFSET = 11
@@ -119,13 +122,14 @@ def sample(problem: Any, base: Mapping[str, float], samples: int, seed: int) -> 
     ``counterpoise solve`` keeps the draws on disk (:mod:`counterpoise.io.cache`, kind
     :data:`KEPT_KIND`): its later runs of the same file read them instead of drawing them
     again (and of importing ``numpy.random``, ~10 ms)."""
-    parts = _kept_parts(problem, base, samples, seed)
-    if parts is not None:
-        from ..io.cache import fetch_built
+    entry = _kept_entry(problem, base, samples, seed)
 
-        kept = fetch_built(KEPT_KIND, parts, {})
-        if _valid(kept, problem, samples):
-            return kept  # type: ignore[return-value]  # checked by _valid
+    def valid(found: object) -> TypeGuard[dict[str, np.ndarray]]:
+        return _valid(found, problem, samples)
+
+    kept = entry.fetch(valid) if entry is not None else None
+    if kept is not None:
+        return kept
     from ..mechanics.closure import manifold_configurations
     from ..mechanics.sampling import configurations
 
@@ -136,10 +140,8 @@ def sample(problem: Any, base: Mapping[str, float], samples: int, seed: int) -> 
             out[s.name] = manifold_configurations(problem, s.name, samples, rng, base).q
         else:
             out[s.name] = configurations(problem, s.name, samples, rng)
-    if parts is not None:
-        from ..io.cache import keep_built
-
-        keep_built(KEPT_KIND, parts, out, {})
+    if entry is not None:
+        entry.keep(out)
     return out
 
 
@@ -147,18 +149,18 @@ def sample(problem: Any, base: Mapping[str, float], samples: int, seed: int) -> 
 KEPT_KIND = "workspace"
 
 
-def _kept_parts(problem: Any, base: Mapping[str, float], samples: int, seed: int) -> tuple[str, ...] | None:
-    """The key parts of a sample kept on disk, or None when built objects are not kept in
-    this process (anything but the console script's ``solve``). The geometry ``base``
-    counts only where the problem has closed loops (an open chain's draws do not use it)."""
-    from ..io.cache import built_parts
+def _kept_entry(problem: Any, base: Mapping[str, float], samples: int, seed: int) -> BuiltEntry | None:
+    """The disk entry of a sample, or None when built objects are not kept in this process
+    (anything but the console script's ``solve``). The geometry ``base`` counts only where
+    the problem has closed loops (an open chain's draws do not use it)."""
+    from ..io.cache import built_entry
     from ..model.digest import digest
 
     geometry = digest({str(k): float(v) for k, v in base.items()}) if problem.loops else ""
-    return built_parts(problem, str(samples), str(seed), geometry)
+    return built_entry(KEPT_KIND, problem, str(samples), str(seed), geometry)
 
 
-def _valid(kept: object, problem: Any, samples: int) -> bool:
+def _valid(kept: object, problem: Any, samples: int) -> TypeGuard[dict[str, np.ndarray]]:
     """Whether ``kept`` is a sample of ``problem``'s subsystems as :func:`sample` draws it."""
     if not isinstance(kept, dict) or list(kept) != [s.name for s in problem.subsystems]:
         return False
@@ -191,16 +193,18 @@ def distances(problem: Any, springs: list[Any], q: Mapping[str, np.ndarray], var
     return out
 
 
-def designed_springs(solution: Any) -> tuple[DesignedSpring, ...]:
-    """One :class:`DesignedSpring` per free-stiffness spring and scenario of ``solution``
-    (a payload design: per payload of its schedule), plus one per spring over ``all``
-    scenarios when there are several. Empty when the problem has no such spring."""
+def designed_springs(solution: Any, checked: Any = None, tuned: Mapping[str, Any] | None = None) -> tuple[DesignedSpring, ...]:
+    """One :class:`DesignedSpring` per free-stiffness spring and scenario of ``checked``
+    (the solution the working range is measured on: a payload design's schedule, one
+    scenario per payload; None: ``solution`` itself), plus one per spring over ``all``
+    scenarios when there are several. ``tuned``: per spring, the forces and distances it
+    must also serve (a [robust] design's tuned corners, :mod:`counterpoise.robust.limits`).
+    Empty when the problem has no such spring."""
     if not free_springs(solution.problem):
         return ()
     from ..mechanics import Mechanics
 
-    outcome = getattr(solution, "payload", None)
-    checked = outcome.schedule_solution() if outcome is not None and getattr(outcome, "schedule", None) is not None else solution
+    checked = solution if checked is None else checked
     problem = checked.problem
     springs = free_springs(problem)
     # per spring: scenario -> (rate, d_min, d_max, cable, F0, L0)
@@ -258,7 +262,7 @@ def designed_springs(solution: Any) -> tuple[DesignedSpring, ...]:
             first = next(iter(needs.values()))
             rows[ALL] = (first.rate, min(v[1] for v in rows.values()), max(v[2] for v in rows.values()), *next(iter(rows.values()))[3:])
             needs[ALL] = replace(first, force_min=min(r.force_min for r in needs.values()), force_max=max(r.force_max for r in needs.values()))
-        _widen_for_tuning(solution, s.name, needs, rows)
+        _widen_for_tuning((tuned or {}).get(s.name), needs, rows)
         rates = [r.rate for r in needs.values()]
         o = s.design
         made = design(needs.get(ALL, first_of(needs)), o.material, envelope(o, size, next(iter(rows.values()))[6]), o.rate_tolerance, o.min_safety_factor)
@@ -269,11 +273,10 @@ def designed_springs(solution: Any) -> tuple[DesignedSpring, ...]:
     return tuple(out)
 
 
-def _widen_for_tuning(solution: Any, name: str, needs: dict[str, Requirement], rows: dict[str, tuple[float, ...]]) -> None:
+def _widen_for_tuning(envelope: Any, needs: dict[str, Requirement], rows: dict[str, tuple[float, ...]]) -> None:
     """A [robust] design with ``tune``: the spring that is made serves every tuned corner
-    (its forces and distances there: the robust report's envelope, counterpoise.robust.limits),
+    (its forces and distances there, ``envelope``: the robust report's, counterpoise.robust.limits),
     so the requirement of the spring made (and its distances: the cable) is widened to it."""
-    envelope = getattr(getattr(solution, "robust", None), "envelope", {}).get(name)
     if envelope is None:
         return
     key = ALL if ALL in needs else next(iter(needs))

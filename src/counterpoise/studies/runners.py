@@ -199,8 +199,8 @@ def solve_point(task: StudyTask, point: Point, initial: Mapping[Any, float] | No
         return _failed(point, ERROR, f"{type(exc).__name__}: {' '.join(str(exc).split())}", time.perf_counter() - t0), None
     s = result.solution
     status, message = result.status.value, result.message
-    if s.solver_status in _TIME_CODES:
-        status, message = TIMEOUT, f"{s.solver} stopped at the time limit of {task.time_limit:g} s"
+    if s.stats.solver_status in _TIME_CODES:
+        status, message = TIMEOUT, f"{s.stats.solver} stopped at the time limit of {task.time_limit:g} s"
     res = PointResult(
         point=dict(point),
         status=status,
@@ -210,9 +210,9 @@ def solve_point(task: StudyTask, point: Point, initial: Mapping[Any, float] | No
         added_mass=s.added_mass,
         added_inertia=s.added_inertia,
         residual_ratio=result.verification.residual_ratio,
-        solve_time=s.solve_time,
-        solver=s.solver,
-        certificate_gap=s.certificate_gap,
+        solve_time=s.stats.solve_time,
+        solver=s.stats.solver,
+        certificate_gap=s.stats.certificate_gap,
         certificate=certificate_of(result.verification),
         parts=_chosen_parts(result),
     )
@@ -223,7 +223,9 @@ def _chosen_parts(result: Any) -> dict[str, tuple[str, float, float]]:
     """Each slot's chosen part (the nearest candidate when none fits), its rate and the
     largest force its springs pull over the checked configurations (``result``: a
     :class:`~counterpoise.pipeline.DesignResult`)."""
-    parts = result.parts
+    from ..selection.result import PartsReport
+
+    parts = result.extra(PartsReport)
     if parts is None:
         return {}
     out = {}

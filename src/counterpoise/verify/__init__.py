@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from .check import verify
-from .checks import PRISMATIC, REVOLUTE, CoordinateCheck, Verification
+from ..designer.checks import PRISMATIC, REVOLUTE, CoordinateCheck, Verification
 from .judge import judge
 
 __all__ = ["PRISMATIC", "REVOLUTE", "CoordinateCheck", "Verification", "judge", "verify"]

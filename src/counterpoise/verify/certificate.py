@@ -49,7 +49,7 @@ import numpy as np
 from ..model import expr as ex
 from ..model.mechanism import GROUND, Point, Rotation, Translation
 from ..model.problem import Problem
-from .checks import PRISMATIC, REVOLUTE, CoordinateCheck, Verification
+from ..designer.checks import PRISMATIC, REVOLUTE, CoordinateCheck, Verification
 from .residuals import SubsystemResiduals, configurations, energy_scale_if_needed
 
 if TYPE_CHECKING:

@@ -8,12 +8,12 @@ set against the forces gravity puts on the unbalanced mechanism (:mod:`.checks`)
 from __future__ import annotations
 
 import weakref
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeGuard
 
 import numpy as np
 
 from ..model.problem import Problem
-from .checks import PRISMATIC, REVOLUTE, CoordinateCheck, Verification
+from ..designer.checks import PRISMATIC, REVOLUTE, CoordinateCheck, Verification
 from ..model import expr as ex
 from ..model.tilt import tilt_extremes, tilted_directions
 from .manifold import ManifoldResiduals
@@ -25,6 +25,7 @@ _cache: dict[int, tuple["weakref.ref[Problem]", dict[tuple[Any, ...], list[tuple
 
 if TYPE_CHECKING:
     from ..designer.solution import Solution
+    from ..io.cache import BuiltEntry
 
 
 def evaluators(solution: "Solution", samples: int | None = None, seed: int | None = None) -> list[tuple[str, str, SubsystemResiduals]]:
@@ -32,7 +33,7 @@ def evaluators(solution: "Solution", samples: int | None = None, seed: int | Non
     and seed, and reused by later checks of the same problem (the configurations do not
     depend on parameter values; each evaluator rebuilds its arrays when the geometry does).
     Under ``counterpoise solve`` they are kept on disk after their first check and a later
-    solve of the same content takes them from there (:func:`_restore`; not those of a
+    solve of the same content takes them from there (:func:`kept_entry`; not those of a
     closed loop's manifold)."""
     problem = solution.problem
     settings = problem.settings
@@ -46,8 +47,8 @@ def evaluators(solution: "Solution", samples: int | None = None, seed: int | Non
         _cache[id(problem)] = entry
     found = entry[1].get((n, seed))
     if found is None:
-        parts = _kept_parts(problem, n, seed)
-        found = _restore(problem, parts) if parts is not None else None
+        kept = kept_entry(problem, n, seed)
+        found = kept.fetch(_evaluators_of) if kept is not None else None
         if found is None:
             rng = np.random.default_rng(seed)  # the draws follow (scenario, subsystem) order, as always
             found = []
@@ -58,8 +59,8 @@ def evaluators(solution: "Solution", samples: int | None = None, seed: int | Non
                         continue
                     q = configurations(problem, sub.name, n, rng)
                     found.append((scenario.name, sub.name, SubsystemResiduals(problem, sub.name, q)))
-            if parts is not None and all(type(e) is SubsystemResiduals for *_, e in found):
-                _to_keep[id(found)] = (found, problem, parts)
+            if kept is not None and all(type(e) is SubsystemResiduals for *_, e in found):
+                _to_keep[id(found)] = (found, kept)
         entry[1][(n, seed)] = found
     return found
 
@@ -71,30 +72,20 @@ KEPT_KIND = "evaluators"
 #: evaluators built in this process and not yet kept: kept after their first check, with
 #: the arrays and box maxima it computed (by id of the list :func:`evaluators` returns,
 #: which is held here, so that its id is not another's)
-_to_keep: dict[int, tuple[list[tuple[str, str, SubsystemResiduals]], Problem, tuple[str, ...]]] = {}
+_to_keep: dict[int, tuple[list[tuple[str, str, SubsystemResiduals]], BuiltEntry]] = {}
 
 
-def _kept_parts(problem: Problem, samples: int, seed: int) -> tuple[str, ...] | None:
-    """The key parts of a problem's evaluators kept on disk, or None when they are not kept
-    in this process (anything but the console script's ``solve``)."""
-    from ..io.cache import built_parts
+def kept_entry(problem: Problem, samples: int, seed: int) -> BuiltEntry | None:
+    """The disk entry of a problem's evaluators, or None when they are not kept in this
+    process (anything but the console script's ``solve``)."""
+    from ..io.cache import built_entry
 
-    return built_parts(problem, str(samples), str(seed))
+    return built_entry(KEPT_KIND, problem, str(samples), str(seed), shared={"problem": problem}, reducers={SubsystemResiduals: _reduce_residuals}, casadi=True)
 
 
-def _restore(problem: Problem, parts: tuple[str, ...]) -> list[tuple[str, str, SubsystemResiduals]] | None:
-    """The evaluators of ``problem`` as an earlier ``counterpoise solve`` kept them after its
-    check (their configurations, complex-step arrays and the box maximum's functions: what
-    the same code computes again from the same content; not the maxima its check found), or None. CasADi functions are unpickled in
-    one CasADi context."""
-    import casadi as ca
-
-    from ..io.cache import fetch_built
-
-    found = fetch_built(KEPT_KIND, parts, {"problem": problem}, ca.global_unpickle_context)
-    if not isinstance(found, list) or not all(isinstance(e, tuple) and len(e) == 3 and type(e[2]) is SubsystemResiduals for e in found):
-        return None
-    return found
+def _evaluators_of(found: object) -> TypeGuard[list[tuple[str, str, SubsystemResiduals]]]:
+    """Whether ``found`` is a kept list of evaluators (what :func:`evaluators` builds)."""
+    return isinstance(found, list) and all(isinstance(e, tuple) and len(e) == 3 and type(e[2]) is SubsystemResiduals for e in found)
 
 
 def _keep(found: list[tuple[str, str, SubsystemResiduals]]) -> None:
@@ -103,12 +94,7 @@ def _keep(found: list[tuple[str, str, SubsystemResiduals]]) -> None:
     if pending is None or pending[0] is not found:
         return
     del _to_keep[id(found)]
-    import casadi as ca
-
-    from ..io.cache import keep_built
-
-    _, problem, parts = pending
-    keep_built(KEPT_KIND, parts, found, {"problem": problem}, {SubsystemResiduals: _reduce_residuals}, ca.global_pickle_context)
+    pending[1].keep(found)
 
 
 def _reduce_residuals(evaluator: SubsystemResiduals) -> tuple[Any, ...]:

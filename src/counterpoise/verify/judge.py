@@ -4,9 +4,10 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from ..designer.minimax import minimax_of
 from ..model.tilt import tilt_text
 from ..solvers.base import Status
-from .checks import FORCE_NAME, CoordinateCheck, Verification
+from ..designer.checks import FORCE_NAME, CoordinateCheck, Verification
 
 if TYPE_CHECKING:
     from ..designer.solution import Solution, Verdict
@@ -21,7 +22,7 @@ def verdict(solution: "Solution", verification: Verification) -> "Verdict":
     if solution.verdict is not None:
         return solution.verdict
     status, message = judge(solution, verification)
-    return Verdict(status, message, "minimax" if solution.sampled_ratio is not None else "check")
+    return Verdict(status, message, "minimax" if minimax_of(solution) is not None else "check")
 
 
 def judge(solution: "Solution", verification: Verification) -> tuple[Status, str]:
@@ -32,7 +33,7 @@ def judge(solution: "Solution", verification: Verification) -> tuple[Status, str
     given; a minimax design (directly attached springs) is judged by :func:`judge_minimax`."""
     if solution.verdict is not None:
         return solution.verdict.status, solution.verdict.message
-    if solution.sampled_ratio is not None:
+    if minimax_of(solution) is not None:
         return judge_minimax(solution, verification)
     if solution.status is Status.OPTIMAL:
         if verification.balanced:

@@ -11,7 +11,7 @@ from ...errors import ProblemFileError, raise_errors
 from ...model.problem import Problem, Settings
 from ..schema import ProblemFile
 from . import constraints, loops, mechanism, parts, payloads, pulleys, quantities, report, robot, robust, substitution, synthesis
-from .context import REPORT_FUNCTIONS, RESERVED, Context
+from .context import REPORT_FUNCTIONS, RESERVED, Context, combinations
 
 __all__ = ["REPORT_FUNCTIONS", "RESERVED", "resolve"]
 
@@ -80,6 +80,7 @@ def _resolve(ctx: Context) -> Problem:
     objective = quantities.objective(ctx)
     reports = report.report(ctx, subsystems, by_name)
     design_constraints = constraints.constraints(ctx, subsystems, by_name, springs, counter_masses)
+    combinations(ctx)  # before the layers' own tables are read: a table a layer cannot take yet is named first
     robust_spec = robust.robust(ctx, bodies, springs, counter_masses, [b.name for b in payload_bodies])
     synthesis_spec = synthesis.synthesis(ctx, by_name)
     meta = spec.problem

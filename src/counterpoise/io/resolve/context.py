@@ -41,6 +41,7 @@ from ...model.units import (
     ureg,
 )
 from ..schema import ProblemFile
+from ... import registry
 
 #: Functions report expressions may call besides the math functions. Their arguments name
 #: a subsystem (and a frame), e.g. ``total_mass(side_left)``, ``com_distance(leg, base)``.
@@ -469,3 +470,15 @@ def topological(nodes: Mapping[str, object], deps: Callable[[str], AbstractSet[s
     for n in nodes:
         visit(n, [])
     return order
+
+
+def combinations(ctx: Context) -> None:
+    """The problem-file tables a registered design layer cannot be combined with yet
+    (:data:`counterpoise.registry.REGISTRY`, each entry's ``not_with``): an input error
+    naming the layer's table, e.g. "not combinable yet: [robust] with [slots]"."""
+    for entry in registry.REGISTRY:
+        if not entry.table or not getattr(ctx.spec, entry.table, None):
+            continue
+        for other in entry.not_with:
+            if getattr(ctx.spec, other, None):
+                raise ctx.fail(entry.table, f"not combinable yet: [{entry.table}] with [{other}]" + (f" ({entry.docs})" if entry.docs else ""))

@@ -49,10 +49,7 @@ def robust(
     spec = ctx.spec.robust
     if spec is None:
         return None
-    key = "robust"
-    for section in ("slots", "loops"):
-        if getattr(ctx.spec, section):
-            raise ctx.fail(key, f"not combinable yet: [robust] with [{section}] (docs/robust.md#not-done)")
+    key = "robust"  # the tables it cannot be combined with yet are the registry's (counterpoise.registry, resolve.combinations)
     if ctx.spec.payloads and spec.mode != "none":
         raise ctx.fail(
             f"{key}.mode",

@@ -7,18 +7,17 @@ check of that payload in every working mode) and ``feasible``.
 
 from __future__ import annotations
 
-
+from ..designer.layers import Result, Row
 from ..model.problem import Variable
-from ..pipeline import DesignResult
-from .rows import Row
+from .result import PayloadDesign
 
 
 def _header(name: str, label: str) -> str:
     return f"{name} [{label}]"
 
 
-def schedule_columns(result: DesignResult) -> list[str]:
-    outcome = result.payload
+def schedule_columns(result: Result) -> list[str]:
+    outcome = result.extra(PayloadDesign)
     if outcome is None:  # not a payload-range design: no schedule.csv
         return []
     names = [_header("payload", outcome.payload.unit.label)]
@@ -26,9 +25,9 @@ def schedule_columns(result: DesignResult) -> list[str]:
     return names + ["residual_ratio", "feasible"]
 
 
-def schedule_rows(result: DesignResult) -> list[Row]:
+def schedule_rows(result: Result) -> list[Row]:
     """One row per grid payload of the schedule (display units)."""
-    outcome = result.payload
+    outcome = result.extra(PayloadDesign)
     if outcome is None or outcome.schedule is None:
         return []
     unit = outcome.payload.unit
@@ -43,9 +42,9 @@ def schedule_rows(result: DesignResult) -> list[Row]:
     return rows
 
 
-def payload_status_lines(result: DesignResult) -> str:
+def payload_status_lines(result: Result) -> str:
     """Range, samples, the check between grid points and the linear formulas, as text."""
-    outcome = result.payload
+    outcome = result.extra(PayloadDesign)
     if outcome is None:
         return ""
     payload = outcome.payload
@@ -84,5 +83,5 @@ def payload_status_lines(result: DesignResult) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _adjustables(result: DesignResult) -> list[Variable]:
+def _adjustables(result: Result) -> list[Variable]:
     return [v for v in result.problem.variables if v.adjustable]

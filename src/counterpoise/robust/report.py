@@ -13,13 +13,8 @@ the setting of each tune variable (its display unit) and the ratios before and a
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
-from ..pipeline import DesignResult
-from .rows import Row
-
-if TYPE_CHECKING:
-    from ..robust.method import RobustReport
+from ..designer.layers import Result, Row
+from .result import RobustReport
 
 TOLERANCE_COLUMNS = ["design", "case", "deviation", "residual_ratio", "adjusted_residual_ratio", "adjustment"]
 #: report.html's caption of a [robust] problem's tolerance.csv (a catalogue's has its own)
@@ -29,17 +24,11 @@ TOLERANCE_CAPTION = (
 )
 
 
-def is_robust_tolerance(text: str) -> bool:
-    """Whether a tolerance.csv text is a [robust] problem's (its header), not a catalogue's."""
-    return text.split("\n", 1)[0].strip() == ",".join(TOLERANCE_COLUMNS)
+def _report(result: Result) -> RobustReport | None:
+    return result.extra(RobustReport)
 
 
-def _report(result: DesignResult) -> "RobustReport | None":
-    report: RobustReport | None = getattr(result.solution, "robust", None)
-    return report
-
-
-def tolerance_rows(result: DesignResult) -> list[Row]:
+def tolerance_rows(result: Result) -> list[Row]:
     report = _report(result)
     if report is None:
         return []
@@ -69,7 +58,7 @@ def tolerance_rows(result: DesignResult) -> list[Row]:
     return rows
 
 
-def _box(report: "RobustReport") -> str:
+def _box(report: RobustReport) -> str:
     seen: dict[str, str] = {}
     for d in report.deviations:
         t = d.tolerance
@@ -77,7 +66,7 @@ def _box(report: "RobustReport") -> str:
     return ", ".join(seen.values()) + (f" ({report.shape})" if report.shape != "box" else "")
 
 
-def tuning_columns(result: DesignResult) -> list[str]:
+def tuning_columns(result: Result) -> list[str]:
     report = _report(result)
     if report is None:
         return []
@@ -93,7 +82,7 @@ def _variable(name: str) -> str:
     return name.split("@", 1)[0]
 
 
-def tuning_rows(result: DesignResult) -> list[Row]:
+def tuning_rows(result: Result) -> list[Row]:
     report = _report(result)
     if report is None:
         return []
@@ -110,7 +99,7 @@ def tuning_rows(result: DesignResult) -> list[Row]:
     return rows
 
 
-def design_rows(result: DesignResult) -> list[Row]:
+def design_rows(result: Result) -> list[Row]:
     """One ``tuning_range`` row per tune variable for design.csv (lower/upper: the range)."""
     report = _report(result)
     if report is None:
@@ -134,7 +123,7 @@ def design_rows(result: DesignResult) -> list[Row]:
     return rows
 
 
-def status_lines(result: DesignResult) -> str:
+def status_lines(result: Result) -> str:
     report = _report(result)
     if report is None:
         return ""
@@ -181,7 +170,7 @@ def _nice(value: float) -> float:
     return round(value, digits)
 
 
-def procedure_rows(result: DesignResult) -> list[Row]:
+def procedure_rows(result: Result) -> list[Row]:
     """The numbered tuning procedure of a [robust] design with ``tune`` (empty without a law)."""
     report = _report(result)
     spec = result.problem.robust
@@ -280,7 +269,7 @@ def procedure_rows(result: DesignResult) -> list[Row]:
     return rows
 
 
-def _mass_of(result: DesignResult, column: str) -> float | None:
+def _mass_of(result: Result, column: str) -> float | None:
     """The payload mass (SI) of an adjustment column 'x@camera_5kg' (its setting's scenario)."""
     setting = column.split("@", 1)[1]
     payload = result.problem.payloads[0] if result.problem.payloads else None
@@ -292,7 +281,7 @@ def _mass_of(result: DesignResult, column: str) -> float | None:
     return None
 
 
-def law_status_lines(result: DesignResult) -> str:
+def law_status_lines(result: Result) -> str:
     """status.txt: the tuning law, its check at random as-built machines, the hardware envelope."""
     report = _report(result)
     if report is None:
