@@ -416,3 +416,20 @@ def test_the_cost_of_a_point_pulleys_radius_to_first_order():
     one_mm = design(load_problem_text(LOWER_ARM.replace("RADIUS", "1 mm"), "a.toml"), bounds={n: (v, v) for n, v in values.items()})
     assert slope == pytest.approx(one_mm.verification.residual_ratio, rel=0.03)
     assert "r ≤" in note and "nm" in note  # 1e-8 / 0.024 per mm: a fraction of a nanometre
+
+
+def test_a_point_pulley_without_a_plane_is_not_estimated():
+    """A point pulley whose plane is not defined gets no radius estimate, and says why; it
+    must not be told that a radius "adds no residual" (a NaN slope once read as zero). Here
+    the pulley's axis is the spring's own direction at home (the default lead, from A to B
+    at home, then lies along the axis): the anchors fixed at a_1 = 150 mm, h = 60 mm, that
+    direction is (150 cos 65°, 150 sin 65° − 60, 0) mm."""
+    from counterpoise.realisation.radius import radius_notes
+
+    a1, h, q = 0.150, 0.060, math.radians(65)
+    axis = [a1 * math.cos(q), a1 * math.sin(q) - h, 0.0]
+    text = LOWER_ARM.replace("RADIUS", "0 mm").replace('wrap = "cw" }', f'wrap = "cw", axis = [{axis[0]!r}, {axis[1]!r}, 0] }}')
+    ideal = design(load_problem_text(text, "a.toml"), bounds={"a_1": (a1, a1), "h": (h, h)})
+    (note,) = radius_notes(ideal.solution, ideal.verification)
+    assert "not estimated" in note and "plane is not defined" in note
+    assert "no residual" not in note

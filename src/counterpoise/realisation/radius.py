@@ -61,9 +61,17 @@ def radius_notes(solution: Any, verification: Verification) -> tuple[str, ...]:
         k = float(Mechanics(problem, base, variables, {c.name: c.home for c in problem.coordinates}, gravity).value(s.stiffness))
         if not k > 0:
             continue
-        slope = _slope(problem, s, k, base, variables, gravity, verification)
-        pin = _pin_frames(problem, s, base, variables, gravity)
-        if math.isfinite(slope) and slope > 0:
+        with np.errstate(invalid="ignore", divide="ignore"):  # an undefined plane is NaN, said below
+            slope = _slope(problem, s, k, base, variables, gravity, verification)
+            pin = _pin_frames(problem, s, base, variables, gravity)
+        if math.isnan(slope):
+            out.append(
+                f"spring {s.name}: a point pulley; its radius's cost is not estimated: the pulley's plane is not defined "
+                "(its lead, from the spring's 'from' point towards its 'to' point at home, lies along the pulley's axis, or the two meet); "
+                "give pulley.axis and pulley.lead to estimate it (docs/build.md#pulleys)"
+            )
+            continue
+        if slope > 0:
             largest = tolerance / slope
             text = (
                 f"spring {s.name}: a point pulley; a pulley of radius r instead leaves about {slope * 1e-3:.3g} × r/mm of residual ratio "
@@ -108,8 +116,10 @@ def _slope(problem: Problem, s: ZeroFreeLengthSpring, k: float, base: Any, varia
         scales.append(k / reference if reference > 0 else math.nan)
     g = np.array(g_rows) * np.array(scales)[:, None]
     h = np.array(h_rows) * np.array(scales)[:, None]
-    if not np.all(np.isfinite(g)) or not np.all(np.isfinite(h)):
+    finite = np.all(np.isfinite(g), axis=0) & np.all(np.isfinite(h), axis=0)  # a sample where the ends meet has no plane
+    if not np.any(finite):
         return math.nan
+    g, h = g[:, finite], h[:, finite]
 
     def worst(c: float) -> float:
         return float(np.max(np.abs(g - c * h)))
