@@ -12,6 +12,7 @@ import math
 import statistics
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 from ..progress import counter
 
@@ -90,7 +91,7 @@ def read_catalogue(
             index[field] = header.index(column)
         elif field not in mapping.optional_columns:
             raise CatalogueError(label, "header", f"missing column '{column}' (for {field.replace('_', ' ')}); columns are {', '.join(header)}")
-    values: dict[str, list] = {f: [] for f in (
+    values: dict[str, list[Any]] = {f: [] for f in (
         "part_number", "material", "rate", "free_length", "initial_tension", "max_load", "max_length",
         "outer_diameter", "wire_diameter", "mass", "price", "rate_tolerance", "initial_tension_tolerance",
     )}
@@ -121,7 +122,7 @@ def read_catalogue(
     return Catalogue(name or Path(label).stem, label, currency="", **{k: tuple(v) for k, v in values.items()})
 
 
-def check_plausible(label: str, values: dict[str, list], mapping: ColumnMapping, header: list[str], index: dict[str, int]) -> None:
+def check_plausible(label: str, values: dict[str, list[Any]], mapping: ColumnMapping, header: list[str], index: dict[str, int]) -> None:
     """The median of each column must be plausible for an extension spring
     (:data:`~.columns.PLAUSIBLE`); if not, the file is probably in other units: the unit
     systems that make every median plausible are named."""
@@ -171,7 +172,7 @@ def check_plausible(label: str, values: dict[str, list], mapping: ColumnMapping,
 
 def _check_springs_exist(
     label: str,
-    values: dict[str, list],
+    values: dict[str, list[Any]],
     mapping: ColumnMapping,
     header: list[str],
     index: dict[str, int],
@@ -269,7 +270,7 @@ def _where(number: int, line: int, column: str) -> str:
     return f"row {number} (line {line}), column {column}"
 
 
-def _row(label: str, number: int, line: int, cells: list[str], index: dict[str, int], mapping: ColumnMapping, header: list[str]) -> dict:
+def _row(label: str, number: int, line: int, cells: list[str], index: dict[str, int], mapping: ColumnMapping, header: list[str]) -> dict[str, Any]:
     def cell(field: str) -> str | None:
         return cells[index[field]].strip() if field in index else None
 
@@ -293,7 +294,7 @@ def _row(label: str, number: int, line: int, cells: list[str], index: dict[str, 
     part = cell("part_number") or ""
     if not part:
         raise fail("part_number", "missing part number")
-    out: dict = {"part_number": part, "material": cell("material") or ""}
+    out: dict[str, Any] = {"part_number": part, "material": cell("material") or ""}
     for field in ("rate", "free_length", "initial_tension", "max_load", "max_length"):
         out[field] = number_of(field, required=True)
     for field in ("outer_diameter", "wire_diameter", "mass", "price", "package_quantity", "rate_tolerance", "initial_tension_tolerance"):

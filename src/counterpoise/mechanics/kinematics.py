@@ -14,8 +14,8 @@ from typing import Any
 from ..model.functions import Functions
 
 Scalar = Any  # float | numpy array | casadi.SX
-Vec = list  # three Scalars
-Mat = list  # 3x3 nested list of Scalars
+Vec = list[Scalar]  # three Scalars
+Mat = list[list[Scalar]]  # 3x3 nested list of Scalars
 
 
 #: the Python numbers a literal 0 or 1 may be (numpy's float64 is a float)

@@ -46,11 +46,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..errors import ExpressionError
 from ..model import expr as ex
 from ..model.mechanism import GROUND, Point, Rotation, Translation
 from ..model.problem import Problem
 from ..designer.checks import PRISMATIC, REVOLUTE, CoordinateCheck, Verification
-from .residuals import SubsystemResiduals, configurations, energy_scale_if_needed
+from ..mechanics.sampling import configurations
+from .residuals import SubsystemResiduals, energy_scale_if_needed
 
 if TYPE_CHECKING:
     from ..designer.solution import Solution
@@ -111,7 +113,7 @@ def _number(tree: ex.Expr) -> float | None:
         return None
     try:
         return float(ex.evaluate(tree, {}, {"sqrt": np.sqrt, "sin": np.sin, "cos": np.cos, "tan": np.tan, "exp": np.exp, "log": np.log, "abs": abs}))
-    except (ArithmeticError, ValueError, KeyError, TypeError, ex.ExpressionError):
+    except (ArithmeticError, ValueError, KeyError, TypeError, ExpressionError):
         return None
 
 

@@ -17,7 +17,8 @@ from ..designer.checks import PRISMATIC, REVOLUTE, CoordinateCheck, Verification
 from ..model import expr as ex
 from ..model.tilt import tilt_extremes, tilted_directions
 from .manifold import ManifoldResiduals
-from .residuals import BOX_MAXIMUM_STARTS, BoxMaximum, SubsystemResiduals, _base_parameters, configurations, energy_scale_if_needed
+from ..mechanics.sampling import configurations
+from .residuals import BOX_MAXIMUM_STARTS, BoxMaximum, SubsystemResiduals, _base_parameters, energy_scale_if_needed
 
 #: Residual evaluators of the problems checked last (a study verifies one problem many times).
 _CACHE_SIZE = 4

@@ -43,7 +43,7 @@ def _small_imaginary(z: Any) -> bool:
     return np.iscomplexobj(z) and bool(np.all(np.abs(np.imag(z)) <= 1e-100))
 
 
-class _Functions(dict):
+class _Functions(dict[str, Any]):
     """numpy functions, with sin and cos specialised for complex-step arguments and
     remembered per argument array (a joint angle is the same array in every perturbation
     that leaves it alone)."""

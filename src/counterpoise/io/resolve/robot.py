@@ -23,7 +23,7 @@ from ..schema import RobotSpec
 from .context import RESERVED, Context, suggest
 
 if TYPE_CHECKING:  # the reader (and its dataclasses) is imported only for a [robot] table
-    from ..robot import RobotJoint, RobotModel
+    from ..robot import Matrix, RobotJoint, RobotModel
 
 #: a joint range may pass the model's limits by this much (SI) without an error: limits are
 #: often written with fewer digits than the range (6.28318530718 for 2π)
@@ -204,7 +204,7 @@ def _values(ctx: Context, model: RobotModel, spec: RobotSpec) -> dict[str, ex.Ex
     return out
 
 
-def _rotations(matrix: tuple) -> list[Transform]:
+def _rotations(matrix: Matrix) -> list[Transform]:
     from ..robot import rpy_from_matrix
 
     roll, pitch, yaw = rpy_from_matrix(matrix)
