@@ -37,7 +37,7 @@ vertices (which contain the ellipsoid): a bound, labelled so.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import itertools
@@ -46,10 +46,12 @@ import numpy as np
 
 from ..formulation.formulation import Formulation
 from ..model.problem import Problem
-from .perturb import Deviation
+from .perturb import Deviation, nonaffine
 
 #: configurations per (subsystem, scenario) block in the robust LP
 LP_CONFIGURATIONS = 1024
+#: random machines evaluated together by :meth:`Decomposition.sampled` (memory: rows × this)
+SAMPLED_CHUNK = 32
 
 
 @dataclass
@@ -68,6 +70,17 @@ class Rows:
     #: elements with several deviations (their products are not first order): each group's
     #: change at every vertex of its own box, exact
     groups: tuple["Group", ...] = ()
+    #: (M,) True for a row of a revolute coordinate (its reference is a torque), else a force
+    revolute: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
+
+    def reference_of(self, revolute: np.ndarray) -> np.ndarray:
+        """The reference of rows of these kinds (revolute or not), as this set's rows have it."""
+        out = np.ones(revolute.shape, dtype=float)
+        for k in (True, False):
+            mine = self.reference[self.revolute == k]
+            if mine.size:
+                out[revolute == k] = mine[0]
+        return out
 
     def residual(self, dz: np.ndarray) -> np.ndarray:
         return self.r0 + self.A @ dz
@@ -160,9 +173,14 @@ class Decomposition:
         for i, d in enumerate(self.deviations):
             element = "spring" if d.tolerance.kind in ("rate", "point", "initial_tension") else "body"
             by_element.setdefault((element, d.tolerance.item), []).append(i)
-        self.groups: tuple[tuple[int, ...], ...] = tuple(tuple(m) for m in by_element.values() if len(m) > 1)
+        # a deviation the residual is not affine in (a point of a directly attached spring) is
+        # evaluated at both ends of its range, with its element's others: a group even alone
+        curved = set(nonaffine(perturbed, self.deviations))
+        self.nonaffine = tuple(i for i, d in enumerate(self.deviations) if d.label in curved)
+        self.groups: tuple[tuple[int, ...], ...] = tuple(tuple(m) for m in by_element.values() if len(m) > 1 or set(m) & set(self.nonaffine))
         spec = original.robust
-        self.tensions = {t.item: t.amount for t in (spec.tolerances if spec else ()) if t.kind == "initial_tension" and t.amount > 0}
+        pulley = {s.name for s in original.springs if s.direct is None}  # a direct spring's initial tension is a deviation parameter
+        self.tensions = {t.item: t.amount for t in (spec.tolerances if spec else ()) if t.kind == "initial_tension" and t.amount > 0 and t.item in pulley}
 
     def configurations(self, count: int, seed: int) -> list[np.ndarray]:
         rng = np.random.default_rng(seed)
@@ -171,6 +189,29 @@ class Decomposition:
             coords = [self.problem.coordinate[n] for n in block.coordinates]
             out.append(grid(np.array([c.lower for c in coords]), np.array([c.upper for c in coords]), count, rng))
         return out
+
+    def sampled(self, q: list[np.ndarray], z: np.ndarray, p: np.ndarray, count: int, seed: int) -> np.ndarray:
+        """The largest |residual| per row (as :meth:`rows` stacks them) over ``count`` random
+        machines, every deviation uniformly within its range (seeded): (M,)."""
+        signs = np.random.default_rng(seed).uniform(-1.0, 1.0, (count, len(self.deviations)))
+        out = np.zeros(0)
+        for start in range(0, count, SAMPLED_CHUNK):
+            part = np.abs(self.residuals(q, z, p, signs[start : start + SAMPLED_CHUNK])).max(axis=1)
+            out = part if not out.size else np.maximum(out, part)
+        return out
+
+    def residuals(self, q: list[np.ndarray], z: np.ndarray, p: np.ndarray, signs: np.ndarray) -> np.ndarray:
+        """The residual (rows as :meth:`rows` stacks them) at each deviation vector of ``signs``
+        (C, n_dev), each entry a multiple of its half width in [−1, 1]: (M, C). Evaluated, not
+        composed from the affine decomposition: what the corners of a residual that is not
+        affine in the deviations are taken from (a point of a directly attached spring)."""
+        out = []
+        for b in range(len(self.formulation.blocks)):
+            qb = q[b]
+            fn = self.mapped(b, len(qb))
+            columns = [np.array(fn(qb.T, z, self.p_at(p, row))).T.reshape(-1) for row in np.atleast_2d(signs)]
+            out.append(np.stack(columns, axis=1))
+        return np.concatenate(out)
 
     def mapped(self, b: int, n: int, which: str = "residual") -> Any:
         """Block ``b``'s residual (or ``which`` function) mapped over ``n`` columns, built once."""
@@ -204,14 +245,17 @@ class Decomposition:
         """The deviation parameters' values (SI) at a corner: name -> ``signs[i]`` × half width."""
         return {d.parameter: float(s) * d.half_width for d, s in zip(self.deviations, signs)}
 
-    def rows(self, q: list[np.ndarray], z_ref: np.ndarray, free: Sequence[int], p: np.ndarray) -> Rows:
+    def rows(self, q: list[np.ndarray], z_ref: np.ndarray, free: Sequence[int], p: np.ndarray, deviations: bool = True) -> Rows:
         """The rows at configurations ``q`` (one array per block), around ``z_ref``, for
-        unit steps of the scaled slots ``free``."""
+        unit steps of the scaled slots ``free``; ``deviations`` False: without the changes
+        of the deviations (S0, SB and the groups left empty: the residual, the reference and
+        the initial tensions' term only)."""
         f = self.formulation
-        n_dev, n_free = len(self.deviations), len(free)
+        n_dev, n_free = (len(self.deviations) if deviations else 0), len(free)
+        groups = self.groups if deviations else ()
         blocks_r0, blocks_A, blocks_S0, blocks_SB, blocks_T, blocks_ref, ids, revolute = [], [], [], [], [], [], [], []
         designs = [z_ref] + [z_ref + np.eye(z_ref.size)[j] for j in free]
-        blocks_groups: list[tuple[list[np.ndarray], list[np.ndarray]]] = [([], []) for _ in self.groups]
+        blocks_groups: list[tuple[list[np.ndarray], list[np.ndarray]]] = [([], []) for _ in groups]
         for b, block in enumerate(f.blocks):
             qb = q[b]
             n = len(qb)
@@ -231,12 +275,12 @@ class Decomposition:
                 S0[:, i] = shifted[0] - r0
                 for j in range(n_free):
                     SB[:, i, j] = (shifted[j + 1] - base[j + 1]) - S0[:, i]
-            for g, members in enumerate(self.groups):
+            for g, members in enumerate(groups):
                 vertices = list(itertools.product((-1, 1), repeat=len(members)))
                 F = np.zeros((r0.size, len(vertices)))
                 FB = np.zeros((r0.size, len(vertices), n_free))
                 for k, v in enumerate(vertices):
-                    signs = np.zeros(n_dev)
+                    signs = np.zeros(len(self.deviations))
                     signs[list(members)] = v
                     at = self.p_at(p, signs.tolist())
                     shifted = [value(z, None, at=at) for z in designs]
@@ -270,10 +314,11 @@ class Decomposition:
             np.concatenate(blocks_SB),
             np.concatenate(blocks_T),
             reference,
-            np.array([d.tolerance.kind for d in self.deviations]),
+            np.array([d.tolerance.kind for d in self.deviations][:n_dev]),
             np.concatenate(ids),
             list(q),
-            tuple(Group(members, np.concatenate(F), np.concatenate(FB)) for members, (F, FB) in zip(self.groups, blocks_groups)),
+            tuple(Group(members, np.concatenate(F), np.concatenate(FB)) for members, (F, FB) in zip(groups, blocks_groups)),
+            kind,
         )
 
     def _tension(self, block: Any, qb: np.ndarray, z: np.ndarray, p: np.ndarray) -> np.ndarray:
@@ -329,3 +374,23 @@ def has_products(rows: Rows, shape: str) -> bool:
     """Whether the worst case of ``rows`` over the shape is a bound rather than exact: an
     ellipsoid with an element of several deviations (over the box every product is exact)."""
     return shape != "box" and bool(rows.groups)
+
+
+def worst_corner(rows: Rows) -> tuple[int, tuple[int, ...]]:
+    """The row where the worst case over the box is largest (at no step) and the corner that
+    gives it (a sign per deviation): each single deviation at the sign of its change on that
+    side, each group at its worst vertex (the deviations of different elements add)."""
+    k = int(np.argmax(worst(rows, np.zeros(rows.A.shape[1]))))
+    r, s = float(rows.r0[k]), rows.S0[k]
+    single = ~rows.grouped
+    high = r + float(np.abs(s[single]).sum()) + sum(float(g.F[k].max()) for g in rows.groups)
+    low = r - float(np.abs(s[single]).sum()) + sum(float(g.F[k].min()) for g in rows.groups)
+    up = high >= -low  # the residual's largest positive value is the worst
+    signs = [0] * s.size
+    for j in np.flatnonzero(single):
+        signs[int(j)] = (1 if s[j] >= 0 else -1) * (1 if up else -1)
+    for g in rows.groups:
+        vertex = list(itertools.product((-1, 1), repeat=len(g.members)))[int(np.argmax(g.F[k]) if up else np.argmin(g.F[k]))]
+        for i, v in zip(g.members, vertex):
+            signs[i] = v
+    return k, tuple(signs)

@@ -38,10 +38,10 @@ from ..formulation.layout import Gravity3, Slot
 from ..model.problem import Problem, bound_side
 from ..model.robust import RobustSpec
 from ..solvers.base import SolverOutput, Status
-from .affine import LP_CONFIGURATIONS, Decomposition, Rows, worst
+from .affine import LP_CONFIGURATIONS, Decomposition, Rows, worst, worst_corner
 from .constraints import CornerConstraints, LinearRows
 from .perturb import Deviation, corner_name, corner_text, perturbed
-from .result import Corner, RobustReport
+from .result import SAMPLED_MINIMAX, Corner, RobustReport
 
 if TYPE_CHECKING:
     from ..designer.designer import Designer
@@ -63,6 +63,15 @@ RESERVE_ROUNDS = 3
 UNUSED_SPRING = 1e-6
 #: corners of the spring deviations checked against the hardware without tuning, at most
 MAX_HARDWARE_CORNERS = 256
+#: random machines inside the box the corners' worst case is checked against (directly attached
+#: springs), on a grid of configurations per block and the dense sample's worst ones
+SAMPLED_MACHINES = 200
+SAMPLED_CONFIGURATIONS = 1000
+SAMPLED_WORST = 50
+#: a directly attached spring's length limit broken by less than this (m) on the dense sample
+#: is rounding: the NLP holds it on its own samples, and between them d(q) curves by about
+#: b·Δφ²/8 (0.01 mm for a 0.1 m lever and 48 samples over 100°)
+LENGTH_TOLERANCE = 1e-5
 #: random as-built machines the tuning law is checked on, and configurations per block for each
 LAW_SAMPLES = 1000
 LAW_CONFIGURATIONS = 500
@@ -136,7 +145,10 @@ class RobustMethod(DesignMethod):
             nominal = self.inner.solve_with(replace(options, bounds=held))
         z_nom = np.clip(d.to_z(d.vector(nominal.values)), lbz, ubz)
         dense = self.decomposition.configurations(BAND_CONFIGURATIONS, self.problem.settings.seed)
-        bands = {"nominal": self._band(self.decomposition.rows(dense, z_nom, [], p))}
+        nominal_rows = self.decomposition.rows(dense, z_nom, [], p)
+        bands = {"nominal": self._band(nominal_rows)}
+        sampled = {"nominal": self._sampled(nominal_rows, z_nom, p)}
+        at_worst = {"nominal": self._worst_corner(nominal_rows)}
         added = {"nominal": nominal.added_mass}
         objective = {"nominal": nominal.objective}
         base_objective: dict[str, float] = {}  # minimise: the file's objective, before weight × ρ
@@ -150,27 +162,43 @@ class RobustMethod(DesignMethod):
             moving = [i for i, slot in enumerate(d.slots) if slot.variable in geometric and lbz[i] < ubz[i]]
             free = [i for i, slot in enumerate(d.slots) if slot.variable not in geometric and lbz[i] < ubz[i]]
             nonlinear = cons.nonlinear(free) if cons is not None else ()
+            # a directly attached spring: its lengths are rows of their own at every corner (the
+            # minimax NLP), and its residual is not affine in its points' deviations
+            direct = [sp.name for sp in self.problem.springs if sp.direct is not None]
             if not moving and not free:
                 return design.judged(Status.FAILED, f"[robust] mode = \"{spec.mode}\" needs a free mass or stiffness variable: every variable is held", "robust")
             for round_ in range(MAX_ROUNDS + 1):
-                if moving or nonlinear:  # the geometry is free (or a constraint is nonlinear): the minimax NLP over every corner
+                if moving or nonlinear or direct:  # free geometry, a nonlinear constraint or a direct spring: the minimax NLP over every corner
                     from .minimax import RobustMinimax
 
                     if self._minimax is None:
                         try:
                             self._minimax = RobustMinimax(self.decomposition, spec.mode, spec.weight, self.problem.settings.seed, cons, spec.shape)
                         except ValueError as exc:  # too many corners
-                            return design.judged(Status.FAILED, f"robust design with free geometry: {exc}; hold the geometry or tolerance fewer items", "robust")
+                            what = "free geometry" if moving else "directly attached springs" if direct else "a nonlinear constraint"
+                            return design.judged(Status.FAILED, f"robust design with {what}: {exc}; hold the geometry or tolerance fewer items", "robust")
                     mm = self._minimax.solve(z_nom, p, lbz, ubz, spec.limit)
                     z = np.clip(mm.z, lbz, ubz)
                     lp_ratio, lp_seconds = mm.ratio, mm.seconds
                     status = mm.status
                     out = SolverOutput(z, status, mm.solver_status, mm.iterations, mm.seconds, "ipopt")
-                    why = "free geometry" if moving else f"the nonlinear constraint{'s' if len(nonlinear) > 1 else ''} {', '.join(nonlinear)}"
+                    why = (
+                        f"directly attached spring{'s' if len(direct) > 1 else ''} {', '.join(direct)}"
+                        if direct
+                        else "free geometry" if moving else f"the nonlinear constraint{'s' if len(nonlinear) > 1 else ''} {', '.join(nonlinear)}"
+                    )
                     over = "the tolerance corners" if self._minimax.shape == "box" else "the tolerance ellipsoid"
                     message = f"robust design (minimax NLP over {over}, IPOPT; {why})"
                     if status is not Status.OPTIMAL:
                         message = self._infeasible_text(mm.solver_status, cons) if status is Status.INFEASIBLE else f"robust minimax NLP: IPOPT {mm.solver_status}"
+                        if direct and status is Status.INFEASIBLE:  # name the length limit and the corner where IPOPT stopped
+                            _, broken = self._length_margins(z, p, dense)
+                            if broken:
+                                message = (
+                                    f"robust design infeasible ({mm.solver_status}): no design within the bounds keeps the directly attached "
+                                    f"spring{'s' if len(direct) > 1 else ''} {', '.join(direct)} within its lengths at every tolerance corner; "
+                                    f"where IPOPT stopped: {broken}"
+                                )
                     if self._minimax.shape == "ellipsoid":
                         summary = "minimax of |r| + ‖s‖₂ (the ellipsoid) on sampled configurations"
                     else:
@@ -215,7 +243,10 @@ class RobustMethod(DesignMethod):
                 # those configurations to the rows and solve again (as the designer's rounds do)
                 cons = self._constraints = cons.refined(add)
                 self._minimax = None
-            bands["robust"] = self._band(self.decomposition.rows(dense, np.clip(z, lbz, ubz), [], p))
+            robust_rows = self.decomposition.rows(dense, np.clip(z, lbz, ubz), [], p)
+            bands["robust"] = self._band(robust_rows)
+            sampled["robust"] = self._sampled(robust_rows, np.clip(z, lbz, ubz), p)
+            at_worst["robust"] = self._worst_corner(robust_rows)
             added["robust"] = design.added_mass
             objective["robust"] = design.objective
             if spec.mode == "minimise":
@@ -229,7 +260,11 @@ class RobustMethod(DesignMethod):
         if corner_values:
             design = replace(design, constraints=corner_values)
         solver = "" if spec.mode == "none" or out is None else ("IPOPT" if out.solver == "ipopt" else "cvxpy/Clarabel")
-        report = RobustReport(spec.mode, spec.shape, self.deviations, bands, added, objective, lp_ratio, lp_seconds, solver=solver, exactness=self._exactness(), base_objective=base_objective, weight=spec.weight)
+        report = RobustReport(
+            spec.mode, spec.shape, self.deviations, bands, added, objective, lp_ratio, lp_seconds, solver=solver, exactness=self._exactness(),
+            base_objective=base_objective, weight=spec.weight, sampled={k: v for k, v in sampled.items() if v == v}, samples=SAMPLED_MACHINES,
+            worst_corner={k: v for k, v in at_worst.items() if v},
+        )
         breached = [v for v in corner_values if v.active == "violated"]
         if breached and status is Status.OPTIMAL:
             text = "; ".join(describe(self.perturbed, v) for v in breached[:3])
@@ -251,9 +286,15 @@ class RobustMethod(DesignMethod):
             report = self._hardware(design, self._spring_corners(), report, tuned=False)
             if report.tuning_status:
                 status, message = Status.INFEASIBLE, report.tuning_status
+        if status is Status.OPTIMAL and any(sp.direct is not None for sp in self.problem.springs):
+            report = self._direct_lengths(np.clip(z, lbz, ubz), p, self.decomposition.configurations(TUNE_VERIFY_SAMPLES, self.problem.settings.seed), report)
+            if report.tuning_status not in ("", "balanced"):
+                status, message = Status.INFEASIBLE, report.tuning_status
         key = "robust" if "robust" in bands else "nominal"
-        bound = "" if report.exactness == "exact" else " (a bound)"
+        bound = "" if report.exactness == "exact" else " (a sampled minimax over the box's corners, not exact)" if report.exactness.startswith(SAMPLED_MINIMAX) else " (a bound)"
         text = f"{message}: worst-case residual ratio {bands[key]['all']:.4g}{bound} over the tolerance {'box' if spec.shape == 'box' else 'ellipsoid'}"
+        if key in sampled and sampled[key] == sampled[key]:
+            text += f" (at {SAMPLED_MACHINES} random machines inside it: {sampled[key]:.4g})"
         if key == "robust":
             text += f" (nominal design {bands['nominal']['all']:.4g}); added mass {added['robust']:.6g} kg (nominal design {added['nominal']:.6g} kg)"
         if report.corners and report.tuning_status == "balanced":
@@ -389,9 +430,66 @@ class RobustMethod(DesignMethod):
             return ""
         return f" at {payload.name} = {payload.unit.from_si(own.parameters[payload.name]):.6g} {payload.unit.label}"
 
+    def _sampled(self, dense: Rows, z: np.ndarray, p: np.ndarray) -> float:
+        """The largest residual ratio at SAMPLED_MACHINES random machines inside the box
+        (seeded), pulley springs' initial tensions at their worst (their term is exact and
+        separate): the check beside the corners with a directly attached spring (its
+        residual is not affine in its points' deviations); NaN elsewhere (not computed). On
+        SAMPLED_CONFIGURATIONS configurations per block and the SAMPLED_WORST of the dense
+        sample ``dense`` where the corners' worst case is largest."""
+        problem = self.problem
+        if not any(sp.direct is not None for sp in problem.springs) or not self.deviations:
+            return float("nan")
+        coarse = self.decomposition.configurations(SAMPLED_CONFIGURATIONS, problem.settings.seed + 47)
+        at_corners = worst(dense, np.zeros(0), self._spec().shape)
+        q = []
+        for b, qb in enumerate(dense.q):
+            mine = np.flatnonzero(dense.block == b)
+            per = max(len(mine) // max(len(qb), 1), 1)  # rows per configuration
+            top = np.unique(np.argsort(-at_corners[mine])[: SAMPLED_WORST * per] // per)
+            q.append(np.vstack([coarse[b], qb[top]]))
+        rows = self.decomposition.rows(q, z, [], p, deviations=False)
+        largest = self.decomposition.sampled(q, z, p, SAMPLED_MACHINES, problem.settings.seed + 47)
+        # the dense sample's references (the largest gravity torque or force of each kind of coordinate)
+        return float(np.max((largest + rows.tension) / dense.reference_of(rows.revolute)))
+
+    def _direct_lengths(self, z: np.ndarray, p: np.ndarray, q: list[np.ndarray], report: RobustReport) -> RobustReport:
+        """Each directly attached spring within its lengths (L0 + slack margin ≤ d − c ≤ L_max)
+        at every corner of its point deviations, on the dense sample: else the design is
+        infeasible, the corner named."""
+        margins, broken = self._length_margins(z, p, q)
+        if not broken:
+            return replace(report, lengths=tuple(margins))
+        status = f"infeasible: the design as built breaks the hardware at a tolerance corner: {broken}"
+        return replace(report, lengths=tuple(margins), tuning_status=status)
+
+    def _length_margins(self, z: np.ndarray, p: np.ndarray, q: list[np.ndarray]) -> tuple[list[Any], str]:
+        """The directly attached springs' length margins over the corners, and the worst broken
+        one as text ("" when none is)."""
+        from .direct import DirectLengths
+
+        margins = DirectLengths(self.decomposition).worst(z, p, q)
+        broken = [m for m in margins if m.margin < -LENGTH_TOLERANCE]
+        if not broken:
+            return margins, ""
+        m = min(broken, key=lambda m: m.margin)
+        text = "goes slack (shorter than its free length + slack margin)" if m.limit == "slack" else "is stretched beyond its longest length"
+        return margins, f"corner {m.corner}: spring {m.spring} {text} by {-m.margin * 1e3:.4g} mm"
+
     def _exactness(self) -> str:
         """What the bands are (docs/robust.md, "How the worst case is exact")."""
         spec = self._spec()
+        direct = [sp.name for sp in self.problem.springs if sp.direct is not None]
+        if direct:
+            # the design holds the corners, the springs' lengths and max_force on sampled
+            # configurations only (as the nominal minimax designer does); a point deviation of
+            # the spring enters its length |a + δ − b| nonlinearly, so the worst case over the
+            # box may lie between corners
+            why = f"directly attached spring{'s' if len(direct) > 1 else ''} {', '.join(direct)}: its force and length limits held at every corner on sampled configurations"
+            if self.decomposition.nonaffine:
+                labels = ", ".join(self.deviations[i].label for i in self.decomposition.nonaffine)
+                why += f"; the residual is not affine in {labels} (the spring's length)"
+            return f"{SAMPLED_MINIMAX}: {why}"
         notes = []
         if spec.shape != "box" and self.decomposition.groups:
             notes.append("a bound over the ellipsoid: the products of one element's deviations are bounded over its box")
@@ -447,6 +545,20 @@ class RobustMethod(DesignMethod):
         if self.problem.robust is None:
             raise ValueError(f"{self.problem.name}: no [robust] table")
         return self.problem.robust
+
+    def _worst_corner(self, rows: Rows) -> str:
+        """Where the worst case over the box is (:func:`~.affine.worst_corner`): the corner's
+        deviations and the configuration, e.g. "rate s +10 % at phi = -50 deg"; "" over an
+        ellipsoid or without deviations."""
+        if self._spec().shape != "box" or not self.deviations or not rows.r0.size:
+            return ""
+        k, signs = worst_corner(rows)
+        b = int(rows.block[k])
+        names = list(self.decomposition.formulation.blocks[b].coordinates)
+        start = int(np.flatnonzero(rows.block == b)[0])
+        q = rows.q[b][(k - start) // len(names)]
+        coords = ", ".join(f"{n} = {self.problem.coordinate[n].unit.from_si(float(v)):.4g} {self.problem.coordinate[n].unit.label}" for n, v in zip(names, q))
+        return f"{corner_text(self.deviations, signs)} at {coords}"
 
     def _band(self, rows: Rows) -> dict[str, float]:
         self._torque = max(self._torque, float(np.max(rows.reference, initial=0.0)))

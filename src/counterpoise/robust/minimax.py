@@ -14,7 +14,11 @@ absolute value over the box lies at a corner: the corners make the worst case ex
 shape). An ellipsoid holds |r₀| + ‖s‖₂ ≤ ρ T instead (first order, exact without products
 of one element's deviations; with them, its bounding box, said so). Initial-tension tolerances are
 not in the NLP (their term depends on the geometry through |∂d/∂q|); the reported band,
-measured afterwards, includes them. A local optimum, started from the nominal design.
+measured afterwards, includes them. A directly attached spring also keeps its length within
+L0 + slack margin ≤ d − c ≤ L_max at every sample and every corner of its own point deviations
+(:mod:`.direct`), as the nominal minimax designer does; its residual is not affine in those
+point deviations, so the corners are then a sampled minimax, not an exact worst case. A local
+optimum, started from the nominal design.
 """
 
 from __future__ import annotations
@@ -28,6 +32,7 @@ from ..solvers.base import Bounds, Status
 from ..solvers.ipopt import IPOPT_DEFAULTS, IpoptBackend
 from .affine import Decomposition
 from .constraints import CornerConstraints
+from .direct import DirectLengths
 
 #: configurations per coordinate and block in the NLP (× corners: its rows)
 SAMPLES_PER_COORDINATE = 48
@@ -87,6 +92,8 @@ class RobustMinimax:
         self._reference: np.ndarray | None = None
         self.constraints = constraints
         self._lbg_c = self._ubg_c = np.zeros(0)
+        #: directly attached springs' length rows at every corner of their points (None: no such spring)
+        self.lengths = DirectLengths(decomposition) if any(s.direct is not None for s in decomposition.problem.springs) else None
 
     def _build(self, z0: np.ndarray, p: np.ndarray) -> None:
         import casadi as ca
@@ -120,6 +127,8 @@ class RobustMinimax:
                     scaled = r[j, :].T / reference[kinds[i + j]]
                     rows += [self.rho - scaled, self.rho + scaled]
             i += len(block.coordinates)
+        if self.lengths is not None:  # directly attached springs within their lengths at every corner of their points
+            rows += self.lengths.symbolic(self.q)
         self.n_rows = int(sum(r.numel() for r in rows))
         self.n_signs = int(f.nonnegative.numel())
         if self.constraints is not None:

@@ -14,8 +14,11 @@ spring enters ½ k |a + Rδ − b|², whose term ½ k |δ|² does not depend on 
 Products of deviations of one element (δm·δc of one body, δa·δb of one spring's two ends,
 δk·δa) keep the residual multi-affine: :mod:`.affine` evaluates each such element's group
 at every vertex of its box, so the worst case over the box is exact (docs/robust.md). An
-initial tension ΔF0 is not a parameter here: behind the pulley it adds the force ΔF0 along
-the cable, ΔF0·∂d/∂q, which :mod:`.affine` adds directly.
+initial tension ΔF0 behind a pulley is not a parameter here: it adds the force ΔF0 along
+the cable, ΔF0·∂d/∂q, which :mod:`.affine` adds directly; a directly attached spring's is
+(its force F0 + ΔF0 + k x: affine in ΔF0). A point of a directly attached spring enters
+its length |a + δ − b| nonlinearly (:func:`nonaffine`): the worst case is then taken over the
+box's corners, not exact.
 """
 
 from __future__ import annotations
@@ -62,7 +65,8 @@ def _shifted(point: Point, names: tuple[str, str, str]) -> Point:
 
 def perturbed(problem: Problem) -> tuple[Problem, tuple[Deviation, ...]]:
     """``problem`` with one zero-valued deviation parameter per toleranced quantity (rates,
-    masses, centres of mass, spring ends; not initial tensions), and those deviations."""
+    masses, centres of mass, spring ends, a directly attached spring's initial tension; not a
+    pulley spring's initial tension), and those deviations."""
     spec = problem.robust
     if spec is None:
         return problem, ()
@@ -71,7 +75,15 @@ def perturbed(problem: Problem) -> tuple[Problem, tuple[Deviation, ...]]:
     masses = {c.name: c for c in problem.counter_masses}
     springs = {s.name: s for s in problem.springs}
     for t in spec.tolerances:
-        if t.amount == 0 or t.kind == "initial_tension":
+        if t.amount == 0:
+            continue
+        if t.kind == "initial_tension":
+            mount = springs[t.item].direct
+            if mount is None:
+                continue  # behind a pulley: a constant force along the cable (affine.Decomposition)
+            name = _name("initial_tension", t.item)
+            springs[t.item] = replace(springs[t.item], direct=replace(mount, initial_tension=_scaled(mount.initial_tension, name, False)))
+            deviations.append(Deviation(name, t, "", t.amount))
             continue
         if t.kind == "rate":
             name = _name("rate", t.item)
@@ -109,6 +121,16 @@ def perturbed(problem: Problem) -> tuple[Problem, tuple[Deviation, ...]]:
         springs=tuple(springs[s.name] for s in problem.springs),
     )
     return out, tuple(deviations)
+
+
+def nonaffine(problem: Problem, deviations: tuple[Deviation, ...]) -> tuple[str, ...]:
+    """The deviations (their labels) the residual is not affine in: a point of a directly
+    attached spring: its length |a + δ − b| enters the force F0 + k (|a + δ − b| − c − L0)
+    along the unit vector (a + δ − b)/|a + δ − b|, not through ½ k |a + δ − b|². Every other
+    deviation enters affinely (a rate or an initial tension multiplies or adds to fixed
+    geometry, a mass and a centre of mass enter −m g·p)."""
+    direct = {s.name for s in problem.springs if s.direct is not None}
+    return tuple(d.label for d in deviations if d.tolerance.kind == "point" and d.tolerance.item in direct)
 
 
 def corner_name(scenario: str, signs: tuple[int, ...]) -> str:

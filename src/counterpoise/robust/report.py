@@ -14,7 +14,7 @@ the setting of each tune variable (its display unit) and the ratios before and a
 from __future__ import annotations
 
 from ..designer.layers import Result, Row
-from .result import RobustReport
+from .result import SAMPLED_MINIMAX, RobustReport
 
 TOLERANCE_COLUMNS = ["design", "case", "deviation", "residual_ratio", "adjusted_residual_ratio", "adjustment"]
 #: report.html's caption of a [robust] problem's tolerance.csv (a catalogue's has its own)
@@ -37,6 +37,8 @@ def tolerance_rows(result: Result) -> list[Row]:
         rows.append({"design": design, "case": "nominal", "deviation": "", "residual_ratio": band["residual"]})
         label = "" if report.exactness == "exact" else f" ({report.exactness})"
         rows.append({"design": design, "case": "band", "deviation": _box(report) + label, "residual_ratio": band["all"]})
+        if design in report.worst_corner:
+            rows.append({"design": design, "case": "worst_corner", "deviation": report.worst_corner[design], "residual_ratio": band["all"]})
         for kind, value in band.items():
             if kind not in ("residual", "all"):
                 rows.append({"design": design, "case": f"band_{kind}", "deviation": f"{kind} tolerances only", "residual_ratio": value})
@@ -137,12 +139,25 @@ def status_lines(result: Result) -> str:
             )
         else:
             minimised = f"objective {report.objective[design]:.6g} kg"
+        at = f" at {report.worst_corner[design]}" if design in report.worst_corner else ""
         lines.append(
-            f"robust: {design} design: worst-case residual ratio {band['all']:.4g} ({kinds}); "
+            f"robust: {design} design: worst-case residual ratio {band['all']:.4g}{at} ({kinds}); "
             f"added mass {report.added_mass[design]:.6g} kg, {minimised}"
         )
     shape = "box" if report.shape == "box" else "ellipsoid"
-    lines.append(f"robust: the worst case over the tolerance {shape} is {report.exactness}" if report.exactness == "exact" else f"robust: the worst-case figures are {report.exactness}")
+    if report.exactness == "exact":
+        lines.append(f"robust: the worst case over the tolerance {shape} is exact")
+    elif report.exactness.startswith(SAMPLED_MINIMAX):
+        lines.append(f"robust: the worst case is {report.exactness}")
+    else:
+        lines.append(f"robust: the worst-case figures are {report.exactness}")
+    for design, value in report.sampled.items():
+        corners = report.bands[design]["all"]
+        verdict = f"within the corners' worst case {corners:.4g}" if value <= corners * (1 + 1e-9) else f"above the corners' worst case {corners:.4g} by {value - corners:.3g}"
+        lines.append(f"robust: {design} design at {report.samples} random machines inside the box: largest residual ratio {value:.4g} ({verdict})")
+    for m in report.lengths:
+        what = "d − c − (L0 + slack margin)" if m.limit == "slack" else "L_max − (d − c)"
+        lines.append(f"robust: spring {m.spring} {what} at least {m.margin * 1e3:.4g} mm over the tolerance corners (least at {m.corner})")
     if report.lp_seconds:
         lines.append(f"robust: counterpart ({report.mode}, {report.shape}) solved by {report.solver} in {report.lp_seconds:.3g} s")
     units = {v.name: v.unit for v in result.problem.variables}

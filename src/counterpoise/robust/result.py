@@ -11,7 +11,11 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
+#: how the worst case is labelled with a directly attached spring (docs/robust.md#direct-springs)
+SAMPLED_MINIMAX = "a sampled minimax over the box's corners, not exact"
+
 if TYPE_CHECKING:
+    from .direct import LengthMargin
     from .law import Check, Law
     from .limits import Envelope as LimitEnvelope
     from .limits import Margin, PulleySpring
@@ -63,6 +67,14 @@ class RobustReport:
     #: the tuning law and its check at random as-built machines (robust/law.py)
     law: "Law | None" = None
     law_check: "Check | None" = None
+    #: per design: the largest residual ratio at ``samples`` random machines inside the box (the
+    #: check beside the corners with a directly attached spring; empty elsewhere)
+    sampled: Mapping[str, float] = field(default_factory=dict)
+    samples: int = 0
+    #: per design: the corner (and configuration) where the worst case over the box is
+    worst_corner: Mapping[str, str] = field(default_factory=dict)
+    #: directly attached springs: each length limit's least margin over the corners (robust/direct.py)
+    lengths: "tuple[LengthMargin, ...]" = ()
 
     @property
     def tuned_residual(self) -> float:

@@ -66,8 +66,13 @@ def robust(
     trees.update({("mass", b.name): b.mass for b in bodies})
     trees.update({("mass", c.name): c.mass for c in counter_masses})
     direct = [s.name for s in springs if s.direct is not None]
-    if direct:
-        raise ctx.fail(key, f"not combinable yet: [robust] with directly attached springs ('{direct[0]}'; docs/robust.md#not-done)")
+    if direct and spec.tune:
+        raise ctx.fail(
+            f"{key}.tune",
+            f"not combinable yet: tune with directly attached springs ('{direct[0]}': a tuned corner is not balanced exactly; docs/robust.md#not-done)",
+        )
+    if direct and ctx.spec.payloads:
+        raise ctx.fail(key, f"not combinable yet: [robust] with [payloads] and directly attached springs ('{direct[0]}'; docs/robust.md#not-done)")
     tolerances: list[Tolerance] = []
     for kind, raw in spec.tolerances.items():
         kkey = f"{key}.tolerances.{kind}"
@@ -85,6 +90,12 @@ def robust(
                 raise ctx.fail(ikey, f"unknown {what} '{item}'{suggest(item, names)}")
             t = _tolerance(ctx, kind, item, value, ikey)
             _check_size(ctx, t, trees.get((kind, item)), value, ikey)
+            if kind == "point" and item in direct and t.amount > 0 and spec.shape != "box":
+                raise ctx.fail(
+                    "robust.shape",
+                    f"not combinable yet: shape = \"{spec.shape}\" with a point tolerance of the directly attached spring '{item}' ({ikey}): "
+                    "its residual is not affine in the deviation, and the worst case is taken over the box's corners",
+                )
             tolerances.append(t)
     mode = spec.mode
     weight = limit = 0.0
