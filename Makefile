@@ -37,13 +37,15 @@ $(STAMP): pyproject.toml
 	@touch $(STAMP)
 
 # make test: the [test] extra (pytest, hypothesis, mypy and its stubs) on top of the runtime.
-# The test tools and the libraries the test files import (pytest, xdist, hypothesis, cvxpy,
-# scipy, dask...) compiled once by collecting the suite, keeping their .pyc (as the runtime's
-# small solve does above): where PYTHONDONTWRITEBYTECODE is set, every worker and every
-# process a test starts compiled them again (benchmarks/README.md, "make test CPU and wall")
+# The test tools and the libraries the tests import compiled once, keeping their .pyc (as the
+# runtime's small solve does above): those of the test files by collecting the suite, those
+# some tests import later (cvxpy, scipy, dask's distributed, trimesh and its networkx) by
+# importing them; where PYTHONDONTWRITEBYTECODE is set, every worker and every process a
+# test starts compiled them again (~10 s of CPU once; benchmarks/README.md, "make test CPU and wall")
 $(TESTSTAMP): $(STAMP)
 	@$(call install,-e '.[test]')
 	@PYTHONDONTWRITEBYTECODE= $(BIN)/python -m pytest -q --collect-only -p no:xdist >/dev/null 2>&1 || true
+	@PYTHONDONTWRITEBYTECODE= $(BIN)/python -c "import importlib, importlib.util as u; [importlib.import_module(m) for m in ('cvxpy', 'scipy.optimize', 'scipy.sparse.linalg', 'scipy.spatial', 'distributed', 'trimesh', 'networkx') if u.find_spec(m.split('.')[0])]" >/dev/null 2>&1 || true
 	@touch $(TESTSTAMP)
 
 # make docs: the [docs] extra (Sphinx, myst-parser, furo) on top of the runtime, never in it
