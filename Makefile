@@ -36,9 +36,16 @@ $(STAMP): pyproject.toml
 	@tmp=$$(mktemp -d) && PYTHONDONTWRITEBYTECODE= COUNTERPOISE_CACHE=off $(BIN)/counterpoise solve problems/fourbar_springs.toml --out "$$tmp" --plot >/dev/null 2>&1; rm -rf "$$tmp"
 	@touch $(STAMP)
 
-# make test: the [test] extra (pytest, hypothesis, mypy and its stubs) on top of the runtime
+# make test: the [test] extra (pytest, hypothesis, mypy and its stubs) on top of the runtime.
+# The test tools and the libraries the tests import compiled once, keeping their .pyc (as the
+# runtime's small solve does above): those of the test files by collecting the suite, those
+# some tests import later (cvxpy, scipy, dask's distributed, trimesh and its networkx) by
+# importing them; where PYTHONDONTWRITEBYTECODE is set, every worker and every process a
+# test starts compiled them again (~10 s of CPU once; benchmarks/README.md, "make test CPU and wall")
 $(TESTSTAMP): $(STAMP)
 	@$(call install,-e '.[test]')
+	@PYTHONDONTWRITEBYTECODE= $(BIN)/python -m pytest -q --collect-only -p no:xdist >/dev/null 2>&1 || true
+	@PYTHONDONTWRITEBYTECODE= $(BIN)/python -c "import importlib, importlib.util as u; [importlib.import_module(m) for m in ('cvxpy', 'scipy.optimize', 'scipy.sparse.linalg', 'scipy.spatial', 'distributed', 'trimesh', 'networkx') if u.find_spec(m.split('.')[0])]" >/dev/null 2>&1 || true
 	@touch $(TESTSTAMP)
 
 # make docs: the [docs] extra (Sphinx, myst-parser, furo) on top of the runtime, never in it
@@ -71,7 +78,7 @@ synthesis: $(STAMP)
 # type check first (docs/development.md: the settings are [tool.mypy] in pyproject.toml), then the suite
 test: $(TESTSTAMP)
 	$(BIN)/python -m mypy
-	$(BIN)/python -m pytest -q -n 2 --dist loadfile --no-loadscope-reorder
+	PYTHONDONTWRITEBYTECODE= $(BIN)/python -m pytest -q -n 2 --dist loadfile --no-loadscope-reorder
 
 # the documentation site (docs/development.md#the-documentation-site): docs/*.md, problems/README.md,
 # the generated command-line reference, API reference and gallery (from problems/ and results/),

@@ -13,6 +13,8 @@ def test_make_test_runs_two_workers_a_file_each_heaviest_first():
     recipe = makefile.split("\ntest:", 1)[1].split("\n\n", 1)[0]
     line = next(x for x in recipe.splitlines() if "-m pytest" in x)
     assert "-n 2" in line and "--dist loadfile" in line and "--no-loadscope-reorder" in line
+    # the workers and the processes tests start keep the .pyc they compile (docs/development.md)
+    assert line.lstrip().startswith("PYTHONDONTWRITEBYTECODE= ")
 
 
 def test_the_heavy_files_exist_and_are_named_once():
