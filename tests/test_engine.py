@@ -63,7 +63,7 @@ class TestClosedFormPendulum:
 
 chains = None
 try:
-    from hypothesis import HealthCheck, given, settings
+    from hypothesis import HealthCheck, example, given, settings
     from hypothesis import strategies as st
 
     link_strategy = st.builds(
@@ -92,6 +92,10 @@ except ImportError:  # pragma: no cover
 @pytest.mark.skipif(chains is None, reason="hypothesis not installed")
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(chain=chains)
+# found by the search: the spring alone balances, so the counter-mass goes to 0 and leaves its
+# lever y0 free; IPOPT stopped on Error_In_Step_Computation (reported failed) until such a
+# breakdown was restarted from the least-squares closest design (designer.RESTARTED_FAILURES)
+@example(chain=Chain(links=[Link(length=0.5, mass=1.875, com=(0.30078125, 0.0), arm=0.3125, free_offset=True)], spring_on_first=0.06, inertia_weight=30.0))
 def test_random_planar_chains_balance(chain):
     """A planar serial chain with a (mass, offset) counter-mass per link can be balanced when
     the mass bounds leave room: the builder derives them from the chain (four times the

@@ -66,6 +66,12 @@ if TYPE_CHECKING:
 RANK_TOLERANCE = 1e-8
 
 
+#: IPOPT's failures that are local to its path, not a verdict on the problem: like an
+#: infeasibility verdict, they are settled from the least-squares closest design
+#: (restarted from it when it balances). A time limit or an invalid number is not restarted.
+RESTARTED_FAILURES = frozenset({"Error_In_Step_Computation", "Search_Direction_Becomes_Too_Small", "Maximum_Iterations_Exceeded"})
+
+
 class Designer:
     """Builds the solver for a problem once; :meth:`solve` may be called many times."""
 
@@ -253,9 +259,11 @@ class Designer:
         closest_kind: str | None = None
         if out.status is Status.OPTIMAL:
             z, message = self.balance.polish(z, p, b), "balanced design found"
-        elif out.status is Status.INFEASIBLE:
-            # IPOPT's infeasibility verdict is local (its restoration phase got stuck). The
-            # least-squares closest design settles it: when that balances, restart from it.
+        elif out.status is Status.INFEASIBLE or out.solver_status in RESTARTED_FAILURES:
+            # IPOPT's infeasibility verdict is local (its restoration phase got stuck), and so
+            # is a numerical breakdown (a counter-mass going to 0 leaves its lever free: a
+            # singular step). The least-squares closest design settles it: when that
+            # balances, restart from it.
             closest = self.closest.least_squares_multistart([z, z0], p, b, bounds)
             elapsed = out.solve_time + closest.solve_time
             if self.balance.balances(closest.z, p):
