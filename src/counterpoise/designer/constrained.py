@@ -12,6 +12,7 @@
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
@@ -24,6 +25,7 @@ from ..solvers.base import Bounds, SolverOutput, Status
 from .solution import Solution
 
 if TYPE_CHECKING:
+    from ..solvers.ipopt import IpoptBackend
     from .built import Built
 
 #: solver_status of a design whose IPOPT run said infeasible although the balance alone holds
@@ -74,14 +76,46 @@ class Conflict:
     relaxed: dict[tuple[str, str], float]
 
 
-def name_conflict(designer: Built, z: np.ndarray, p: np.ndarray, b: Bounds) -> Conflict | None:
-    """An infeasible constrained design that the balance alone allows: the constraints the
-    elastic problem had to relax, by name, and the elastic design itself (None: not the
-    constraints' fault, or the elastic problem did not balance)."""
+#: the elastic problem of each designer, built once (its weights are parameters): a payload
+#: schedule asks it at every infeasible grid row
+_ELASTIC: weakref.WeakKeyDictionary[Any, tuple[IpoptBackend, Any]] = weakref.WeakKeyDictionary()
+
+
+def _elastic(designer: Built) -> tuple[IpoptBackend, Any]:
+    """The elastic NLP of ``designer``'s constraint rows: variables (z, σ), parameters
+    (p, w) with w_j ≥ 1 the scale of group j, minimise Σ w_j σ_j subject to the balance, the
+    design's inequalities and (g_i / w_j) ± σ_j within the rows' bounds / w_j; and the
+    function of the rows g(z, p)."""
     import casadi as ca
 
     from ..solvers.ipopt import IpoptBackend
 
+    found = _ELASTIC.get(designer)
+    if found is not None:
+        return found
+    rows = designer.rows
+    if rows is None:
+        raise ValueError("an elastic problem needs constraint rows")
+    f = designer.formulation
+    n_groups = len(rows.groups)
+    sigma = ca.SX.sym("sigma", n_groups)
+    w = ca.SX.sym("w", n_groups)
+    member = np.zeros((rows.count, n_groups))
+    for j, g in enumerate(rows.groups):
+        member[g.start : g.stop, j] = 1.0
+    per_row = ca.mtimes(ca.DM(member), w)
+    spread = ca.mtimes(ca.DM(member), sigma)
+    scaled = rows.g / per_row
+    g_el = ca.vertcat(designer.conditions.equalities, f.nonnegative, scaled + spread, scaled - spread)
+    nlp = {"x": ca.vertcat(f.z, sigma), "p": ca.vertcat(f.p, w), "f": ca.dot(w, sigma), "g": g_el}
+    built = _ELASTIC[designer] = (IpoptBackend(nlp, designer.options, "elastic"), ca.Function("rows", [f.z, f.p], [rows.g]))
+    return built
+
+
+def name_conflict(designer: Built, z: np.ndarray, p: np.ndarray, b: Bounds) -> Conflict | None:
+    """An infeasible constrained design that the balance alone allows: the constraints the
+    elastic problem had to relax, by name, and the elastic design itself (None: not the
+    constraints' fault, or the elastic problem did not balance)."""
     rows = designer.rows
     if rows is None or rows.count == 0:
         return None
@@ -92,31 +126,22 @@ def name_conflict(designer: Built, z: np.ndarray, p: np.ndarray, b: Bounds) -> C
     # slack of 1, a bound of 1e-12 N (rows scaled by it, missed by ~1e13) left IPOPT's
     # restoration stuck, "infeasible", and the limit unnamed. σ starts at 1 + 1/w: the start
     # is feasible when z balances. The objective is still Σ s (the scaled rows' slack).
-    rows_at = np.asarray(ca.Function("rows", [f.z, f.p], [rows.g])(z, p), dtype=float).reshape(-1)
+    backend, rows_of = _elastic(designer)
+    rows_at = np.asarray(rows_of(z, p), dtype=float).reshape(-1)
     with np.errstate(invalid="ignore"):
         beyond = np.nan_to_num(np.fmax(np.fmax(lo_rows - rows_at, rows_at - hi_rows), 0.0), nan=1.0, posinf=1.0)
     weight = np.array([max(1.0, float(beyond[g.start : g.stop].max(initial=0.0))) for g in rows.groups])
-    # and the rows divided by the same w_j: (g + w σ)/w within the bounds / w, of order one
-    sigma = ca.SX.sym("sigma", n_groups)
-    member = np.zeros((rows.count, n_groups))
     per_row = np.ones(rows.count)
     for j, g in enumerate(rows.groups):
-        member[g.start : g.stop, j] = 1.0
         per_row[g.start : g.stop] = weight[j]
-    spread = ca.mtimes(ca.DM(member), sigma)
-    scaled = rows.g / ca.DM(per_row)
-    eq = designer.conditions.equalities
-    g_el = ca.vertcat(eq, f.nonnegative, scaled + spread, scaled - spread)
-    nlp = {"x": ca.vertcat(f.z, sigma), "p": f.p, "f": ca.dot(ca.DM(weight), sigma), "g": g_el}
-    backend = IpoptBackend(nlp, designer.options, "elastic")
-    n_eq, n_in = int(eq.numel()), int(f.nonnegative.numel())
+    n_eq, n_in = int(designer.conditions.equalities.numel()), int(f.nonnegative.numel())
     bounds = Bounds(
         np.concatenate([b.lbz, np.zeros(n_groups)]),
         np.concatenate([b.ubz, np.full(n_groups, np.inf)]),
         np.concatenate([np.zeros(n_eq + n_in), lo_rows / per_row, np.full(rows.count, -np.inf)]),
         np.concatenate([np.zeros(n_eq), np.full(n_in, np.inf), np.full(rows.count, np.inf), hi_rows / per_row]),
     )
-    out = backend.solve(np.concatenate([z, 1.0 + 1.0 / weight]), p, bounds)
+    out = backend.solve(np.concatenate([z, 1.0 + 1.0 / weight]), np.concatenate([np.asarray(p, dtype=float).reshape(-1), weight]), bounds)
     zz, s = out.z[: z.size], weight * out.z[z.size :]
     if out.status is not Status.OPTIMAL or not designer.balance.balances(zz, p):
         return None
