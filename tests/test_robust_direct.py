@@ -237,17 +237,15 @@ def test_still_refused_with_direct_springs(tmp_path, capsys, extra, key, message
     assert not out.exists()
 
 
-@pytest.mark.parametrize("name", ["fourbar_springs.toml", "lamp_catalogue.toml"])
-def test_loops_and_slots_stay_refused(tmp_path, capsys, name):
-    """[robust] with [loops] (the four-bar) or [slots] (the catalogue lamp) is still an input
-    error: exit 2 naming [robust] and the table, nothing written."""
+def test_slots_stay_refused(tmp_path, capsys):
+    """[robust] with [slots] (the catalogue lamp) is still an input error: exit 2 naming
+    [robust] and the table, nothing written. ([loops] combines: tests/test_robust_loops.py.)"""
     problems = Path(__file__).resolve().parents[1] / "problems"
-    path = tmp_path / name
-    path.write_text((problems / name).read_text(encoding="utf-8") + '\n[robust]\nmode = "none"\ntolerances.rate = "10 %"\n', encoding="utf-8")
+    path = tmp_path / "lamp_catalogue.toml"
+    path.write_text((problems / "lamp_catalogue.toml").read_text(encoding="utf-8") + '\n[robust]\nmode = "none"\ntolerances.rate = "10 %"\n', encoding="utf-8")
     out = tmp_path / "out"
     with pytest.raises(SystemExit) as stop:
         main(["solve", str(path), "--out", str(out)])
     assert stop.value.code == 2
-    table = "loops" if name.startswith("fourbar") else "slots"
-    assert f"robust: not combinable yet: [robust] with [{table}] (docs/robust.md#not-done)" in capsys.readouterr().err
+    assert "robust: not combinable yet: [robust] with [slots] (docs/robust.md#not-done)" in capsys.readouterr().err
     assert not out.exists()

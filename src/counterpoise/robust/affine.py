@@ -168,6 +168,7 @@ class Decomposition:
         self.deviations = tuple(deviations)
         self.formulation = Formulation(perturbed)
         self._maps: dict[tuple[int, int, str], Any] = {}  # (block, configurations, function) -> mapped CasADi function
+        self._tangents: dict[tuple[int, tuple[int, ...], bytes], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}  # closed loops: per (block, q)
         #: the elements with several deviations (their indices), whose products are evaluated exactly
         by_element: dict[tuple[str, str], list[int]] = {}
         for i, d in enumerate(self.deviations):
@@ -183,12 +184,83 @@ class Decomposition:
         self.tensions = {t.item: t.amount for t in (spec.tolerances if spec else ()) if t.kind == "initial_tension" and t.amount > 0 and t.item in pulley}
 
     def configurations(self, count: int, seed: int) -> list[np.ndarray]:
+        """About ``count`` configurations per block (:func:`grid`); a subsystem with closed
+        loops: the grid over its independent coordinates, assembled on the configuration
+        manifold (every coordinate of the subsystem, on the branch of home)."""
         rng = np.random.default_rng(seed)
         out = []
-        for block in self.formulation.blocks:
+        for b, block in enumerate(self.formulation.blocks):
+            c = self._closure(b)
+            if c is not None:
+                out.append(c.solve(grid(c.lower, c.upper, count, rng)).q)
+                continue
             coords = [self.problem.coordinate[n] for n in block.coordinates]
             out.append(grid(np.array([c.lower for c in coords]), np.array([c.upper for c in coords]), count, rng))
         return out
+
+    # -- closed loops: rows along the configuration manifold -------------------------
+    def _closure(self, b: int) -> Any:
+        """The closure (:class:`counterpoise.mechanics.closure.Closure`) of block ``b``'s
+        subsystem at its scenario's geometry; None for an open chain. The deviations (rates,
+        masses, centres of mass, spring ends) are not loop geometry: one manifold for all."""
+        block = self.formulation.blocks[b]
+        if not self.problem.subsystem_loops(block.subsystem):
+            return None
+        from ..mechanics.closure import closure, scenario_base  # closed loops only (~3 ms to import)
+
+        return closure(self.problem, block.subsystem, scenario_base(self.problem, block.scenario))
+
+    def names(self, b: int) -> list[str]:
+        """The coordinates of block ``b``'s rows: its independent ones (all of an open chain)."""
+        block = self.formulation.blocks[b]
+        c = self._closure(b)
+        return list(block.coordinates) if c is None else [block.coordinates[int(i)] for i in c.independent]
+
+    def tangent(self, b: int, qb: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """(independent, dependent indices, dq_d/dq_i (N, n_d, n_i)) at the assembled
+        configurations ``qb`` of block ``b``; None for an open chain."""
+        c = self._closure(b)
+        if c is None:
+            return None
+        key = (b, qb.shape, qb.tobytes())
+        found = self._tangents.get(key)
+        if found is None:
+            _, jac = c.equations(np.asarray(qb, dtype=float))
+            found = (np.asarray(c.independent, dtype=int), np.asarray(c.dependent, dtype=int), c.tangent(jac)[0])
+            if len(self._tangents) >= 8:
+                self._tangents.pop(next(iter(self._tangents)))
+            self._tangents[key] = found
+        return found
+
+    def along(self, b: int, qb: np.ndarray, values: np.ndarray) -> np.ndarray:
+        """Generalized forces of block ``b`` at ``qb``, configuration-major (N · n,) or (N, n),
+        along the manifold: r_i = g_i + (dq_d/dq_i)ᵀ g_d, (N · n_i,) or (N, n_i). The projection
+        is linear and does not depend on the design or the deviations, so a residual affine
+        (multi-affine) in them stays so. An open chain's are returned as is."""
+        t = self.tangent(b, qb)
+        if t is None:
+            return values
+        ind, dep, tangent = t
+        flat = values.ndim == 1
+        g = values.reshape(len(qb), -1)
+        out = g[:, ind] + np.einsum("kdi,kd->ki", tangent, g[:, dep])
+        return out.reshape(-1) if flat else out
+
+    def along_symbolic(self, b: int, qb: np.ndarray, values: Any) -> Any:
+        """The same for a CasADi matrix (n, N) of block ``b``'s residual at ``qb``: (n_i, N)."""
+        t = self.tangent(b, qb)
+        if t is None:
+            return values
+        import casadi as ca
+
+        ind, dep, tangent = t
+        out = []
+        for j, i in enumerate(ind):
+            row = values[int(i), :]
+            for d, k in enumerate(dep):
+                row = row + ca.times(ca.DM(tangent[:, d, j][None, :]), values[int(k), :])
+            out.append(row)
+        return ca.vertcat(*out)
 
     def sampled(self, q: list[np.ndarray], z: np.ndarray, p: np.ndarray, count: int, seed: int) -> np.ndarray:
         """The largest |residual| per row (as :meth:`rows` stacks them) over ``count`` random
@@ -209,7 +281,7 @@ class Decomposition:
         for b in range(len(self.formulation.blocks)):
             qb = q[b]
             fn = self.mapped(b, len(qb))
-            columns = [np.array(fn(qb.T, z, self.p_at(p, row))).T.reshape(-1) for row in np.atleast_2d(signs)]
+            columns = [self.along(b, qb, np.array(fn(qb.T, z, self.p_at(p, row))).T.reshape(-1)) for row in np.atleast_2d(signs)]
             out.append(np.stack(columns, axis=1))
         return np.concatenate(out)
 
@@ -261,9 +333,9 @@ class Decomposition:
             n = len(qb)
             fn = self.mapped(b, n)
 
-            def value(z: np.ndarray, dev: int | None, fn: Any = fn, qb: np.ndarray = qb, at: np.ndarray | None = None) -> np.ndarray:
+            def value(z: np.ndarray, dev: int | None, fn: Any = fn, qb: np.ndarray = qb, at: np.ndarray | None = None, b: int = b) -> np.ndarray:
                 pv = self.p_with(p, dev) if at is None else at
-                return np.array(fn(qb.T, z, pv)).T.reshape(-1)  # (n · n_q,), configuration-major
+                return self.along(b, qb, np.array(fn(qb.T, z, pv)).T.reshape(-1))  # (n · n_q,), configuration-major; along the manifold
 
             base = [value(z, None) for z in designs]
             r0 = base[0]
@@ -289,13 +361,13 @@ class Decomposition:
                         FB[:, k, j] = (shifted[j + 1] - base[j + 1]) - F[:, k]
                 blocks_groups[g][0].append(F)
                 blocks_groups[g][1].append(FB)
-            torque = np.abs(np.array(self.mapped(b, n, "gravity_torque")(qb.T, z_ref, p)).T.reshape(-1))
-            kinds = np.tile([self.problem.coordinate[c].unit.dimension == "" for c in block.coordinates], n)
+            torque = np.abs(self.along(b, qb, np.array(self.mapped(b, n, "gravity_torque")(qb.T, z_ref, p)).T.reshape(-1)))
+            kinds = np.tile([self.problem.coordinate[c].unit.dimension == "" for c in self.names(b)], n)
             blocks_r0.append(r0)
             blocks_A.append(A)
             blocks_S0.append(S0)
             blocks_SB.append(SB)
-            blocks_T.append(self._tension(block, qb, z_ref, p))
+            blocks_T.append(self._tension(b, qb, z_ref, p))
             blocks_ref.append(torque)
             ids.append(np.full(r0.size, b))
             revolute.append(kinds)
@@ -321,9 +393,11 @@ class Decomposition:
             kind,
         )
 
-    def _tension(self, block: Any, qb: np.ndarray, z: np.ndarray, p: np.ndarray) -> np.ndarray:
-        """Σ ΔF0 |∂d/∂q_j| per configuration and coordinate (configuration-major)."""
-        out = np.zeros((len(qb), len(block.coordinates)))
+    def _tension(self, b: int, qb: np.ndarray, z: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """Σ ΔF0 |∂d/∂q_j| per configuration and coordinate (configuration-major; closed
+        loops: the cable's lever arm along the manifold, projected before its absolute value)."""
+        block = self.formulation.blocks[b]
+        out = np.zeros((len(qb), len(self.names(b))))
         if not self.tensions:
             return out.reshape(-1)
         from ..selection.geometry import spring_length_gradients
@@ -336,7 +410,7 @@ class Decomposition:
             if name not in geometry:
                 continue
             length, grad = geometry[name]
-            out += amount * np.abs(grad) / (2 * np.maximum(length, 1e-12))[:, None]
+            out += amount * np.abs(self.along(b, qb, np.asarray(grad))) / (2 * np.maximum(length, 1e-12))[:, None]
         return out.reshape(-1)
 
 

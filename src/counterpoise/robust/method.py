@@ -41,7 +41,7 @@ from ..solvers.base import SolverOutput, Status
 from .affine import LP_CONFIGURATIONS, Decomposition, Rows, worst, worst_corner
 from .constraints import CornerConstraints, LinearRows
 from .perturb import Deviation, corner_name, corner_text, perturbed
-from .result import SAMPLED_MINIMAX, Corner, RobustReport
+from .result import ON_MANIFOLD, SAMPLED_MINIMAX, Corner, RobustReport
 
 if TYPE_CHECKING:
     from ..designer.designer import Designer
@@ -291,7 +291,15 @@ class RobustMethod(DesignMethod):
             if report.tuning_status not in ("", "balanced"):
                 status, message = Status.INFEASIBLE, report.tuning_status
         key = "robust" if "robust" in bands else "nominal"
-        bound = "" if report.exactness == "exact" else " (a sampled minimax over the box's corners, not exact)" if report.exactness.startswith(SAMPLED_MINIMAX) else " (a bound)"
+        bound = (
+            ""
+            if report.exactness == "exact"
+            else " (a sampled minimax over the box's corners, not exact)"
+            if report.exactness.startswith(SAMPLED_MINIMAX)
+            else " (exact at the sampled manifold configurations)"
+            if report.exactness.startswith(ON_MANIFOLD) and "bound" not in report.exactness and "first order" not in report.exactness
+            else " (a bound)"
+        )
         text = f"{message}: worst-case residual ratio {bands[key]['all']:.4g}{bound} over the tolerance {'box' if spec.shape == 'box' else 'ellipsoid'}"
         if key in sampled and sampled[key] == sampled[key]:
             text += f" (at {SAMPLED_MACHINES} random machines inside it: {sampled[key]:.4g})"
@@ -491,6 +499,14 @@ class RobustMethod(DesignMethod):
                 why += f"; the residual is not affine in {labels} (the spring's length)"
             return f"{SAMPLED_MINIMAX}: {why}"
         notes = []
+        if self.problem.loops:
+            # the residual along the manifold is the open chain's projected by dq_d/dq_i, which
+            # no deviation changes (they are not loop geometry): multi-affine in them as before,
+            # exact at each assembled configuration; the manifold itself is sampled
+            notes.append(
+                f"{ON_MANIFOLD} (about {BAND_CONFIGURATIONS} per subsystem and scenario, each assembled by the loop closure "
+                "and the residual projected along it; nothing is claimed between them beyond that dense sample)"
+            )
         if spec.shape != "box" and self.decomposition.groups:
             notes.append("a bound over the ellipsoid: the products of one element's deviations are bounded over its box")
         points = {t.item for t in spec.tolerances if t.kind == "point" and t.amount > 0}
@@ -554,9 +570,10 @@ class RobustMethod(DesignMethod):
             return ""
         k, signs = worst_corner(rows)
         b = int(rows.block[k])
-        names = list(self.decomposition.formulation.blocks[b].coordinates)
+        names = self.decomposition.names(b)  # closed loops: the independent coordinates
         start = int(np.flatnonzero(rows.block == b)[0])
-        q = rows.q[b][(k - start) // len(names)]
+        every = list(self.decomposition.formulation.blocks[b].coordinates)
+        q = [rows.q[b][(k - start) // len(names)][every.index(n)] for n in names]
         coords = ", ".join(f"{n} = {self.problem.coordinate[n].unit.from_si(float(v)):.4g} {self.problem.coordinate[n].unit.label}" for n, v in zip(names, q))
         return f"{corner_text(self.deviations, signs)} at {coords}"
 

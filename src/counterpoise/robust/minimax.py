@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -83,7 +84,8 @@ class RobustMinimax:
             offsets.append(off)
         self.offsets = offsets if self.shape == "box" else []
         # per block: coordinates sampled on a grid of about SAMPLES_PER_COORDINATE × n_q points
-        self.q = [decomposition.configurations(SAMPLES_PER_COORDINATE * len(b.coordinates), seed)[k] for k, b in enumerate(f.blocks)]
+        # (closed loops: n_q independent coordinates, assembled on the configuration manifold)
+        self.q = [decomposition.configurations(SAMPLES_PER_COORDINATE * len(decomposition.names(k)), seed)[k] for k in range(len(f.blocks))]
         self.rho = ca.SX.sym("rho")
         self.mode = mode
         self.weight = weight
@@ -103,30 +105,36 @@ class RobustMinimax:
         kinds, torques = [], []
         for b, block in enumerate(f.blocks):
             qb = self.q[b]
-            torque = np.abs(np.array(block.gravity_torque.map(len(qb))(qb.T, z0, p)))  # (n_q, N)
-            for j, name in enumerate(block.coordinates):
+            torque = np.abs(self._decomposition.along(b, qb, np.array(block.gravity_torque.map(len(qb))(qb.T, z0, p)).T).T)  # (n_q, N)
+            for j, name in enumerate(self._decomposition.names(b)):
                 kinds.append(self._decomposition.problem.coordinate[name].unit.dimension == "")
                 torques.append(float(torque[j].max(initial=0.0)))
         reference = {k: max((t for t, kk in zip(torques, kinds) if kk == k), default=1.0) or 1.0 for k in (True, False)}
         i = 0
         for b, block in enumerate(f.blocks):
             qb = self.q[b]
-            mapped = block.residual.map(len(qb))
+            raw = block.residual.map(len(qb))
+            n_rows = len(self._decomposition.names(b))
+
+            def mapped(q: Any, z: Any, p: Any, b: int = b, qb: np.ndarray = qb, raw: Any = raw) -> Any:
+                """The block's residual at ``qb`` (n, N); closed loops: along the manifold (n_i, N)."""
+                return self._decomposition.along_symbolic(b, qb, raw(q, z, p))
+
             if self.shape == "ellipsoid":
                 r0 = mapped(ca.DM(qb.T), f.z, f.p)
                 changes = [mapped(ca.DM(qb.T), f.z, f.p + ca.DM(self._decomposition.p_at(np.zeros(f.p.numel()), unit))) - r0 for unit in np.eye(len(self._decomposition.deviations)).tolist()]
-                for j in range(len(block.coordinates)):
+                for j in range(n_rows):
                     scale = reference[kinds[i + j]]
                     spread = ca.sqrt(sum(c[j, :].T ** 2 for c in changes) + (ELLIPSOID_FLOOR * scale) ** 2) if changes else 0
                     rows += [self.rho - (r0[j, :].T + spread) / scale, self.rho - (spread - r0[j, :].T) / scale]
-                i += len(block.coordinates)
+                i += n_rows
                 continue
             for off in self.offsets:
                 r = mapped(ca.DM(qb.T), f.z, f.p + ca.DM(off))  # (n_q, N)
-                for j in range(len(block.coordinates)):
+                for j in range(n_rows):
                     scaled = r[j, :].T / reference[kinds[i + j]]
                     rows += [self.rho - scaled, self.rho + scaled]
-            i += len(block.coordinates)
+            i += n_rows
         if self.lengths is not None:  # directly attached springs within their lengths at every corner of their points
             rows += self.lengths.symbolic(self.q)
         self.n_rows = int(sum(r.numel() for r in rows))

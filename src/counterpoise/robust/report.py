@@ -14,7 +14,7 @@ the setting of each tune variable (its display unit) and the ratios before and a
 from __future__ import annotations
 
 from ..designer.layers import Result, Row
-from .result import SAMPLED_MINIMAX, RobustReport
+from .result import ON_MANIFOLD, SAMPLED_MINIMAX, RobustReport
 
 TOLERANCE_COLUMNS = ["design", "case", "deviation", "residual_ratio", "adjusted_residual_ratio", "adjustment"]
 #: report.html's caption of a [robust] problem's tolerance.csv (a catalogue's has its own)
@@ -147,6 +147,8 @@ def status_lines(result: Result) -> str:
     shape = "box" if report.shape == "box" else "ellipsoid"
     if report.exactness == "exact":
         lines.append(f"robust: the worst case over the tolerance {shape} is exact")
+    elif report.exactness.startswith(ON_MANIFOLD):
+        lines.append(f"robust: the worst case over the tolerance {shape} is {report.exactness}")
     elif report.exactness.startswith(SAMPLED_MINIMAX):
         lines.append(f"robust: the worst case is {report.exactness}")
     else:
