@@ -43,6 +43,7 @@ from ..designer.solution import Solution
 from ..payload.result import PayloadDesign
 from ..robust.result import RobustReport
 from ..springs.design import NEGLIGIBLE_FORCE
+from ..verify.residuals import RememberingFunctions
 
 #: a limit counts as met when it misses its bound by less than this share of the bound's
 #: (or the value's) size, plus ABSOLUTE (SI: m, N, rad): rounding, and the same extreme
@@ -159,6 +160,10 @@ def extremes(solution: Any) -> dict[tuple[str, str], dict[str, Extreme]]:
     settings = problem.settings
     out: dict[tuple[str, str], dict[str, Extreme]] = {}
     drawn: dict[tuple[tuple[str, float], ...], Mapping[str, np.ndarray]] = {}
+    # per sample and subsystem: the coordinates' arrays, the same objects for every scenario,
+    # so that the functions remember their sin and cos (a payload range's scenarios share them)
+    columns: dict[tuple[tuple[tuple[str, float], ...], str | None], tuple[list[str], np.ndarray, dict[str, Any]]] = {}
+    functions = RememberingFunctions()
     for scenario in problem.scenarios:
         gravity, base = checked.scenario_parameters[scenario.name]
         key = tuple(sorted(base.items())) if problem.loops else ()
@@ -166,12 +171,19 @@ def extremes(solution: Any) -> dict[tuple[str, str], dict[str, Extreme]]:
             drawn[key] = sample(problem, base, settings.verify_samples, settings.seed + SEED_OFFSET)
         q = drawn[key]
         variables = checked.variable_values(scenario.name)
+        # one mechanics per subsystem: its springs share the sample and the frames' poses
+        mechanics: dict[str | None, Mechanics] = {}
         for s in problem.springs:
-            names = [c.name for c in problem.subsystem_coordinates(s.subsystem)] if s.subsystem is not None else []
-            coords: dict[str, Any] = {c.name: c.home for c in problem.coordinates}
-            rows = q[s.subsystem] if s.subsystem is not None else np.zeros((1, 0))
-            coords.update({n: rows[:, i] for i, n in enumerate(names)})
-            mech = Mechanics(problem, base, variables, coords, gravity)
+            if (key, s.subsystem) not in columns:
+                names = [c.name for c in problem.subsystem_coordinates(s.subsystem)] if s.subsystem is not None else []
+                coords: dict[str, Any] = {c.name: c.home for c in problem.coordinates}
+                rows = q[s.subsystem] if s.subsystem is not None else np.zeros((1, 0))
+                coords.update({n: np.ascontiguousarray(rows[:, i]) for i, n in enumerate(names)})
+                columns[(key, s.subsystem)] = (names, rows, coords)
+            names, rows, coords = columns[(key, s.subsystem)]
+            if s.subsystem not in mechanics:
+                mechanics[s.subsystem] = Mechanics(problem, base, variables, coords, gravity, functions=functions)
+            mech = mechanics[s.subsystem]
             values = {k: np.broadcast_to(np.asarray(v, dtype=float), (rows.shape[0],)) for k, v in spring_quantities(mech, s).items()}
             if s.pulley is not None and s.direct is None and s.pulley.radius > 0.0:
                 c = cable(mech, s)

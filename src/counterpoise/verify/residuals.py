@@ -70,6 +70,11 @@ class _Functions(dict[str, Any]):
         return value
 
 
+#: numpy functions remembering sin and cos per argument array, for any evaluation that
+#: reuses its coordinate arrays (the realisation limits' scenarios)
+RememberingFunctions = _Functions
+
+
 def _complex_step(name: str, z: np.ndarray) -> np.ndarray:
     """sin(a + ib) = sin a cosh b + i cos a sinh b, and for a complex step b (|b| ≤ 1e-100)
     cosh b = 1 and sinh b = b exactly in floating point: two real functions instead of four."""
