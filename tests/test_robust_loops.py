@@ -1,4 +1,4 @@
-"""[robust] with closed loops (docs/robust.md#loops): the worst case over the tolerance box at
+"""[robust] with closed loops (docs/robust.md#robust-loops): the worst case over the tolerance box at
 the loop's sampled manifold configurations, checked against an independent evaluation.
 
 The mechanism is the crank-rocker four-bar of problems/fourbar_springs.toml (crank a = 120 mm,

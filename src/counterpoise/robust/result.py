@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 
 #: how the worst case is labelled with a directly attached spring (docs/robust.md#direct-springs)
 SAMPLED_MINIMAX = "a sampled minimax over the box's corners, not exact"
-#: how the worst case is labelled on a closed loop (docs/robust.md#loops): exact at each sampled
+#: how the worst case is labelled on a closed loop (docs/robust.md#robust-loops): exact at each sampled
 #: configuration of the loop's manifold, the manifold itself sampled
 ON_MANIFOLD = "exact at the sampled configurations of the closed loop's manifold"
 

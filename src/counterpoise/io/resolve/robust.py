@@ -73,11 +73,11 @@ def robust(
         )
     if ctx.spec.loops:  # closed loops: the worst case along the manifold; the tuning and the rest not yet
         if spec.tune:
-            raise ctx.fail(f"{key}.tune", "not combinable yet: tune with [loops] (the tuning law reads poses of an open chain; docs/robust.md#loops)")
+            raise ctx.fail(f"{key}.tune", "not combinable yet: tune with [loops] (the tuning law reads poses of an open chain; docs/robust.md#robust-loops)")
         if direct:
-            raise ctx.fail(key, f"not combinable yet: [robust] with [loops] and directly attached springs ('{direct[0]}'; docs/robust.md#loops)")
+            raise ctx.fail(key, f"not combinable yet: [robust] with [loops] and directly attached springs ('{direct[0]}'; docs/robust.md#robust-loops)")
         if ctx.spec.payloads:
-            raise ctx.fail(key, "not combinable yet: [robust] with [loops] and [payloads] (docs/robust.md#loops)")
+            raise ctx.fail(key, "not combinable yet: [robust] with [loops] and [payloads] (docs/robust.md#robust-loops)")
     if direct and ctx.spec.payloads:
         raise ctx.fail(key, f"not combinable yet: [robust] with [payloads] and directly attached springs ('{direct[0]}'; docs/robust.md#not-done)")
     tolerances: list[Tolerance] = []
