@@ -170,12 +170,17 @@ def test_a_new_layer_is_its_package_and_one_registry_line(stamp_layer, tmp_path)
     assert '<section id="stamp"><h2>Stamp</h2>' in page and "stamp.csv: the stamp" in page
 
 
-def test_a_layers_table_cannot_yet_be_combined_with_another_as_its_entry_says(tmp_path):
-    """The registry's ``not_with`` is the one list of the tables a layer cannot take yet:
-    [robust] with [slots] is an input error naming [robust] (io/resolve/context.combinations)."""
+def test_a_layers_table_cannot_yet_be_combined_with_another_as_its_entry_says(tmp_path, monkeypatch):
+    """The registry's ``not_with`` is the one list of the tables a layer cannot take yet: an
+    entry naming [slots] (no registered layer does now: [robust] with [slots] combines,
+    tests/test_robust_slots.py) makes [robust] with [slots] an input error naming [robust]
+    (io/resolve/context.combinations); without it the file reads."""
     text = (PROBLEMS / "lamp_catalogue.toml").read_text(encoding="utf-8") + '\n[robust]\nmode = "none"\ntolerances.rate = "10 %"\n'
     path = tmp_path / "lamp_catalogue_robust.toml"
     path.write_text(text, encoding="utf-8")
+    assert load_problem(path).robust is not None
+    refusing = tuple(registry.Entry(e.name, e.module, e.table, ("slots",), "docs/robust.md#not-done") if e.name == "robust" else e for e in registry.REGISTRY)
+    monkeypatch.setattr(registry, "REGISTRY", refusing)
     with pytest.raises(ProblemFileError) as error:
         load_problem(path)
     assert error.value.key == "robust"

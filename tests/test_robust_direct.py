@@ -237,15 +237,16 @@ def test_still_refused_with_direct_springs(tmp_path, capsys, extra, key, message
     assert not out.exists()
 
 
-def test_slots_stay_refused(tmp_path, capsys):
-    """[robust] with [slots] (the catalogue lamp) is still an input error: exit 2 naming
-    [robust] and the table, nothing written. ([loops] combines: tests/test_robust_loops.py.)"""
+def test_slots_with_limit_stay_refused(tmp_path, capsys):
+    """[robust] with [slots] (the catalogue lamp) combines in mode "none" (tests/test_robust_slots.py);
+    "limit" is still an input error: exit 2 naming robust.mode, nothing written. ([loops]
+    combines: tests/test_robust_loops.py.)"""
     problems = Path(__file__).resolve().parents[1] / "problems"
     path = tmp_path / "lamp_catalogue.toml"
-    path.write_text((problems / "lamp_catalogue.toml").read_text(encoding="utf-8") + '\n[robust]\nmode = "none"\ntolerances.rate = "10 %"\n', encoding="utf-8")
+    path.write_text((problems / "lamp_catalogue.toml").read_text(encoding="utf-8") + '\n[robust]\nmode = "limit"\nlimit = 0.2\ntolerances.rate = "10 %"\n', encoding="utf-8")
     out = tmp_path / "out"
     with pytest.raises(SystemExit) as stop:
         main(["solve", str(path), "--out", str(out)])
     assert stop.value.code == 2
-    assert "robust: not combinable yet: [robust] with [slots] (docs/robust.md#not-done)" in capsys.readouterr().err
+    assert 'robust.mode: not combinable yet: mode = "limit" with [slots]' in capsys.readouterr().err
     assert not out.exists()

@@ -35,7 +35,7 @@ class Entry:
 #: the design layers, innermost first
 REGISTRY: tuple[Entry, ...] = (
     Entry("payload", "counterpoise.payload.layer", table="payloads"),
-    Entry("robust", "counterpoise.robust.layer", table="robust", not_with=("slots",), docs="docs/robust.md#not-done"),
+    Entry("robust", "counterpoise.robust.layer", table="robust"),
     Entry("parts", "counterpoise.selection.layer", table="slots"),
     Entry("realisation", "counterpoise.realisation.layer"),
 )

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import copy
 import itertools
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
@@ -36,7 +37,7 @@ from ..errors import ProblemFileError
 from ..formulation.constraints import MAX_ROUNDS, ConstraintValue, describe, scale, violations
 from ..formulation.layout import Gravity3, Slot
 from ..model.problem import Problem, bound_side
-from ..model.robust import RobustSpec
+from ..model.robust import RobustSpec, Tolerance
 from ..solvers.base import SolverOutput, Status
 from .affine import LP_CONFIGURATIONS, Decomposition, Rows, worst, worst_corner
 from .constraints import CornerConstraints, LinearRows
@@ -91,6 +92,11 @@ class RobustMethod(DesignMethod):
         self._problem = problem
         self.inner = inner
         self._source_key: tuple[Any, ...] = ()
+        #: catalogue parts (:meth:`for_parts`): slot -> the chosen catalogue row, and the lines saying
+        #: which rate tolerance each of their springs takes
+        self._parts: dict[str, int] = {}
+        self._part_text: tuple[str, ...] = ()
+        self._variants: dict[tuple[Tolerance, ...], RobustMethod] = {}  # per set of the parts' tolerances
         self._prepare(problem)
 
     def _prepare(self, source: Problem) -> None:
@@ -119,6 +125,41 @@ class RobustMethod(DesignMethod):
         other._problem = replace(self.problem, robust=spec)
         other._tuner = None if spec.tune != self._spec().tune else self._tuner
         other._minimax = None if (spec.mode, spec.weight) != (self._spec().mode, self._spec().weight) else self._minimax
+        return other
+
+    def for_parts(self, rows: Mapping[str, int]) -> "RobustMethod":
+        """The method for the catalogue parts ``rows`` (slot -> catalogue row) the parts layer
+        chose: every spring of a slot takes its part's rate tolerance (the catalogue row's
+        ``rate_tolerance``; where the row gives none, the file's ``tolerances.rate`` for the
+        spring, else the slot's, docs/robust.md#catalogue-parts), and its part's limits at every
+        corner (:meth:`_hardware`). The tolerances unchanged: this method's decomposition shared."""
+        spec = self._spec()
+        given = {t.item: t for t in spec.tolerances if t.kind == "rate"}
+        chosen: dict[str, Tolerance] = {}
+        texts: list[str] = []
+        for slot in self.problem.slots:
+            if slot.name not in rows:
+                continue
+            i, cat = rows[slot.name], slot.catalogue
+            part = cat.part_number[i]
+            for name in slot.springs:
+                if math.isfinite(cat.rate_tolerance[i]):
+                    t, source = Tolerance("rate", name, float(cat.rate_tolerance[i]), True, f"catalogue {cat.name}"), f"the catalogue's rate_tolerance of part {part}"
+                elif name in given:
+                    t, source = given[name], f"the file's robust.tolerances.rate (catalogue {cat.name} gives none for part {part})"
+                else:
+                    t, source = Tolerance("rate", name, slot.rate_tolerance, True, f"slots.{slot.name}"), f"slot {slot.name}'s rate tolerance (catalogue {cat.name} gives none for part {part})"
+                chosen[name] = t
+                amount = f"±{100 * t.amount:g} %" if t.relative else f"±{t.amount:g} N/m"
+                texts.append(f"spring {name} (part {part} of slot {slot.name}): rate tolerance {amount}, {source}")
+        tolerances = tuple(chosen.pop(t.item) if t.kind == "rate" and t.item in chosen else t for t in spec.tolerances) + tuple(chosen.values())
+        if tolerances == spec.tolerances:
+            other = copy.copy(self)
+        else:
+            if tolerances not in self._variants:
+                self._variants[tolerances] = RobustMethod(replace(self.problem, robust=replace(spec, tolerances=tolerances)), self.inner)
+            other = copy.copy(self._variants[tolerances])
+        other._parts, other._part_text = dict(rows), tuple(texts)
         return other
 
     @property
@@ -263,7 +304,7 @@ class RobustMethod(DesignMethod):
         report = RobustReport(
             spec.mode, spec.shape, self.deviations, bands, added, objective, lp_ratio, lp_seconds, solver=solver, exactness=self._exactness(),
             base_objective=base_objective, weight=spec.weight, sampled={k: v for k, v in sampled.items() if v == v}, samples=SAMPLED_MACHINES,
-            worst_corner={k: v for k, v in at_worst.items() if v},
+            worst_corner={k: v for k, v in at_worst.items() if v}, part_tolerances=self._part_text,
         )
         breached = [v for v in corner_values if v.active == "violated"]
         if breached and status is Status.OPTIMAL:
@@ -271,7 +312,8 @@ class RobustMethod(DesignMethod):
             if spec.mode == "none":
                 status, message = Status.INFEASIBLE, (
                     f"the ordinary design breaks a constraint at a tolerance corner: {text}; [robust] mode = \"none\" does not "
-                    "re-design for the tolerances: mode = \"limit\" or \"minimise\" keeps every constraint at every corner"
+                    "re-design for the tolerances: "
+                    + ("with [slots] mode = \"limit\"/\"minimise\" is not combinable yet (docs/robust.md#catalogue-parts)" if self.problem.slots else "mode = \"limit\" or \"minimise\" keeps every constraint at every corner")
                 )
             else:
                 status, message = Status.FAILED, f"constraint violated at a tolerance corner between the sampled configurations after the verification rounds: {text}"
@@ -746,6 +788,19 @@ class RobustMethod(DesignMethod):
             out.append((tuple(full), None))
         return out
 
+    def _part_figures(self) -> dict[str, tuple[float, float, float, float]]:
+        """Per pulley spring of a chosen catalogue part (:meth:`for_parts`): its part's initial
+        tension, free length, allowable load and longest length (SI)."""
+        out: dict[str, tuple[float, float, float, float]] = {}
+        for slot in self.problem.slots:
+            if slot.name not in self._parts:
+                continue
+            i, cat = self._parts[slot.name], slot.catalogue
+            for name in slot.springs:
+                if all(sp.direct is None for sp in self.problem.springs if sp.name == name):
+                    out[name] = (cat.initial_tension[i], cat.free_length[i], cat.max_load[i], cat.max_length[i])
+        return out
+
     def _hardware(self, design: Solution, corners: Sequence[tuple[tuple[int, ...], Solution | None]], report: RobustReport, *, tuned: bool = True) -> RobustReport:
         """Every tuned corner against the hardware limits of its springs (:mod:`.limits`): the
         distances of each free-stiffness pulley spring's ends at the tuned settings (the dense
@@ -761,7 +816,9 @@ class RobustMethod(DesignMethod):
 
         problem = self.perturbed
         springs = [sp for sp in free_springs(problem) if sp.direct is None]
-        if not springs:
+        parts = self._part_figures()
+        chosen = [sp for sp in problem.springs if sp.name in parts]
+        if not springs and not chosen:
             return report
         scenario = self._law_scenario()
         gravity, base0 = design.scenario_parameters.get(scenario, next(iter(design.scenario_parameters.values())))
@@ -772,9 +829,9 @@ class RobustMethod(DesignMethod):
             values = (solution or design).variable_values(scenario)
             devs = self.decomposition.values_at(signs)
             variables = {n: np.array([[values[n]]]) for n in names}
-            lengths = distances(problem, springs, q, variables, {**base0, **devs}, gravity)
+            lengths = distances(problem, springs + chosen, q, variables, {**base0, **devs}, gravity)
             mech = Mechanics(problem, {**base0, **devs}, values, {c.name: c.home for c in problem.coordinates}, gravity)
-            per_corner[corner_name("", signs)] = {sp.name: (float(mech.value(sp.stiffness)), float(lengths[sp.name].min()), float(lengths[sp.name].max())) for sp in springs}
+            per_corner[corner_name("", signs)] = {sp.name: (float(mech.value(sp.stiffness)), float(lengths[sp.name].min()), float(lengths[sp.name].max())) for sp in springs + chosen}
         tension = {t.item: t.amount for t in self._spec().tolerances if t.kind == "initial_tension"}
         envelopes: dict[str, LimitEnvelope] = {}
         made_springs: dict[str, PulleySpring] = {}
@@ -800,6 +857,12 @@ class RobustMethod(DesignMethod):
             for name, at in per_corner.items():
                 rate, d_min, d_max = at[sp.name]
                 built = PulleySpring(rate, made.initial_tension + tension.get(sp.name, 0.0), made.free_length, env.distance_max, made.max_force, made.max_length)
+                margins.setdefault(name, []).extend(pulley_margins(sp.name, built, d_min, d_max))
+        for sp in chosen:  # a catalogue part: its own F0, L0, allowable load and length at every corner's rate
+            f0, l0, f_max, l_max = parts[sp.name]
+            for name, at in per_corner.items():
+                rate, d_min, d_max = at[sp.name]
+                built = PulleySpring(rate, f0 + tension.get(sp.name, 0.0), l0, math.nan, f_max, l_max)
                 margins.setdefault(name, []).extend(pulley_margins(sp.name, built, d_min, d_max))
         broken = breaches(margins)
         if broken:

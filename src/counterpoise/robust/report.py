@@ -145,6 +145,8 @@ def status_lines(result: Result) -> str:
             f"added mass {report.added_mass[design]:.6g} kg, {minimised}"
         )
     shape = "box" if report.shape == "box" else "ellipsoid"
+    for text in report.part_tolerances:
+        lines.append(f"robust: {text}")
     if report.exactness == "exact":
         lines.append(f"robust: the worst case over the tolerance {shape} is exact")
     elif report.exactness.startswith(ON_MANIFOLD):

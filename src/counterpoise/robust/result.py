@@ -78,6 +78,8 @@ class RobustReport:
     worst_corner: Mapping[str, str] = field(default_factory=dict)
     #: directly attached springs: each length limit's least margin over the corners (robust/direct.py)
     lengths: "tuple[LengthMargin, ...]" = ()
+    #: catalogue parts: per spring, the rate tolerance its chosen part's corners use and where it comes from
+    part_tolerances: tuple[str, ...] = ()
 
     @property
     def tuned_residual(self) -> float:

@@ -55,8 +55,8 @@ class PartsLayer(BaseLayer):
         return parts_status(result)
 
     def tables(self, result: Result) -> dict[str, Table]:
-        if result.extra(PartsReport) is None:
-            return {}
+        if result.extra(PartsReport) is None or result.problem.robust is not None:
+            return {}  # with [robust] its tolerance.csv is the worst case over the parts' tolerances
         from .report import TOLERANCE_COLUMNS, tolerance_rows
 
         caption = "tolerance.csv: the residual ratio with the parts' rates and initial tensions at the ends of their tolerance bands"

@@ -98,8 +98,12 @@ class PartsMethod(DesignMethod):
         return self.inner.search_problem_with(extra) if isinstance(self.inner, SampledMethod) else self.problem
 
     def _method_of(self, problem: Problem) -> Any:
-        """The innermost method that designs ``problem`` (a sampled one for a payload range)."""
-        return self.inner.core(problem) if isinstance(self.inner, SampledMethod) else self.inner
+        """The innermost method that designs ``problem`` (a sampled one for a payload range;
+        through a robust layer, the ordinary method it wraps)."""
+        method: Any = self.inner.core(problem) if isinstance(self.inner, SampledMethod) else self.inner
+        while not hasattr(method, "designer") and hasattr(method, "inner"):
+            method = method.inner
+        return method
 
     def _designer_of(self, solution: Solution) -> Any:
         return self._method_of(solution.problem).designer
@@ -122,7 +126,10 @@ class PartsMethod(DesignMethod):
             else:
                 # the search designer of ``searched`` is built once (per content) and solved with the call's options
                 search, rows, _rates = parts.choose(with_options(searched, given, bounds), self._searches.of(searched, given), given, bounds)  # rows carry the rates
-            solution = self.inner.solve_with(replace(options, parameters={**given, **part_parameters(self.problem, rows)}, initial=start))
+            # a robust layer inside: its corners take the chosen parts' rate tolerances and limits
+            for_parts = getattr(self.inner, "for_parts", None)
+            inner: DesignMethod = for_parts(rows) if for_parts is not None and search.choice is not None else self.inner
+            solution = inner.solve_with(replace(options, parameters={**given, **part_parameters(self.problem, rows)}, initial=start))
             sampled = self.inner if isinstance(self.inner, SampledMethod) else None
             checked = sampled.scheduled(solution) if sampled is not None else None  # a payload range: every payload of its schedule
             chosen = parts.report(solution.problem, self._designer_of(solution), solution, search, rows, checked, given)

@@ -56,6 +56,17 @@ def robust(
             f"not combinable yet: mode = \"{spec.mode}\" with [payloads]; a payload range is designed as usual and its tolerance corners "
             "tuned at every payload (mode = \"none\" with tune, docs/robust.md#payload-ranges)",
         )
+    if ctx.spec.slots:  # catalogue parts: the chosen part's design judged at every corner (docs/robust.md#catalogue-parts)
+        if spec.mode != "none":
+            raise ctx.fail(
+                f"{key}.mode",
+                f"not combinable yet: mode = \"{spec.mode}\" with [slots]; the chosen parts' design is judged at every tolerance corner "
+                "(mode = \"none\", docs/robust.md#catalogue-parts)",
+            )
+        if spec.tune:  # the part search designs every variable free; the tuning holds the tune ones at their factory setting
+            raise ctx.fail(f"{key}.tune", "not combinable yet: tune with [slots] (the part search does not hold the tune variables; docs/robust.md#catalogue-parts)")
+        if ctx.spec.payloads:
+            raise ctx.fail(key, "not combinable yet: [robust] with [slots] and [payloads] (docs/robust.md#catalogue-parts)")
     if spec.tolerances == {}:
         raise ctx.fail(f"{key}.tolerances", "missing: give at least one tolerance, e.g. rate = \"10 %\"")
     # a body's or a counter-mass's name; a kind-wide value applies to every one but the payloads
