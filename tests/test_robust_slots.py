@@ -105,7 +105,7 @@ def test_a_part_overloaded_at_a_corner_is_infeasible(tmp_path):
     assert design(load_problem(tmp_path / "plain.toml")).status is Status.OPTIMAL
     result = design(load_problem(path))
     assert result.status is Status.INFEASIBLE
-    assert "corner corner_p: spring s: it is loaded beyond its allowable load by" in result.message
+    assert "corner corner_p (rate s +10 %): spring s: it is loaded beyond its allowable load by" in result.message
     excess = float(result.message.split("allowable load by ")[1].split(" N")[0])
     assert excess == pytest.approx(1.1 * K * B * np.sqrt(2 + np.sqrt(3)) - 40.0, abs=2e-3)  # the dense sample's d_max, 4 digits
 

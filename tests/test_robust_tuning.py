@@ -143,7 +143,7 @@ def test_no_spring_for_the_tuning_range_is_infeasible_naming_the_corner(tmp_path
     result = design(load_problem(path))
     assert not result.optimal
     assert "tuning infeasible: the tuned settings break the hardware: no spring s can be wound for every tuned corner" in result.message
-    assert f"corner corner_p needs {1.1 * K_SPRING_ONLY * (0.2 + 0.1 / 1.1):.4g} N" in result.message
+    assert f"corner corner_p (rate s +10 %) needs {1.1 * K_SPRING_ONLY * (0.2 + 0.1 / 1.1):.4g} N" in result.message
 
 
 def test_step_and_pitch_set_the_procedure(tmp_path):
@@ -171,7 +171,7 @@ def test_without_tuning_the_built_design_is_checked_at_the_corners(tmp_path):
     result = design(load_problem(path))
     assert not result.optimal
     assert "the design as built breaks the hardware at a tolerance corner: no spring s can be wound" in result.message
-    assert f"corner corner_p needs {1.1 * K_SPRING_ONLY * 0.3:.4g} N" in result.message
+    assert f"corner corner_p (rate s +10 %) needs {1.1 * K_SPRING_ONLY * 0.3:.4g} N" in result.message
     # with a spring that can be made, the one made serves the +10 % corner
     ok = design(load_problem(_write(tmp_path, PENDULUM % {"robust": 'tolerances.rate = "10 %"', "h_lower": "100 mm", "h_upper": "100 mm"})))
     assert ok.optimal, ok.message

@@ -825,7 +825,9 @@ class RobustMethod(DesignMethod):
         q = sample(problem, {**base0, **{d.parameter: 0.0 for d in self.deviations}}, problem.settings.verify_samples, problem.settings.seed + SEED_OFFSET)
         names = [v.name for v in problem.variables]
         per_corner: dict[str, dict[str, tuple[float, float, float]]] = {}
+        named: dict[str, str] = {}  # "corner_pm" -> "corner_pm (rate s +10 %, mass arm -5 %)", as the other messages
         for signs, solution in corners:
+            named[corner_name("", signs)] = f"{corner_name('', signs)} ({corner_text(self.deviations, signs)})"
             values = (solution or design).variable_values(scenario)
             devs = self.decomposition.values_at(signs)
             variables = {n: np.array([[values[n]]]) for n in names}
@@ -851,7 +853,7 @@ class RobustMethod(DesignMethod):
             envelopes[sp.name] = replace(env, force_min=need.force_min)
             if not made.ok:
                 worst = max(per_corner, key=lambda c: per_corner[c][sp.name][0] * per_corner[c][sp.name][2])
-                failures.append(f"no spring {sp.name} can be wound for every tuned corner ({'; '.join(made.reasons)}); corner {worst} needs {env.force_max:.4g} N")
+                failures.append(f"no spring {sp.name} can be wound for every tuned corner ({'; '.join(made.reasons)}); corner {named.get(worst, worst)} needs {env.force_max:.4g} N")
                 continue
             made_springs[sp.name] = PulleySpring(k, made.initial_tension, made.free_length, env.distance_max, made.max_force, made.max_length)
             for name, at in per_corner.items():
@@ -868,7 +870,7 @@ class RobustMethod(DesignMethod):
         if broken:
             where, m = min(broken, key=lambda cm: cm[1].margin)
             text = {"slack": "its cable goes slack", "cable": "its end reaches the pulley (the cable is too short)", "load": "it is loaded beyond its allowable load", "length": "it is stretched beyond its longest length"}[m.limit]
-            failures.append(f"corner {where}: spring {m.spring}: {text} by {m.margin * (-1 if m.limit == 'load' else -1e3):.4g} {'N' if m.limit == 'load' else 'mm'}")
+            failures.append(f"corner {named.get(where, where)}: spring {m.spring}: {text} by {m.margin * (-1 if m.limit == 'load' else -1e3):.4g} {'N' if m.limit == 'load' else 'mm'}")
         status = report.tuning_status
         if failures:
             what = "tuning infeasible: the tuned settings break the hardware" if tuned else "infeasible: the design as built breaks the hardware at a tolerance corner"
