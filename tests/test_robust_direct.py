@@ -250,3 +250,17 @@ def test_slots_with_limit_stay_refused(tmp_path, capsys):
     assert stop.value.code == 2
     assert 'robust.mode: not combinable yet: mode = "limit" with [slots]' in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_repeated_corner_rows_are_held_once():
+    """Corners that differ only across the plane of a planar mechanism (a point deviation
+    along z moves a spring's length by the same amount at + and −) give rows equal bit for
+    bit; the minimax NLP keeps the first of each (half the rows of the point test above),
+    and keeps rows that differ anywhere."""
+    from counterpoise.robust.minimax import first_of_repeats
+
+    values = np.array([[1.0, 2.0], [3.0, 4.0], [1.0, 2.0], [1.0, 2.0 + 1e-15], [3.0, 4.0], [0.0, 0.0]])
+    assert first_of_repeats(values) == [0, 1, 3, 5]
+    assert first_of_repeats(np.zeros((0, 2))) == []
+    nan = np.array([[np.nan, 1.0], [np.nan, 1.0], [2.0, 2.0]])
+    assert first_of_repeats(nan) == [0, 1, 2]  # not finite at a probe: never merged

@@ -39,6 +39,8 @@ from .direct import DirectLengths
 SAMPLES_PER_COORDINATE = 48
 #: corners enumerated at most (2ⁿ for n deviations)
 MAX_CORNERS = 1024
+#: random designs at which two rows must agree bit for bit to count as one (:meth:`RobustMinimax._distinct`)
+REPEAT_PROBES = 2
 #: the ellipsoid's ‖s‖₂ is √(Σ s² + (ELLIPSOID_FLOOR·T)²): differentiable where every change
 #: vanishes, conservative by at most this share of the reference torque
 ELLIPSOID_FLOOR = 1e-9
@@ -52,6 +54,16 @@ class MinimaxResult:
     ratio: float
     seconds: float
     iterations: int
+
+
+def first_of_repeats(values: np.ndarray) -> list[int]:
+    """The rows of ``values`` (rows × probes) that do not repeat an earlier row bit for bit,
+    in order: of each set of equal rows, the first. A row with a value that is not finite
+    at a probe is kept whatever it equals (NaN compares with nothing)."""
+    finite = np.all(np.isfinite(values), axis=1)
+    index = np.flatnonzero(finite)
+    _, first = np.unique(values[finite], axis=0, return_index=True)
+    return sorted([int(index[i]) for i in first] + [int(i) for i in np.flatnonzero(~finite)])
 
 
 class RobustMinimax:
@@ -94,6 +106,7 @@ class RobustMinimax:
         self._reference: np.ndarray | None = None
         self.constraints = constraints
         self._lbg_c = self._ubg_c = np.zeros(0)
+        self._deviation_values = np.zeros(0)
         #: directly attached springs' length rows at every corner of their points (None: no such spring)
         self.lengths = DirectLengths(decomposition) if any(s.direct is not None for s in decomposition.problem.springs) else None
 
@@ -137,7 +150,10 @@ class RobustMinimax:
             i += n_rows
         if self.lengths is not None:  # directly attached springs within their lengths at every corner of their points
             rows += self.lengths.symbolic(self.q)
-        self.n_rows = int(sum(r.numel() for r in rows))
+        corner_rows = ca.vertcat(*rows)
+        keep = self._distinct(corner_rows, z0, p)
+        rows = [corner_rows[keep]]
+        self.n_rows = len(keep)
         self.n_signs = int(f.nonnegative.numel())
         if self.constraints is not None:
             g_c, self._lbg_c, self._ubg_c = self.constraints.symbolic_rows()
@@ -148,7 +164,37 @@ class RobustMinimax:
         options = {**IPOPT_DEFAULTS, "tol": 1e-9}
         self._backend = IpoptBackend({"x": ca.vertcat(f.z, self.rho), "p": f.p, "f": objective, "g": g}, options, "robust_minimax")
 
+    def _deviation_mask(self) -> np.ndarray:
+        """The entries of the parameter vector that hold a deviation (one per deviation and scenario)."""
+        mask = np.zeros(self.f.parameters.size, dtype=bool)
+        for i in range(len(self._decomposition.deviations)):
+            mask[self._decomposition.parameter_index(i)] = True
+        return mask
+
+    def _distinct(self, g: Any, z0: np.ndarray, p: np.ndarray) -> list[int]:
+        """The rows of ``g`` that are not a repeat of an earlier row: two corners often give
+        the same row (a point deviation across the plane of a planar mechanism moves the
+        spring's length by the same amount at + and −), and a repeated row doubles IPOPT's
+        work for nothing. Rows are compared by value, bit for bit, at REPEAT_PROBES random
+        designs and parameters around (z0, p), the deviations' entries at p's (the NLP is
+        solved at them: :meth:`solve` builds it again when they change)."""
+        import casadi as ca
+
+        f = self.f
+        fn = ca.Function("corner_rows", [f.z, self.rho, f.p], [g])
+        rng = np.random.default_rng(0)
+        fixed = self._deviation_mask()
+        self._deviation_values = p[fixed].copy()
+        probes = []
+        for _ in range(REPEAT_PROBES):
+            z = z0 + (np.abs(z0) + 1e-3) * rng.uniform(-0.1, 0.1, z0.size)
+            pr = np.where(fixed, p, p + (np.abs(p) + 1e-3) * rng.uniform(-0.01, 0.01, p.size))
+            probes.append(np.array(fn(z, rng.uniform(0.1, 1.0), pr)).reshape(-1))
+        return first_of_repeats(np.stack(probes, axis=1))
+
     def solve(self, z0: np.ndarray, p: np.ndarray, lbz: np.ndarray, ubz: np.ndarray, limit: float) -> MinimaxResult:
+        if self._backend is not None and not np.array_equal(p[self._deviation_mask()], self._deviation_values):
+            self._backend = None  # the repeated rows were found at other deviation values
         if self._backend is None:
             self._build(z0, p)
         backend = self._backend
