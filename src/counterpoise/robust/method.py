@@ -132,7 +132,9 @@ class RobustMethod(DesignMethod):
         chose: every spring of a slot takes its part's rate tolerance (the catalogue row's
         ``rate_tolerance``; where the row gives none, the file's ``tolerances.rate`` for the
         spring, else the slot's, docs/robust.md#catalogue-parts), and its part's limits at every
-        corner (:meth:`_hardware`). The tolerances unchanged: this method's decomposition shared."""
+        corner (:meth:`_hardware`). One method per set of tolerances is kept, so that what it
+        builds on first use (the corner constraints, the tuning designer) is built once; it
+        takes the parts of each call."""
         spec = self._spec()
         given = {t.item: t for t in spec.tolerances if t.kind == "rate"}
         chosen: dict[str, Tolerance] = {}
@@ -153,13 +155,11 @@ class RobustMethod(DesignMethod):
                 amount = f"±{100 * t.amount:g} %" if t.relative else f"±{t.amount:g} N/m"
                 texts.append(f"spring {name} (part {part} of slot {slot.name}): rate tolerance {amount}, {source}")
         tolerances = tuple(chosen.pop(t.item) if t.kind == "rate" and t.item in chosen else t for t in spec.tolerances) + tuple(chosen.values())
-        if tolerances == spec.tolerances:
-            other = copy.copy(self)
-        else:
-            if tolerances not in self._variants:
-                self._variants[tolerances] = RobustMethod(replace(self.problem, robust=replace(spec, tolerances=tolerances)), self.inner)
-            other = copy.copy(self._variants[tolerances])
-        other._parts, other._part_text = dict(rows), tuple(texts)
+        if tolerances not in self._variants:  # kept: its decomposition and solvers are built once
+            problem = self.problem if tolerances == spec.tolerances else replace(self.problem, robust=replace(spec, tolerances=tolerances))
+            self._variants[tolerances] = RobustMethod(problem, self.inner)
+        other = self._variants[tolerances]
+        other._parts, other._part_text = dict(rows), tuple(texts)  # the parts of this call (a variant is used only through here)
         return other
 
     @property
